@@ -1,0 +1,1 @@
+"""The auv command: launch, record, play, depth, run, design, ident, gap."""

@@ -1,0 +1,1 @@
+"""Trim, linearisation, discrete LQR design and the depth-pilot node."""

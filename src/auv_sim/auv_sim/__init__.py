@@ -1,0 +1,1 @@
+"""Nonlinear 6-DOF AUV model (pure library) and the simulator node."""
