@@ -1,0 +1,17 @@
+"""Exceptions of auv_sim: one family, subclassing built-ins."""
+
+
+class AuvSimError(Exception):
+    """Root of the simulator's errors."""
+
+
+class ParameterError(AuvSimError, ValueError):
+    """A vehicle, effect or node parameter is missing, malformed or out of range."""
+
+
+class DivergenceError(AuvSimError, FloatingPointError):
+    """The integrated state turned non-finite."""
+
+
+class TrimError(AuvSimError, ArithmeticError):
+    """No trim (equilibrium) point could be found."""

@@ -1,0 +1,410 @@
+"""The nonlinear 6-DOF vehicle model (report section 3.2) as pure, compiled functions.
+
+Fossen's form, all terms on the right-hand side as the report writes it::
+
+    M nu_dot = tau_hydro(nu_r) + tau_coriolis(nu, nu_r) + tau_restoring(eta) + tau_actuators
+
+* ``eta = (x, y, z, phi, theta, psi)``: NED position [m] and ZYX Euler angles [rad];
+* ``nu = (u, v, w, p, q, r)``: body FRD velocities over ground [m/s, rad/s]; the body origin
+  is the centre of buoyancy; ``nu_r = nu - nu_c`` is the velocity through the water;
+* ``M = M_RB + M_A`` (see :func:`auv_sim.params.mass_matrix`).
+
+The state vector ``x`` (15) is ``eta``, ``nu`` and the actuator positions
+``(bar [rad], helm [rad], thrust [N])``; the command ``cmd`` (3) holds their set-points.
+``f(t, x, cmd, P, env, prof)`` is pure; the integrator (:mod:`auv_sim.integrate`) is chosen
+separately. Kernels are compiled with numba; they are written so that complex arguments work
+too (``|a|`` continued as ``a sign(Re a)``), which gives exact complex-step Jacobians.
+
+Environment vector ``env`` (:data:`ENV_SIZE`, see :mod:`auv_sim.environment`) and the current
+profile table ``prof`` (K x 4 rows ``z [m], v_n, v_e, v_d [m/s]``) describe the water.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from auv_sim.params import PARAM_NAMES
+
+_I = {name: i for i, name in enumerate(PARAM_NAMES)}
+# Parameter indices, compile-time constants for the kernels.
+I_RHO, I_NU, I_G = _I['rho'], _I['nu_water'], _I['g']
+I_L, I_S = _I['L_ref'], _I['S_ref']
+I_M, I_B = _I['m'], _I['B']
+I_XG, I_YG, I_ZG, I_XB, I_YB, I_ZB = (_I[k] for k in ('xg', 'yg', 'zg', 'xb', 'yb', 'zb'))
+I_IX, I_IY, I_IZ, I_IXZ = _I['Ix'], _I['Iy'], _I['Iz'], _I['Ixz']
+I_XUD, I_YVD, I_ZWD, I_KPD, I_MQD, I_NRD = (
+    _I[k] for k in ('Xudot', 'Yvdot', 'Zwdot', 'Kpdot', 'Mqdot', 'Nrdot'))
+I_YRD, I_ZQD = _I['Yrdot'], _I['Zqdot']
+I_KSH = _I['Ksh']
+I_CZ0, I_CZUW, I_CZUQ = _I['CZ0'], _I['CZuw'], _I['CZuq']
+I_CM0, I_CMUW, I_CMUQ = _I['CM0'], _I['CMuw'], _I['CMuq']
+I_CYUV, I_CYUR, I_CNUV, I_CNUR, I_CLUP = (
+    _I[k] for k in ('CYuv', 'CYur', 'CNuv', 'CNur', 'CLup'))
+I_CZBAR, I_CMBAR, I_CYHELM, I_CNHELM = (_I[k] for k in ('CZbar', 'CMbar', 'CYhelm', 'CNhelm'))
+I_BARMAX, I_BARRATE, I_BARTAU = _I['bar_max'], _I['bar_rate'], _I['bar_tau']
+I_HELMMAX, I_HELMRATE, I_HELMTAU = _I['helm_max'], _I['helm_rate'], _I['helm_tau']
+I_TMAX, I_TMIN, I_TTAU = _I['thrust_max'], _I['thrust_min'], _I['thrust_tau']
+I_MINV = len(PARAM_NAMES)
+
+# Environment vector layout (see auv_sim.environment).
+E_VC = 0            # 0..2 constant current, NED [m/s]
+E_VAMP = 3          # 3..5 amplitude of a sinusoidal current, NED [m/s]
+E_VPER = 6          # its period [s] (0: none)
+E_BCOMP = 7         # buoyancy change with depth: B(z) = B (1 + k z) [1/m]
+E_BARBIAS = 8       # dive-plane bias added to the BAR angle [rad]
+E_ZWW, E_MQQ, E_YVV, E_NRR = 9, 10, 11, 12  # cross-flow drag [kg/m], [kg m^2]
+ENV_SIZE = 13
+
+NX = 15
+STATE_NAMES = ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r',
+               'bar', 'helm', 'thrust')
+RE_MIN = 1.0e5  # below this the ITTC-1957 line is not valid; C_XF is held at its value here
+
+#: Wrench rows of :func:`wrenches`: what each force/moment comes from.
+WRENCH_NAMES = ('hydrodynamic', 'coriolis', 'restoring', 'actuators')
+
+
+@njit(cache=True)
+def _sabs(a):  # type: ignore[no-untyped-def]
+    """|a| continued analytically (exact for real a, complex-step friendly)."""
+    return a if a.real >= 0.0 else -a
+
+
+@njit(cache=True)
+def current_ned(t, z, env, prof):  # type: ignore[no-untyped-def]
+    """Water current at depth z [m] and time t [s]: (v_n, v_e, v_d, dv/dz (3), dv/dt (3)).
+
+    The sum of a constant current, a piecewise-linear depth profile (``prof`` rows
+    ``z, v_n, v_e, v_d``, held constant outside its depth range) and a sinusoid in time.
+    """
+    vn = env[E_VC] + 0.0 * z
+    ve = env[E_VC + 1] + 0.0 * z
+    vd = env[E_VC + 2] + 0.0 * z
+    gn = 0.0 * z
+    ge = 0.0 * z
+    gd = 0.0 * z
+    k = prof.shape[0]
+    if k == 1:
+        vn += prof[0, 1]
+        ve += prof[0, 2]
+        vd += prof[0, 3]
+    elif k > 1:
+        zr = z.real
+        if zr <= prof[0, 0]:
+            vn += prof[0, 1]
+            ve += prof[0, 2]
+            vd += prof[0, 3]
+        elif zr >= prof[k - 1, 0]:
+            vn += prof[k - 1, 1]
+            ve += prof[k - 1, 2]
+            vd += prof[k - 1, 3]
+        else:
+            i = 0
+            while prof[i + 1, 0] < zr:
+                i += 1
+            dz = prof[i + 1, 0] - prof[i, 0]
+            gn = gn + (prof[i + 1, 1] - prof[i, 1]) / dz
+            ge = ge + (prof[i + 1, 2] - prof[i, 2]) / dz
+            gd = gd + (prof[i + 1, 3] - prof[i, 3]) / dz
+            s = z - prof[i, 0]
+            vn += prof[i, 1] + gn * s
+            ve += prof[i, 2] + ge * s
+            vd += prof[i, 3] + gd * s
+    tn = 0.0
+    te = 0.0
+    td = 0.0
+    if env[E_VPER] > 0.0:
+        om = 2.0 * np.pi / env[E_VPER]
+        sn = np.sin(om * t)
+        cs = np.cos(om * t)
+        vn += env[E_VAMP] * sn
+        ve += env[E_VAMP + 1] * sn
+        vd += env[E_VAMP + 2] * sn
+        tn = env[E_VAMP] * om * cs
+        te = env[E_VAMP + 1] * om * cs
+        td = env[E_VAMP + 2] * om * cs
+    return vn, ve, vd, gn, ge, gd, tn, te, td
+
+
+@njit(cache=True)
+def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
+    """Fill ``out`` (4 x 6) with the body-FRD wrenches [N, N m] about the body origin.
+
+    Rows: hydrodynamic (damping, lift, drag: report section 2), Coriolis (rigid-body with
+    ``nu``, added-mass with ``nu_r``, plus ``M_A nu_c_dot`` of a varying current), restoring
+    (weight and buoyancy), actuators (BAR, helm, propeller). Their sum is ``M nu_dot``.
+    """
+    rho = P[I_RHO]
+    L = P[I_L]
+    qs = 0.5 * rho * P[I_S]
+    m = P[I_M]
+    xg = P[I_XG]
+    yg = P[I_YG]
+    zg = P[I_ZG]
+    phi = x[3]
+    th = x[4]
+    psi = x[5]
+    u = x[6]
+    v = x[7]
+    w = x[8]
+    p = x[9]
+    q = x[10]
+    r = x[11]
+    cph = np.cos(phi)
+    sph = np.sin(phi)
+    cth = np.cos(th)
+    sth = np.sin(th)
+    cps = np.cos(psi)
+    sps = np.sin(psi)
+    # rotation body -> NED (ZYX)
+    r00 = cps * cth
+    r01 = -sps * cph + cps * sth * sph
+    r02 = sps * sph + cps * cph * sth
+    r10 = sps * cth
+    r11 = cps * cph + sph * sth * sps
+    r12 = -cps * sph + sth * sps * cph
+    r20 = -sth
+    r21 = cth * sph
+    r22 = cth * cph
+    vcn, vce, vcd, gn, ge, gd, tn, te, td = current_ned(t, x[2], env, prof)
+    ucb = r00 * vcn + r10 * vce + r20 * vcd
+    vcb = r01 * vcn + r11 * vce + r21 * vcd
+    wcb = r02 * vcn + r12 * vce + r22 * vcd
+    ur = u - ucb
+    vr = v - vcb
+    wr = w - wcb
+    aur = _sabs(ur)
+
+    # --- hydrodynamic damping, lift and drag (report section 2) ---
+    re = aur * L / P[I_NU]
+    if re.real < RE_MIN:
+        re = RE_MIN + 0.0 * re
+    lg = np.log(re) / np.log(10.0) - 2.0
+    cxf = 0.075 / (lg * lg)
+    out[0, 0] = -P[I_KSH] * qs * cxf * ur * aur
+    out[0, 1] = qs * (P[I_CYUV] * ur * vr + P[I_CYUR] * L * ur * r) + env[E_YVV] * vr * _sabs(vr)
+    out[0, 2] = (qs * (P[I_CZ0] * ur * aur + P[I_CZUW] * ur * wr + P[I_CZUQ] * L * ur * q)
+                 + env[E_ZWW] * wr * _sabs(wr))
+    out[0, 3] = qs * L * L * P[I_CLUP] * ur * p
+    out[0, 4] = (qs * L * (P[I_CM0] * ur * aur + P[I_CMUW] * ur * wr + P[I_CMUQ] * L * ur * q)
+                 + env[E_MQQ] * q * _sabs(q))
+    out[0, 5] = (qs * L * (P[I_CNUV] * ur * vr + P[I_CNUR] * L * ur * r)
+                 + env[E_NRR] * r * _sabs(r))
+
+    # --- Coriolis and centripetal ---
+    # rigid body: f = -m (w x v + w x (w x r_g)), m_o = -(w x I_o w) - m r_g x (w x v)
+    a0 = q * w - r * v
+    a1 = r * u - p * w
+    a2 = p * v - q * u
+    b0 = q * zg - r * yg
+    b1 = r * xg - p * zg
+    b2 = p * yg - q * xg
+    c0 = q * b2 - r * b1
+    c1 = r * b0 - p * b2
+    c2 = p * b1 - q * b0
+    ix = P[I_IX]
+    iy = P[I_IY]
+    iz = P[I_IZ]
+    ixz = P[I_IXZ]
+    h0 = ix * p - ixz * r
+    h1 = iy * q
+    h2 = iz * r - ixz * p
+    f0 = -m * (a0 + c0)
+    f1 = -m * (a1 + c1)
+    f2 = -m * (a2 + c2)
+    m0 = -(q * h2 - r * h1) - m * (yg * a2 - zg * a1)
+    m1 = -(r * h0 - p * h2) - m * (zg * a0 - xg * a2)
+    m2 = -(p * h1 - q * h0) - m * (xg * a1 - yg * a0)
+    # added mass (Fossen 2011 eq. 6.43): with a = A11 nu1_r + A12 nu2, b = A21 nu1_r + A22 nu2,
+    # f = -(nu2 x a), m = -(nu1_r x a) - (nu2 x b)
+    xa = -P[I_XUD]
+    ya = -P[I_YVD]
+    za = -P[I_ZWD]
+    ka = -P[I_KPD]
+    ma = -P[I_MQD]
+    na = -P[I_NRD]
+    yrd = P[I_YRD]
+    zqd = P[I_ZQD]
+    pa0 = xa * ur
+    pa1 = ya * vr - yrd * r
+    pa2 = za * wr - zqd * q
+    pb0 = ka * p
+    pb1 = ma * q - zqd * wr
+    pb2 = na * r - yrd * vr
+    f0 -= q * pa2 - r * pa1
+    f1 -= r * pa0 - p * pa2
+    f2 -= p * pa1 - q * pa0
+    m0 -= (vr * pa2 - wr * pa1) + (q * pb2 - r * pb1)
+    m1 -= (wr * pa0 - ur * pa2) + (r * pb0 - p * pb2)
+    m2 -= (ur * pa1 - vr * pa0) + (p * pb1 - q * pb0)
+    # M_A nu_c_dot for a current that varies along the path or in time
+    zdot = r20 * u + r21 * v + r22 * w
+    dn = gn * zdot + tn
+    de = ge * zdot + te
+    dd = gd * zdot + td
+    nc0 = (r00 * dn + r10 * de + r20 * dd) - (q * wcb - r * vcb)
+    nc1 = (r01 * dn + r11 * de + r21 * dd) - (r * ucb - p * wcb)
+    nc2 = (r02 * dn + r12 * de + r22 * dd) - (p * vcb - q * ucb)
+    f0 += xa * nc0
+    f1 += ya * nc1
+    f2 += za * nc2
+    m1 += -zqd * nc2
+    m2 += -yrd * nc1
+    out[1, 0] = f0
+    out[1, 1] = f1
+    out[1, 2] = f2
+    out[1, 3] = m0
+    out[1, 4] = m1
+    out[1, 5] = m2
+
+    # --- restoring: -g(eta), Fossen 2011 eq. 4.6, buoyancy varying with depth ---
+    wgt = m * P[I_G]
+    buoy = P[I_B] * (1.0 + env[E_BCOMP] * x[2])
+    wb = wgt - buoy
+    zgw = zg * wgt - P[I_ZB] * buoy
+    ygw = yg * wgt - P[I_YB] * buoy
+    xgw = xg * wgt - P[I_XB] * buoy
+    out[2, 0] = -wb * sth
+    out[2, 1] = wb * cth * sph
+    out[2, 2] = wb * cth * cph
+    out[2, 3] = ygw * cth * cph - zgw * cth * sph
+    out[2, 4] = -zgw * sth - xgw * cth * cph
+    out[2, 5] = xgw * cth * sph + ygw * sth
+
+    # --- actuators: dive plane (BAR), helm, propeller ---
+    bar = x[12] + env[E_BARBIAS]
+    helm = x[13]
+    dyn = qs * ur * aur
+    out[3, 0] = x[14]
+    out[3, 1] = dyn * P[I_CYHELM] * helm
+    out[3, 2] = dyn * P[I_CZBAR] * bar
+    out[3, 3] = 0.0 * dyn
+    out[3, 4] = dyn * L * P[I_CMBAR] * bar
+    out[3, 5] = dyn * L * P[I_CNHELM] * helm
+
+
+@njit(cache=True)
+def _clip(a, lo, hi):  # type: ignore[no-untyped-def]
+    if a.real < lo:
+        return lo + 0.0 * a
+    if a.real > hi:
+        return hi + 0.0 * a
+    return a
+
+
+@njit(cache=True)
+def actuator_rates(x, cmd, P, xdot):  # type: ignore[no-untyped-def]
+    """Actuator dynamics into ``xdot[12:15]``: angle limit, rate limit, first-order lag.
+
+    ``bar_dot = clip((clip(cmd, +-bar_max) - bar) / bar_tau, +-bar_rate)`` [rad/s], the same
+    for the helm; thrust: a first-order lag towards ``clip(cmd, thrust_min, thrust_max)``.
+    """
+    bmax = P[I_BARMAX]
+    brate = P[I_BARRATE]
+    xdot[12] = _clip((_clip(cmd[0] + 0.0 * x[12], -bmax, bmax) - x[12]) / P[I_BARTAU],
+                     -brate, brate)
+    hmax = P[I_HELMMAX]
+    hrate = P[I_HELMRATE]
+    xdot[13] = _clip((_clip(cmd[1] + 0.0 * x[13], -hmax, hmax) - x[13]) / P[I_HELMTAU],
+                     -hrate, hrate)
+    xdot[14] = (_clip(cmd[2] + 0.0 * x[14], P[I_TMIN], P[I_TMAX]) - x[14]) / P[I_TTAU]
+
+
+@njit(cache=True)
+def kinematics(x, xdot):  # type: ignore[no-untyped-def]
+    """eta_dot = J(eta) nu into ``xdot[0:6]`` (NED position rates, ZYX Euler-angle rates)."""
+    phi = x[3]
+    th = x[4]
+    psi = x[5]
+    u = x[6]
+    v = x[7]
+    w = x[8]
+    p = x[9]
+    q = x[10]
+    r = x[11]
+    cph = np.cos(phi)
+    sph = np.sin(phi)
+    cth = np.cos(th)
+    sth = np.sin(th)
+    cps = np.cos(psi)
+    sps = np.sin(psi)
+    xdot[0] = cps * cth * u + (-sps * cph + cps * sth * sph) * v + (sps * sph + cps * cph * sth) * w
+    xdot[1] = sps * cth * u + (cps * cph + sph * sth * sps) * v + (-cps * sph + sth * sps * cph) * w
+    xdot[2] = -sth * u + cth * sph * v + cth * cph * w
+    xdot[3] = p + (q * sph + r * cph) * sth / cth
+    xdot[4] = q * cph - r * sph
+    xdot[5] = (q * sph + r * cph) / cth
+
+
+@njit(cache=True)
+def dynamics(t, x, cmd, P, env, prof, xdot, work):  # type: ignore[no-untyped-def]
+    """The model ``x_dot = f(t, x, cmd)`` into ``xdot`` (15); ``work`` is a 4 x 6 scratch."""
+    wrenches(t, x, P, env, prof, work)
+    kinematics(x, xdot)
+    for i in range(6):
+        acc = 0.0 * x[0]
+        for j in range(6):
+            acc += P[I_MINV + 6 * i + j] * (work[0, j] + work[1, j] + work[2, j] + work[3, j])
+        xdot[6 + i] = acc
+    actuator_rates(x, cmd, P, xdot)
+
+
+@njit(cache=True)
+def rk4_steps(t0, x, cmd, P, env, prof, dt, nsteps):  # type: ignore[no-untyped-def]
+    """Advance ``x`` in place by ``nsteps`` classic RK4 steps of ``dt`` [s], command held.
+
+    Returns -1 on success, else the index of the first step whose result is non-finite
+    (``x`` then holds the last finite state).
+    """
+    n = x.shape[0]
+    k1 = np.empty(n)
+    k2 = np.empty(n)
+    k3 = np.empty(n)
+    k4 = np.empty(n)
+    xt = np.empty(n)
+    work = np.empty((4, 6))
+    for s in range(nsteps):
+        t = t0 + s * dt
+        dynamics(t, x, cmd, P, env, prof, k1, work)
+        for i in range(n):
+            xt[i] = x[i] + 0.5 * dt * k1[i]
+        dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
+        for i in range(n):
+            xt[i] = x[i] + 0.5 * dt * k2[i]
+        dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
+        for i in range(n):
+            xt[i] = x[i] + dt * k3[i]
+        dynamics(t + dt, xt, cmd, P, env, prof, k4, work)
+        ok = True
+        for i in range(n):
+            xt[i] = x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            if not np.isfinite(xt[i]):
+                ok = False
+        if not ok:
+            return s
+        for i in range(n):
+            x[i] = xt[i]
+    return -1
+
+
+@njit(cache=True)
+def rk4_batch(t0, X, CMD, P, env, prof, dt, nsteps):  # type: ignore[no-untyped-def]
+    """Advance N vehicles (rows of ``X``, N x 15) with commands ``CMD`` (N x 3), same model.
+
+    Returns an int array: -1 per vehicle on success, else its first non-finite step.
+    """
+    nveh = X.shape[0]
+    status = np.empty(nveh, dtype=np.int64)
+    for k in range(nveh):
+        status[k] = rk4_steps(t0, X[k], CMD[k], P, env, prof, dt, nsteps)
+    return status
+
+
+@njit(cache=True)
+def wrench_series(T, X, P, env, prof):  # type: ignore[no-untyped-def]
+    """Wrench breakdown (N x 4 x 6) for N states ``X`` (N x 15) at times ``T`` (N)."""
+    n = X.shape[0]
+    out = np.empty((n, 4, 6))
+    for k in range(n):
+        wrenches(T[k], X[k], P, env, prof, out[k])
+    return out

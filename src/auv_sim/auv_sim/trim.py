@@ -1,0 +1,154 @@
+"""Trim and linearisation of the vertical plane (report sections 3.4-3.8), on the 6-DOF model.
+
+The vertical-plane model holds the forward speed at ``u0`` (a speed loop does) and keeps
+``v = p = r = phi = psi = 0``. Its states are ``X = (w, q, z, theta, int(z - z_ref))``
+[m/s, rad/s, m, rad, m s] and its input is the dive-plane angle BAR [rad]::
+
+    [w_dot, q_dot] = M_wq^-1 [Z, M]      (heave and pitch of the 6-DOF wrench, report 3.5)
+    z_dot          = -u0 sin(theta) + w cos(theta)     ('full', the correct NED kinematics)
+                     or w                               ('w', the report's section 4.2 model)
+    theta_dot      = q,     d/dt int(z - z_ref) = z - z_ref
+
+with ``M_wq`` the heave-pitch block of ``M = M_RB + M_A``. The forces come from the same
+compiled kernel as the simulator (:func:`auv_sim.model.wrenches`), so trim and simulator agree
+by construction of the physics, not by a second copy of it. Jacobians are complex-step
+derivatives: exact to rounding, no step-size trade-off.
+"""
+from __future__ import annotations
+
+import dataclasses
+from typing import Literal
+
+import numpy as np
+from scipy import optimize
+
+from auv_sim.environment import Environment
+from auv_sim.errors import TrimError
+from auv_sim.model import NX, wrenches
+from auv_sim.params import VehicleParams, mass_matrix
+
+Kinematics = Literal['full', 'w']
+VERTICAL_STATES = ('w', 'q', 'z', 'theta', 'int_z')
+_H = 1e-30  # complex step
+
+
+@dataclasses.dataclass(frozen=True)
+class Trim:
+    """A vertical-plane equilibrium at forward speed ``u0`` [m/s] and depth ``z`` [m].
+
+    ``w`` [m/s], ``theta`` [rad] (positive nose up), ``bar`` [rad], ``thrust`` [N] that holds
+    ``u0``; ``q = 0``. ``kinematics`` names the depth kinematics it was solved with.
+    """
+
+    u0: float
+    z: float
+    w: float
+    theta: float
+    bar: float
+    thrust: float
+    kinematics: str
+
+    def state(self) -> np.ndarray:
+        """The full 15-state vector of the simulator at this trim (x = y = psi = 0)."""
+        x = np.zeros(NX)
+        x[2], x[4], x[6], x[8], x[12], x[14] = self.z, self.theta, self.u0, self.w, \
+            self.bar, self.thrust
+        return x
+
+
+class VerticalPlane:
+    """The vertical-plane model of one vehicle in one environment (see module docstring)."""
+
+    def __init__(self, params: VehicleParams, environment: Environment | None = None) -> None:
+        env = environment or Environment()
+        self.params = env.apply_to(params)
+        self._p = self.params.as_array()
+        self._env = env.env_vector()
+        self._prof = env.profile()
+        m = mass_matrix(self.params)
+        self._mwq_inv = np.linalg.inv(m[np.ix_([2, 4], [2, 4])])
+
+    def full_state(self, w: complex, q: complex, z: complex, theta: complex, bar: complex,
+                   u0: float, thrust: complex = 0.0) -> np.ndarray:
+        x = np.zeros(NX, dtype=np.complex128)
+        x[2], x[4], x[6], x[8], x[10], x[12], x[14] = z, theta, u0, w, q, bar, thrust
+        return x
+
+    def wrench(self, x: np.ndarray) -> np.ndarray:
+        """Total body wrench (6) [N, N m] at the full state x (complex allowed)."""
+        out = np.zeros((4, 6), dtype=x.dtype)
+        wrenches(0.0, x, self._p, self._env, self._prof, out)
+        return out.sum(axis=0)
+
+    def rates(self, X: np.ndarray, bar: complex, u0: float, z_ref: float = 0.0,
+              kinematics: Kinematics = 'full') -> np.ndarray:
+        """``X_dot`` (5) of the vertical-plane model at ``X = (w, q, z, theta, int_z)``."""
+        w, q, z, theta = X[0], X[1], X[2], X[3]
+        f = self.wrench(self.full_state(w, q, z, theta, bar, u0))
+        wq_dot = self._mwq_inv @ np.array([f[2], f[4]])
+        z_dot = w if kinematics == 'w' else -u0 * np.sin(theta) + w * np.cos(theta)
+        return np.array([wq_dot[0], wq_dot[1], z_dot, q, z - z_ref])
+
+    def trim(self, u0: float, z: float = 0.0, kinematics: Kinematics = 'full') -> Trim:
+        """Equilibrium at speed ``u0`` [m/s] and depth ``z`` [m]: ``w_dot = q_dot = z_dot = 0``.
+
+        Unknowns (w, theta, BAR) for 'full' kinematics; (theta, BAR) with w = 0 for 'w'.
+        Raises TrimError when no equilibrium exists within the plane's angle limit.
+        """
+        if not np.isfinite(u0) or abs(u0) < 1e-3:
+            raise TrimError(f'trim needs a forward speed, got u0 = {u0} m/s')
+
+        def residual(v: np.ndarray) -> np.ndarray:
+            if kinematics == 'w':
+                w, theta, bar = 0.0 * v[0], v[0], v[1]
+            else:
+                w, theta, bar = v[0], v[1], v[2]
+            X = np.array([w, 0.0 * w, z + 0.0 * w, theta, 0.0 * w])
+            rates = self.rates(X, bar, u0, z_ref=z, kinematics=kinematics)
+            return rates[:3] if kinematics == 'full' else rates[:2]
+
+        def jac(v: np.ndarray) -> np.ndarray:
+            n = v.size
+            out = np.empty((n, n))
+            for j in range(n):
+                vc = v.astype(np.complex128)
+                vc[j] += 1j * _H
+                out[:, j] = residual(vc).imag / _H
+            return out
+
+        v0 = np.zeros(2 if kinematics == 'w' else 3)
+        sol = optimize.root(lambda v: residual(v).real, v0, jac=jac, method='hybr')
+        v = sol.x
+        for _ in range(3):  # polish with Newton steps on the exact Jacobian
+            v = v - np.linalg.solve(jac(v), residual(v).real)
+        if not np.all(np.isfinite(v)) or np.max(np.abs(residual(v).real)) > 1e-10:
+            raise TrimError(f'no trim found at u0 = {u0} m/s, z = {z} m: {sol.message}')
+        sol.x = v
+        if kinematics == 'w':
+            w, theta, bar = 0.0, float(sol.x[0]), float(sol.x[1])
+        else:
+            w, theta, bar = (float(s) for s in sol.x)
+        if abs(bar) > self.params.bar_max:
+            raise TrimError(f'trim at u0 = {u0} m/s needs BAR = {bar:.4f} rad, beyond the '
+                            f'plane limit {self.params.bar_max:.4f} rad')
+        thrust = -float(self.wrench(self.full_state(w, 0.0, z, theta, bar, u0)).real[0])
+        return Trim(u0=float(u0), z=float(z), w=w, theta=theta, bar=bar, thrust=thrust,
+                    kinematics=kinematics)
+
+    def linearize(self, trim: Trim, kinematics: Kinematics | None = None,
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """``(A, B)`` of the vertical-plane model at ``trim``: complex-step Jacobians.
+
+        A is 5 x 5 over ``(w, q, z, theta, int_z)``, B is 5 x 1 for BAR. ``kinematics``
+        defaults to the one the trim was solved with.
+        """
+        kin: Kinematics = kinematics or trim.kinematics  # type: ignore[assignment]
+        X0 = np.array([trim.w, 0.0, trim.z, trim.theta, 0.0], dtype=np.complex128)
+        A = np.empty((5, 5))
+        for j in range(5):
+            X = X0.copy()
+            X[j] += 1j * _H
+            A[:, j] = self.rates(X, trim.bar, trim.u0, z_ref=trim.z, kinematics=kin).imag / _H
+        B = (self.rates(X0, trim.bar + 1j * _H, trim.u0, z_ref=trim.z, kinematics=kin).imag
+             / _H).reshape(5, 1)
+        return A, B
