@@ -1,0 +1,1508 @@
+"""Bag I/O: rosbag2 bags in MCAP storage, written and read without a ROS graph.
+
+A bag is what ``ros2 bag record -s mcap`` writes: a directory holding ``metadata.yaml`` and
+one ``.mcap`` file per split (MCAP profile ``ros2``, schema encoding ``ros2msg`` with the full
+concatenated message definition, message encoding ``cdr``, the offered QoS profiles in each
+channel's metadata). Every function here also takes a bare ``.mcap`` file.
+
+Times: ``log_time`` is when the recorder received a message (ns since the Unix epoch, or since
+the start of simulated time); ``t`` in the arrays is the message's header stamp (s).
+
+Damage: a bag cut short (a recorder killed mid-write, a copy interrupted) or with garbage
+bytes is read record by record from the start without seeking; every whole message before the
+first bad record is returned and the damage is reported as one :class:`BagError` naming the
+file, the byte offset and how many whole messages were read.
+
+This module never imports rclpy: it runs offline, in tests and in benchmarks.
+"""
+from __future__ import annotations
+
+import functools
+import math
+import os
+import pathlib
+import struct
+import time
+import zlib
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from io import StringIO
+from typing import IO, Any, NamedTuple
+
+import numpy as np
+from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+from rosbags.typesys.base import Nodetype
+from rosbags.typesys.store import Typestore
+
+from .errors import BagError
+
+__all__ = [
+    'BagArrays',
+    'BagError',
+    'BagMessage',
+    'BagWriter',
+    'ProgressCallback',
+    'bag_files',
+    'bag_topics',
+    'msg_dir',
+    'normalize_msgtype',
+    'qos_profiles_yaml',
+    'read_arrays',
+    'read_messages',
+    'typestore',
+]
+
+ProgressCallback = Callable[[int, int], None]
+"""Called as ``progress(bytes_read, bytes_total)`` while a bag is read."""
+
+#: Depth of the keep-last QoS history the project's recorder and player use (messages).
+DEFAULT_QOS_DEPTH = 1000
+
+_MAGIC = b'\x89MCAP0\r\n'
+_OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 1, 2, 3, 4, 5, 6
+_OP_DATA_END = 0x0F
+_KNOWN_OPS = frozenset(range(0x01, 0x10))
+_U8 = struct.Struct('<Q')
+_MSG_HEAD = struct.Struct('<HIQQ')  # channel id, sequence, log time (ns), publish time (ns)
+_MSG_HEAD_SIZE = _MSG_HEAD.size  # 22 bytes
+_CHUNK_HEAD = struct.Struct('<QQQI')  # start time, end time, uncompressed size, uncompressed crc
+_TIME_TYPES = frozenset({'builtin_interfaces/msg/Time', 'builtin_interfaces/msg/Duration'})
+_SECTION = '=' * 80 + '\n'
+_INFINITE = {'sec': 9223372036, 'nsec': 854775807}  # rmw's "infinite" duration
+
+
+# --------------------------------------------------------------------------------------------
+# Message definitions
+
+
+def msg_dir() -> pathlib.Path:
+    """Directory holding the auv_msgs ``.msg`` files.
+
+    Looks in the source tree first (``src/auv_msgs/msg`` next to this package), then in the
+    colcon install space (``install/auv_msgs/share/auv_msgs/msg``) and in every prefix of
+    ``AMENT_PREFIX_PATH``.
+
+    Raises:
+        BagError: no directory with ``.msg`` files was found; the message names where it looked.
+    """
+    here = pathlib.Path(__file__).resolve()
+    candidates = [here.parents[2] / 'auv_msgs' / 'msg']
+    if len(here.parents) > 3:
+        candidates.append(here.parents[3] / 'install' / 'auv_msgs' / 'share' / 'auv_msgs' / 'msg')
+    for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+        if prefix:
+            candidates.append(pathlib.Path(prefix) / 'share' / 'auv_msgs' / 'msg')
+    for cand in candidates:
+        if cand.is_dir() and any(cand.glob('*.msg')):
+            return cand
+    looked = ', '.join(str(c) for c in candidates)
+    raise BagError(f'auv_msgs message definitions not found (looked in {looked})')
+
+
+def _base_store() -> Typestore:
+    """A fresh typestore of the newest ROS 2 distribution rosbags knows (Kilted or later)."""
+    store = getattr(Stores, 'ROS2_KILTED', None) or Stores.LATEST
+    return get_typestore(store)
+
+
+@functools.lru_cache(maxsize=1)
+def typestore() -> Typestore:
+    """The ROS 2 Kilted typestore with the auv_msgs types registered from their ``.msg`` text.
+
+    Shared and cached: do not register further types into it; build your own with
+    ``get_typestore`` if you need to.
+    """
+    store = _base_store()
+    types = {}
+    for path in sorted(msg_dir().glob('*.msg')):
+        types.update(get_types_from_msg(path.read_text(), f'auv_msgs/msg/{path.stem}'))
+    store.register(types)
+    return store
+
+
+@functools.lru_cache(maxsize=None)
+def _msg_text(msgtype: str) -> str | None:
+    """The original ``.msg`` text of an auv_msgs type (comments kept), or None."""
+    pkg, _, name = msgtype.split('/')
+    if pkg != 'auv_msgs':
+        return None
+    path = msg_dir() / f'{name}.msg'
+    return path.read_text() if path.is_file() else None
+
+
+def normalize_msgtype(msgtype: str) -> str:
+    """``pkg/Type`` or ``pkg/msg/Type`` -> ``pkg/msg/Type``.
+
+    Raises:
+        BagError: the name has neither form.
+    """
+    parts = msgtype.strip('/').split('/')
+    if len(parts) == 2 and all(parts):
+        return f'{parts[0]}/msg/{parts[1]}'
+    if len(parts) == 3 and all(parts):
+        return '/'.join(parts)
+    raise BagError(f'bad message type name {msgtype!r}: expected pkg/msg/Type')
+
+
+def _message_definition(store: Typestore, msgtype: str) -> str:
+    """Full ``ros2msg`` schema text as rosbag2 stores it: the type's own definition, then each
+    dependency after a line of 80 ``=`` and a ``MSG: pkg/Type`` line."""
+    text, _ = store.generate_msgdef(msgtype, ros_version=2)
+    own = _msg_text(msgtype)
+    if own is None:
+        return text
+    sep = text.find(_SECTION)
+    return own.rstrip('\n') + '\n' + (text[sep:] if sep >= 0 else '')
+
+
+def _types_from_schema(name: str, text: str) -> dict[str, Any]:
+    """Types defined by one ``ros2msg`` schema (the message and its dependencies)."""
+    types: dict[str, Any] = {}
+    sections = text.split(_SECTION)
+    types.update(get_types_from_msg(sections[0], name))
+    for section in sections[1:]:
+        head, _, body = section.partition('\n')
+        if head.startswith('MSG: '):
+            types.update(get_types_from_msg(body, normalize_msgtype(head[5:].strip())))
+    return types
+
+
+def qos_profiles_yaml(
+    reliability: str = 'reliable', durability: str = 'volatile', depth: int = DEFAULT_QOS_DEPTH
+) -> str:
+    """The ``offered_qos_profiles`` text rosbag2 (metadata version 9) stores for one publisher.
+
+    Args:
+        reliability: ``reliable`` or ``best_effort``.
+        durability: ``volatile`` or ``transient_local``.
+        depth: keep-last history depth (messages).
+    """
+    return _yaml_dump([_qos_dict(reliability, durability, depth)])
+
+
+def _qos_dict(reliability: str, durability: str, depth: int) -> dict[str, Any]:
+    return {
+        'history': 'keep_last',
+        'depth': depth,
+        'reliability': reliability,
+        'durability': durability,
+        'deadline': dict(_INFINITE),
+        'lifespan': dict(_INFINITE),
+        'liveliness': 'automatic',
+        'liveliness_lease_duration': dict(_INFINITE),
+        'avoid_ros_namespace_conventions': False,
+    }
+
+
+def _yaml_dump(data: Any) -> str:
+    from ruamel.yaml import YAML
+
+    yaml = YAML(typ='safe')
+    yaml.default_flow_style = False
+    out = StringIO()
+    yaml.dump(data, out)
+    return out.getvalue()
+
+
+# --------------------------------------------------------------------------------------------
+# Writer
+
+
+class _TopicInfo(NamedTuple):
+    channel_id: int
+    msgtype: str
+    qos: str
+
+
+class BagWriter:
+    """Write a rosbag2 bag with MCAP storage, as ``ros2 bag record -s mcap`` does.
+
+    ``path`` is the bag directory (created; it must not exist or be empty), holding
+    ``<name>_0.mcap`` and, after :meth:`close`, ``metadata.yaml``. A path ending in ``.mcap``
+    writes a bare MCAP file with no ``metadata.yaml``.
+
+    Messages are given either as serialized CDR bytes (as a raw rclpy subscription receives
+    them; written as they are) or as message objects of the rosbags typestore (serialized
+    here, for offline runs with no ROS graph). The chunk in progress is written to the file
+    every ``flush_interval`` seconds (wall clock) and whenever it exceeds ``chunk_size`` bytes,
+    so a crash loses little; :meth:`close` writes the summary and ``metadata.yaml``.
+
+    Example::
+
+        with BagWriter('out/run1') as bag:
+            bag.add_topic('/auv/state', 'auv_msgs/msg/VehicleState')
+            bag.write('/auv/state', cdr_bytes, log_time_ns=stamp_ns)
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        compression: str = 'zstd',
+        chunk_size: int = 768 * 1024,
+        flush_interval: float = 1.0,
+        store: Typestore | None = None,
+    ) -> None:
+        """Open the bag for writing.
+
+        Args:
+            path: bag directory, or a file name ending in ``.mcap`` for a bare MCAP file.
+            compression: chunk compression, ``zstd`` (rosbag2's default), ``lz4`` or ``none``.
+            chunk_size: uncompressed chunk size that triggers writing the chunk (bytes).
+            flush_interval: longest time a message stays in memory before it is written (s,
+                wall clock); 0 writes every message at once.
+            store: typestore for message objects and definitions (default: :func:`typestore`).
+
+        Raises:
+            BagError: the path exists and is not an empty directory, or cannot be created.
+        """
+        from mcap.writer import CompressionType, Writer
+
+        comp = {'zstd': CompressionType.ZSTD, 'lz4': CompressionType.LZ4,
+                'none': CompressionType.NONE, '': CompressionType.NONE}.get(compression)
+        if comp is None:
+            raise BagError(f'unknown bag compression {compression!r}: use zstd, lz4 or none')
+        if not (flush_interval >= 0 and math.isfinite(flush_interval)):
+            raise BagError(f'flush_interval must be finite and >= 0 s, got {flush_interval}')
+        self.path = pathlib.Path(path)
+        self._store = store or typestore()
+        if self.path.suffix == '.mcap':
+            self._dir: pathlib.Path | None = None
+            self.mcap_path = self.path
+            if self.path.exists():
+                raise BagError(f'bag file {self.path} exists already')
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        else:
+            if self.path.exists() and (not self.path.is_dir() or any(self.path.iterdir())):
+                raise BagError(f'bag directory {self.path} exists already and is not empty')
+            self._dir = self.path
+            self.mcap_path = self.path / f'{self.path.name}_0.mcap'
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            if self._dir is not None:
+                self._dir.mkdir(exist_ok=True)
+            self._stream: IO[bytes] = open(self.mcap_path, 'xb')  # noqa: SIM115
+        except OSError as exc:
+            raise BagError(f'cannot create bag {self.path}: {exc.strerror}') from None
+        self._writer = Writer(self._stream, chunk_size=chunk_size, compression=comp)
+        self._writer.start(profile='ros2', library='auv_ident.bag (mcap-python)')
+        self._topics: dict[str, _TopicInfo] = {}
+        self._schemas: dict[str, int] = {}
+        self._counts: dict[str, int] = {}
+        self._start_ns: int | None = None
+        self._end_ns = 0
+        self._flush_interval = flush_interval
+        self._last_flush = time.monotonic()
+        self._closed = False
+
+    # -- topics ------------------------------------------------------------------------------
+    def add_topic(self, topic: str, msgtype: str, qos: str | None = None) -> None:
+        """Declare a topic and its message type (``pkg/msg/Type``).
+
+        Args:
+            topic: topic name, e.g. ``/auv/state``.
+            msgtype: message type; must be known to the typestore (its definition is stored).
+            qos: offered QoS profiles as YAML (default: :func:`qos_profiles_yaml`, reliable).
+
+        Raises:
+            BagError: the type is unknown, or the topic was declared with another type.
+        """
+        self._check_open()
+        msgtype = normalize_msgtype(msgtype)
+        known = self._topics.get(topic)
+        if known is not None:
+            if known.msgtype != msgtype:
+                raise BagError(f'topic {topic} is {known.msgtype} in bag {self.path}, '
+                               f'cannot write {msgtype} on it')
+            return
+        if msgtype not in self._store.fielddefs:
+            raise BagError(f'message type {msgtype} of topic {topic} is unknown '
+                           '(not in the typestore)')
+        schema_id = self._schemas.get(msgtype)
+        if schema_id is None:
+            text = _message_definition(self._store, msgtype)
+            schema_id = self._writer.register_schema(msgtype, 'ros2msg', text.encode())
+            self._schemas[msgtype] = schema_id
+        qos = qos_profiles_yaml() if qos is None else qos
+        channel_id = self._writer.register_channel(
+            topic, 'cdr', schema_id, {'offered_qos_profiles': qos})
+        self._topics[topic] = _TopicInfo(channel_id, msgtype, qos)
+        self._counts[topic] = 0
+
+    @property
+    def topics(self) -> dict[str, str]:
+        """Declared topics and their message types."""
+        return {name: info.msgtype for name, info in self._topics.items()}
+
+    @property
+    def message_count(self) -> int:
+        """Messages written so far."""
+        return sum(self._counts.values())
+
+    # -- messages ----------------------------------------------------------------------------
+    def write(
+        self,
+        topic: str,
+        message: bytes | bytearray | memoryview | object,
+        log_time_ns: int | None = None,
+        publish_time_ns: int | None = None,
+    ) -> None:
+        """Write one message.
+
+        Args:
+            topic: topic name; declared with :meth:`add_topic`, or declared here from the
+                ``__msgtype__`` of a message object.
+            message: serialized CDR bytes (with the 4-byte encapsulation header), or a rosbags
+                message object.
+            log_time_ns: receive time (ns); default: now, wall clock since the Unix epoch.
+            publish_time_ns: publish time (ns); default: the log time.
+
+        Raises:
+            BagError: undeclared topic given as bytes, or an object that cannot be serialized.
+        """
+        self._check_open()
+        info = self._topics.get(topic)
+        if isinstance(message, (bytes, bytearray, memoryview)):
+            if info is None:
+                raise BagError(f'topic {topic} was not declared in bag {self.path} '
+                               '(call add_topic first)')
+            data = bytes(message)
+        else:
+            msgtype = getattr(message, '__msgtype__', None)
+            if msgtype is None:
+                raise BagError(f'cannot write a {type(message).__name__} on topic {topic}: '
+                               'expected CDR bytes or a rosbags message object')
+            if info is None:
+                self.add_topic(topic, msgtype)
+                info = self._topics[topic]
+            elif normalize_msgtype(msgtype) != info.msgtype:
+                raise BagError(f'topic {topic} is {info.msgtype}, got a {msgtype} message')
+            try:
+                data = bytes(self._store.serialize_cdr(message, info.msgtype))
+            except Exception as exc:  # rosbags raises several types on a bad field
+                raise BagError(f'cannot serialize a {info.msgtype} message for topic {topic}: '
+                               f'{exc}') from None
+        log_ns = time.time_ns() if log_time_ns is None else int(log_time_ns)
+        pub_ns = log_ns if publish_time_ns is None else int(publish_time_ns)
+        count = self._counts[topic]
+        self._writer.add_message(info.channel_id, log_ns, data, pub_ns, sequence=count)
+        self._counts[topic] = count + 1
+        if self._start_ns is None or log_ns < self._start_ns:
+            self._start_ns = log_ns
+        self._end_ns = max(self._end_ns, log_ns)
+        now = time.monotonic()
+        if now - self._last_flush >= self._flush_interval:
+            self.flush()
+
+    def flush(self) -> None:
+        """Write the chunk in progress and flush the file (the OS keeps it if we crash)."""
+        self._check_open()
+        self._writer.flush()
+        self._last_flush = time.monotonic()
+
+    # -- closing -----------------------------------------------------------------------------
+    def close(self) -> None:
+        """Write the last chunk, the summary and ``metadata.yaml``. Closing twice is a no-op."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            info = self._metadata()
+            self._writer.add_metadata('rosbag2', {'serialized_metadata': _yaml_dump(info)})
+            self._writer.finish()
+        finally:
+            self._stream.close()
+        if self._dir is not None:
+            text = _yaml_dump({'rosbag2_bagfile_information': info})
+            tmp = self._dir / 'metadata.yaml.tmp'
+            tmp.write_text(text)
+            tmp.replace(self._dir / 'metadata.yaml')
+
+    def _metadata(self) -> dict[str, Any]:
+        start = self._start_ns or 0
+        duration = max(0, self._end_ns - start)
+        count = self.message_count
+        return {
+            'version': 9,
+            'storage_identifier': 'mcap',
+            'duration': {'nanoseconds': duration},
+            'starting_time': {'nanoseconds_since_epoch': start},
+            'message_count': count,
+            'topics_with_message_count': [
+                {
+                    'topic_metadata': {
+                        'name': topic,
+                        'type': info.msgtype,
+                        'serialization_format': 'cdr',
+                        'offered_qos_profiles': _parse_yaml(info.qos),
+                        'type_description_hash': self._store.hash_rihs01(info.msgtype),
+                    },
+                    'message_count': self._counts[topic],
+                }
+                for topic, info in self._topics.items()
+            ],
+            'compression_format': '',
+            'compression_mode': '',
+            'relative_file_paths': [self.mcap_path.name],
+            'files': [{
+                'path': self.mcap_path.name,
+                'starting_time': {'nanoseconds_since_epoch': start},
+                'duration': {'nanoseconds': duration},
+                'message_count': count,
+            }],
+            'custom_data': {},
+            'ros_distro': 'kilted',
+        }
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise BagError(f'bag {self.path} is closed')
+
+    def __enter__(self) -> BagWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _parse_yaml(text: str) -> Any:
+    from ruamel.yaml import YAML
+
+    return YAML(typ='safe').load(text)
+
+
+# --------------------------------------------------------------------------------------------
+# Locating the files of a bag
+
+
+def bag_files(path: str | os.PathLike[str]) -> list[pathlib.Path]:
+    """The ``.mcap`` files of a bag, in recording order.
+
+    ``path`` is a bag directory (files from ``metadata.yaml``; when it is missing, as after a
+    recorder crash, the directory's ``.mcap`` files in name order) or a bare ``.mcap`` file.
+
+    Raises:
+        BagError: no such bag, unreadable ``metadata.yaml``, or no MCAP file.
+    """
+    p = pathlib.Path(path)
+    if p.is_file():
+        return [p]
+    if not p.exists():
+        raise BagError(f'bag {p} does not exist')
+    meta = p / 'metadata.yaml'
+    if meta.is_file():
+        try:
+            info = _parse_yaml(meta.read_text())['rosbag2_bagfile_information']
+            storage = info.get('storage_identifier', 'mcap')
+            names = list(info['relative_file_paths'])
+        except Exception as exc:
+            raise BagError(f'bag metadata {meta} is unreadable: {exc}') from None
+        if storage != 'mcap':
+            raise BagError(f'bag {p} uses {storage} storage; only mcap is supported')
+        files = [p / name for name in names]
+        for f in files:
+            if not f.is_file():
+                raise BagError(f'bag {p}: file {f.name} named in metadata.yaml is missing')
+        return files
+    files = sorted(p.glob('*.mcap'))
+    if not files:
+        raise BagError(f'bag {p} has no metadata.yaml and no .mcap file')
+    return files
+
+
+# --------------------------------------------------------------------------------------------
+# Record scanning (sequential, no seeking, damage-tolerant)
+
+
+class _Damage(Exception):
+    """Internal: the first bad record of a file."""
+
+    def __init__(self, file: pathlib.Path, kind: str, offset: int, detail: str) -> None:
+        super().__init__(detail)
+        self.file, self.kind, self.offset, self.detail = file, kind, offset, detail
+
+    def message(self, whole: int) -> str:
+        what = 'truncated' if self.kind == 'truncated' else 'corrupt'
+        return (f'bag {self.file} is {what} at byte {self.offset} ({self.detail}): '
+                f'{whole} whole messages before the damage were read')
+
+
+class _Channel(NamedTuple):
+    topic: str
+    schema_id: int
+    encoding: str
+
+
+class _Block(NamedTuple):
+    """Whole messages found in one chunk (or run of loose message records); int64 arrays."""
+
+    data: bytes
+    channel: np.ndarray
+    log_time: np.ndarray  # ns
+    offset: np.ndarray  # start of the CDR data in ``data`` (bytes)
+    length: np.ndarray  # CDR data length (bytes)
+
+
+class _Scanner:
+    """Reads one MCAP file front to back, record by record, and stops at the first bad one."""
+
+    def __init__(self, file: pathlib.Path, progress: ProgressCallback | None = None) -> None:
+        self.file = file
+        self.progress = progress
+        self.schemas: dict[int, tuple[str, str, str]] = {}  # id -> name, encoding, text
+        self.channels: dict[int, _Channel] = {}
+        self.size = 0
+
+    def blocks(self) -> Iterator[_Block]:
+        """Blocks of whole messages; raises :class:`_Damage` after the last good one."""
+        try:
+            fh = open(self.file, 'rb')  # noqa: SIM115
+        except OSError as exc:
+            raise BagError(f'cannot open bag file {self.file}: {exc.strerror}') from None
+        with fh:
+            self.size = os.fstat(fh.fileno()).st_size
+            yield from self._records(fh)
+
+    def _damage(self, kind: str, offset: int, detail: str) -> _Damage:
+        return _Damage(self.file, kind, offset, detail)
+
+    def _records(self, fh: IO[bytes]) -> Iterator[_Block]:
+        size = self.size
+        magic = fh.read(8)
+        if len(magic) < 8 or magic != _MAGIC:
+            if len(magic) < 8 and _MAGIC.startswith(magic):
+                raise self._damage('truncated', len(magic), 'the file ends in the magic bytes')
+            raise BagError(f'bag file {self.file} is not an MCAP file (bad magic bytes)')
+        pos = 8
+        loose = _LooseMessages()
+        seen_data_end = False
+        while True:
+            head = fh.read(9)
+            if not head:
+                yield from loose.take()
+                where = 'after the data section' if seen_data_end else 'before the summary'
+                raise self._damage('truncated', pos, f'the file ends {where}, no footer')
+            if len(head) < 9:
+                yield from loose.take()
+                raise self._damage('truncated', pos, 'the file ends inside a record header')
+            op = head[0]
+            (length,) = _U8.unpack_from(head, 1)
+            if op not in _KNOWN_OPS and op < 0x80:
+                yield from loose.take()
+                raise self._damage('corrupt', pos, f'unknown record opcode 0x{op:02x}')
+            body_start = pos + 9
+            if length > size - body_start:
+                yield from loose.take()
+                if op == _OP_CHUNK:
+                    part = fh.read()
+                    block = self._partial_chunk(part)
+                    if block is not None:
+                        yield block
+                raise self._damage('truncated', pos,
+                                   f'a record of {length} bytes runs past the end of the file '
+                                   f'({size} bytes)')
+            if op == _OP_MESSAGE:
+                body = fh.read(length)
+                loose.add(body)
+            elif op == _OP_CHUNK:
+                yield from loose.take()
+                body = fh.read(length)
+                yield self._chunk(body, pos)
+            elif op in (_OP_SCHEMA, _OP_CHANNEL):
+                yield from loose.take()
+                body = fh.read(length)
+                try:
+                    self._definition(op, body, 0, len(body))
+                except (struct.error, UnicodeDecodeError, IndexError):
+                    raise self._damage('corrupt', pos, 'unreadable schema or channel') from None
+            elif op == _OP_FOOTER:
+                yield from loose.take()
+                fh.seek(length, 1)
+                tail = fh.read(8)
+                if tail != _MAGIC:
+                    raise self._damage('truncated' if len(tail) < 8 else 'corrupt',
+                                       body_start + length, 'no closing magic after the footer')
+                if self.progress:
+                    self.progress(size, size)
+                return
+            else:
+                if op == _OP_DATA_END:
+                    seen_data_end = True
+                fh.seek(length, 1)
+            pos = body_start + length
+            if self.progress and op == _OP_CHUNK:
+                self.progress(pos, size)
+
+    def _definition(self, op: int, body: bytes, start: int, end: int) -> None:
+        """Parse a schema or channel record body lying in ``body[start:end]``."""
+        if op == _OP_SCHEMA:
+            (sid,) = struct.unpack_from('<H', body, start)
+            name, p = _string(body, start + 2)
+            enc, p = _string(body, p)
+            (n,) = struct.unpack_from('<I', body, p)
+            if p + 4 + n > end:
+                raise IndexError
+            self.schemas[sid] = (name, enc, body[p + 4:p + 4 + n].decode())
+        else:
+            cid, sid = struct.unpack_from('<HH', body, start)
+            topic, p = _string(body, start + 4)
+            enc, p = _string(body, p)
+            if p > end:
+                raise IndexError
+            self.channels[cid] = _Channel(topic, sid, enc)
+
+    def _chunk(self, body: bytes, pos: int) -> _Block:
+        try:
+            _, _, usize, crc = _CHUNK_HEAD.unpack_from(body, 0)
+            comp, p = _string(body, _CHUNK_HEAD.size)
+            (clen,) = _U8.unpack_from(body, p)
+            p += 8
+        except (struct.error, UnicodeDecodeError):
+            raise self._damage('corrupt', pos, 'unreadable chunk header') from None
+        if p + clen > len(body):
+            raise self._damage('corrupt', pos, 'chunk data longer than the chunk record')
+        try:
+            data = _decompress(body[p:p + clen], comp, usize)
+        except Exception as exc:  # each codec raises its own type
+            raise self._damage('corrupt', pos, f'chunk does not decompress ({comp}: {exc})'
+                               ) from None
+        if len(data) != usize:
+            raise self._damage('corrupt', pos, f'chunk is {len(data)} bytes, expected {usize}')
+        if crc and zlib.crc32(data) != crc:
+            raise self._damage('corrupt', pos, 'chunk CRC mismatch')
+        block, complete = self._chunk_records(data)
+        if not complete:
+            raise self._damage('corrupt', pos, 'a record inside a chunk is cut short')
+        return block
+
+    def _partial_chunk(self, body: bytes) -> _Block | None:
+        """Whole messages at the start of a chunk cut short by the end of the file."""
+        try:
+            _, _, usize, _ = _CHUNK_HEAD.unpack_from(body, 0)
+            comp, p = _string(body, _CHUNK_HEAD.size)
+            p += 8
+            data = _decompress_prefix(body[p:], comp)
+        except Exception:  # a prefix too short to hold even the header: nothing to save
+            return None
+        block, _ = self._chunk_records(data)
+        return block if len(block.offset) else None
+
+    def _chunk_records(self, data: bytes) -> tuple[_Block, bool]:
+        """Messages (and definitions) of an uncompressed chunk; False if a record is cut.
+
+        Records are walked one by one, except that a run of message records of equal length
+        (one topic at a fixed message size, the usual case) is located vectorised: the next
+        records are assumed to follow at a fixed stride and the assumption is checked on
+        every one of them (opcode and length).
+        """
+        pieces: list[tuple[np.ndarray, ...]] = []
+        channel: list[int] = []
+        log_time: list[int] = []
+        offset: list[int] = []
+        length: list[int] = []
+        add_c, add_t, add_o, add_l = channel.append, log_time.append, offset.append, length.append
+        unpack_len = _U8.unpack_from
+        unpack_msg = _MSG_HEAD.unpack_from
+        buf = np.frombuffer(data, np.uint8)
+        n = len(data)
+        pos = 0
+        prev_len = -1
+        complete = True
+        while pos < n:
+            if pos + 9 > n:
+                complete = False
+                break
+            op = data[pos]
+            (rlen,) = unpack_len(data, pos + 1)
+            start = pos + 9
+            end = start + rlen
+            if end > n:
+                complete = False
+                break
+            pos = end
+            if op == _OP_MESSAGE:
+                if rlen < _MSG_HEAD_SIZE:
+                    complete = False
+                    break
+                cid, _, log_ns, _ = unpack_msg(data, start)
+                add_c(cid)
+                add_t(log_ns)
+                add_o(start + _MSG_HEAD_SIZE)
+                add_l(rlen - _MSG_HEAD_SIZE)
+                if rlen == prev_len:
+                    run = _message_run(buf, pos, rlen)
+                    if run is not None:
+                        pieces.append(_lists_to_arrays(channel, log_time, offset, length))
+                        channel.clear(), log_time.clear(), offset.clear(), length.clear()
+                        pieces.append(run)
+                        pos += len(run[0]) * (9 + rlen)
+                prev_len = rlen
+            elif op in (_OP_SCHEMA, _OP_CHANNEL):
+                prev_len = -1
+                try:
+                    self._definition(op, data, start, end)
+                except (struct.error, UnicodeDecodeError, IndexError):
+                    complete = False
+                    break
+            else:
+                prev_len = -1
+        pieces.append(_lists_to_arrays(channel, log_time, offset, length))
+        cols = [np.concatenate([p[i] for p in pieces]) for i in range(4)]
+        return _Block(data, *cols), complete
+
+
+def _lists_to_arrays(*lists: list[int]) -> tuple[np.ndarray, ...]:
+    return tuple(np.asarray(x, np.int64) for x in lists)
+
+
+_MSG_RECORD_HEAD = np.dtype([('op', 'u1'), ('length', '<u8'), ('channel', '<u2'),
+                             ('sequence', '<u4'), ('log_time', '<u8'), ('publish_time', '<u8')])
+
+
+def _message_run(buf: np.ndarray, pos: int, rlen: int) -> tuple[np.ndarray, ...] | None:
+    """Message records of length ``rlen`` following each other from byte ``pos`` of an
+    uncompressed chunk: (channel, log time, data offset, data length) arrays, or None.
+
+    The record heads are seen at a fixed stride (a strided view, no copy) and every one is
+    checked (opcode and length) before it is accepted.
+    """
+    stride = 9 + rlen
+    head = _MSG_RECORD_HEAD.itemsize  # 31 bytes
+    avail = (len(buf) - pos) // stride
+    if avail == 0:
+        return None
+    heads = np.lib.stride_tricks.as_strided(buf[pos:], shape=(avail, head),
+                                            strides=(stride, 1), writeable=False)
+    window = 64
+    count = 0
+    parts = []
+    while count < avail:
+        k = min(window, avail - count)
+        rec = np.ascontiguousarray(heads[count:count + k]).view(_MSG_RECORD_HEAD)[:, 0]
+        good = (rec['op'] == _OP_MESSAGE) & (rec['length'] == rlen)
+        if good.all():
+            parts.append(rec)
+            count += k
+            window *= 4
+            continue
+        n_good = int(np.argmin(good))
+        parts.append(rec[:n_good])
+        count += n_good
+        break
+    if count == 0:
+        return None
+    rec = np.concatenate(parts)
+    body = pos + np.arange(count, dtype=np.int64) * stride + 9
+    return (rec['channel'].astype(np.int64), rec['log_time'].astype(np.int64),
+            body + _MSG_HEAD_SIZE, np.full(count, rlen - _MSG_HEAD_SIZE, np.int64))
+
+
+class _LooseMessages:
+    """Message records outside chunks (unchunked MCAP files), gathered into blocks."""
+
+    def __init__(self) -> None:
+        self.parts: list[bytes] = []
+
+    def add(self, body: bytes) -> None:
+        self.parts.append(body)
+
+    def take(self) -> Iterator[_Block]:
+        if not self.parts:
+            return
+        channel, log_time, offset, length = [], [], [], []
+        pos = 0
+        for body in self.parts:
+            cid, _, log_ns, _ = _MSG_HEAD.unpack_from(body, 0)
+            channel.append(cid)
+            log_time.append(log_ns)
+            offset.append(pos + _MSG_HEAD_SIZE)
+            length.append(len(body) - _MSG_HEAD_SIZE)
+            pos += len(body)
+        data = b''.join(self.parts)
+        self.parts = []
+        yield _Block(data, *_lists_to_arrays(channel, log_time, offset, length))
+
+
+def _string(buf: bytes, pos: int) -> tuple[str, int]:
+    (n,) = struct.unpack_from('<I', buf, pos)
+    end = pos + 4 + n
+    if end > len(buf):
+        raise struct.error('string runs past its record')
+    return buf[pos + 4:end].decode(), end
+
+
+def _decompress(data: bytes, comp: str, usize: int) -> bytes:
+    if comp == '':
+        return data
+    if comp == 'zstd':
+        import zstandard
+
+        return zstandard.ZstdDecompressor().decompress(data, max_output_size=usize)
+    if comp == 'lz4':
+        import lz4.frame
+
+        return lz4.frame.decompress(data)
+    raise ValueError(f'unknown compression {comp!r}')
+
+
+def _decompress_prefix(data: bytes, comp: str) -> bytes:
+    """As much of a cut-short compressed stream as can be decoded."""
+    if comp == '':
+        return data
+    if comp == 'zstd':
+        import zstandard
+
+        return zstandard.ZstdDecompressor().decompressobj().decompress(data)
+    if comp == 'lz4':
+        import lz4.frame
+
+        return lz4.frame.LZ4FrameDecompressor().decompress(data)
+    return b''
+
+
+# --------------------------------------------------------------------------------------------
+# Reading messages one by one
+
+
+class BagMessage(NamedTuple):
+    """One message of a bag."""
+
+    topic: str
+    msgtype: str
+    log_time: int
+    """Receive time (ns)."""
+    data: bytes
+    """Serialized CDR bytes, with the 4-byte encapsulation header."""
+    msg: Any
+    """The deserialized rosbags message, or None when read with ``decode=False``."""
+
+
+def read_messages(
+    path: str | os.PathLike[str],
+    topics: Iterable[str] | None = None,
+    *,
+    decode: bool = True,
+    progress: ProgressCallback | None = None,
+) -> Iterator[BagMessage]:
+    """Iterate over the messages of a bag in file order (the recording order).
+
+    Args:
+        path: bag directory or ``.mcap`` file.
+        topics: only these topics (default: all). A topic not in the bag is an error.
+        decode: deserialize each message with the rosbags typestore (``msg`` field).
+        progress: called as ``progress(bytes_read, bytes_total)``.
+
+    Raises:
+        BagError: missing bag or topic; damage, after every whole message before it was
+            yielded.
+    """
+    files = bag_files(path)
+    wanted = None if topics is None else set(topics)
+    if wanted is not None:
+        present = bag_topics(path)
+        _check_topics(path, wanted, present)
+    whole = 0
+    done_bytes = 0
+    total = _total_size(files)
+    for file in files:
+        scanner = _Scanner(file, _offset_progress(progress, done_bytes, total))
+        store: Typestore | None = None
+        try:
+            for block in scanner.blocks():
+                whole += len(block.channel)
+                if decode and store is None:
+                    store = _bag_store(scanner.schemas)
+                for cid, log_ns, off, n in zip(block.channel.tolist(), block.log_time.tolist(),
+                                               block.offset.tolist(), block.length.tolist()):
+                    chan = scanner.channels.get(cid)
+                    if chan is None:
+                        raise BagError(f'bag file {file}: message on undeclared channel {cid}')
+                    if wanted is not None and chan.topic not in wanted:
+                        continue
+                    msgtype = _schema_name(scanner, chan)
+                    data = block.data[off:off + n]
+                    msg = None
+                    if decode:
+                        if store is None or msgtype not in store.fielddefs:
+                            store = _bag_store(scanner.schemas)
+                        msg = _deserialize(store, data, msgtype, chan.topic, file)
+                    yield BagMessage(chan.topic, msgtype, log_ns, data, msg)
+        except _Damage as dmg:
+            raise BagError(dmg.message(whole)) from None
+        done_bytes += scanner.size
+
+
+def _deserialize(store: Typestore, data: bytes, msgtype: str, topic: str,
+                 file: pathlib.Path) -> Any:
+    try:
+        return store.deserialize_cdr(data, msgtype)
+    except Exception as exc:  # rosbags raises assorted errors on bad bytes
+        raise BagError(f'bag file {file}: a {msgtype} message on {topic} does not decode: '
+                       f'{exc}') from None
+
+
+def _schema_name(scanner: _Scanner, chan: _Channel) -> str:
+    schema = scanner.schemas.get(chan.schema_id)
+    if schema is None:
+        raise BagError(f'bag file {scanner.file}: topic {chan.topic} has no schema')
+    return normalize_msgtype(schema[0])
+
+
+def _bag_store(schemas: dict[int, tuple[str, str, str]]) -> Typestore:
+    """A typestore able to decode every schema seen so far.
+
+    The shared :func:`typestore` serves when it knows every type with the same definition;
+    otherwise a fresh one is built from the bag's own definitions.
+    """
+    base = typestore()
+    extra: dict[str, Any] = {}
+    conflict = False
+    for name, enc, text in schemas.values():
+        if enc != 'ros2msg' or not text:
+            continue
+        try:
+            types = _types_from_schema(normalize_msgtype(name), text)
+        except Exception:  # unparsable definition: fall back on the known one, if any
+            continue
+        for key, value in types.items():
+            known = base.fielddefs.get(key)
+            if known is None:
+                extra[key] = value
+            elif known != value:
+                conflict = True
+    if not extra and not conflict:
+        return base
+    store = _base_store()
+    if conflict:
+        store = get_typestore(Stores.EMPTY)
+        for name, enc, text in schemas.values():
+            if enc == 'ros2msg' and text:
+                try:
+                    extra.update(_types_from_schema(normalize_msgtype(name), text))
+                except Exception:
+                    continue
+    else:
+        store.register({k: v for k, v in base.fielddefs.items()
+                        if k.startswith('auv_msgs/')})
+    store.register(extra)
+    return store
+
+
+def bag_topics(path: str | os.PathLike[str]) -> dict[str, str]:
+    """Topics of a bag and their message types (``pkg/msg/Type``).
+
+    Read from ``metadata.yaml`` when present, else from the MCAP file's channels (a damaged
+    file gives the channels found before the damage).
+    """
+    p = pathlib.Path(path)
+    meta = p / 'metadata.yaml'
+    if p.is_dir() and meta.is_file():
+        try:
+            info = _parse_yaml(meta.read_text())['rosbag2_bagfile_information']
+            return {t['topic_metadata']['name']: normalize_msgtype(t['topic_metadata']['type'])
+                    for t in info['topics_with_message_count']}
+        except (KeyError, TypeError, BagError) as exc:
+            raise BagError(f'bag metadata {meta} is unreadable: {exc}') from None
+    found: dict[str, str] = {}
+    for file in bag_files(p):
+        scanner = _Scanner(file)
+        try:
+            for _ in scanner.blocks():
+                pass
+        except _Damage:
+            pass
+        for chan in scanner.channels.values():
+            found[chan.topic] = _schema_name(scanner, chan)
+    return found
+
+
+def _check_topics(path: str | os.PathLike[str], wanted: Iterable[str],
+                  present: dict[str, str] | Iterable[str]) -> None:
+    names = sorted(present)
+    for topic in wanted:
+        if topic not in names:
+            listed = ', '.join(names) if names else 'none'
+            raise BagError(f'topic {topic} is not in bag {path} (topics present: {listed})')
+
+
+def _total_size(files: Sequence[pathlib.Path]) -> int:
+    return sum(f.stat().st_size for f in files)
+
+
+def _offset_progress(progress: ProgressCallback | None, done: int,
+                     total: int) -> ProgressCallback | None:
+    """Progress of one file expressed over the whole bag."""
+    if progress is None:
+        return None
+    return lambda n, _size: progress(done + n, total)
+
+
+# --------------------------------------------------------------------------------------------
+# Columns of a message type (compiled once per type)
+
+
+class _Op(NamedTuple):
+    """One step of walking a CDR message.
+
+    kind: ``num`` (a primitive, one column), ``time`` (builtin Time/Duration, one column in
+    s), ``string`` (skipped), ``pseq`` (sequence of primitives, skipped).
+    """
+
+    kind: str
+    name: str
+    dtype: str  # numpy dtype of the primitive ('' for string)
+    path: tuple[str | int, ...]  # attribute path in the deserialized object
+
+
+_PRIMS = {
+    'bool': '<u1', 'byte': '<u1', 'char': '<u1', 'uint8': '<u1', 'int8': '<i1',
+    'uint16': '<u2', 'int16': '<i2', 'uint32': '<u4', 'int32': '<i4',
+    'uint64': '<u8', 'int64': '<i8', 'float32': '<f4', 'float64': '<f8',
+}
+
+
+class _Layout(NamedTuple):
+    ops: tuple[_Op, ...]
+    has_header: bool
+    vectorisable: bool
+
+
+@functools.lru_cache(maxsize=None)
+def _layout_cached(store_id: int, msgtype: str) -> _Layout:
+    return _compile(_STORES[store_id], msgtype)
+
+
+_STORES: dict[int, Typestore] = {}
+
+
+def _layout(store: Typestore, msgtype: str) -> _Layout:
+    _STORES[id(store)] = store
+    return _layout_cached(id(store), msgtype)
+
+
+def _compile(store: Typestore, msgtype: str) -> _Layout:
+    ops: list[_Op] = []
+    ok = [True]
+
+    def name_of(path: tuple[str | int, ...]) -> str:
+        if path == ('header', 'stamp'):
+            return 't'
+        return '_'.join(str(p) for p in path)
+
+    def walk(typ: str, path: tuple[str | int, ...]) -> None:
+        if typ in _TIME_TYPES:
+            ops.append(_Op('time', name_of(path), '', path))
+            return
+        for fname, (node, spec) in store.fielddefs[typ][1]:
+            fpath = (*path, fname)
+            if node == Nodetype.BASE:
+                base(spec[0], fpath)
+            elif node == Nodetype.NAME:
+                walk(spec, fpath)
+            elif node == Nodetype.ARRAY:
+                sub, count = spec
+                for i in range(count):
+                    elem(sub, (*fpath, i))
+            elif node == Nodetype.SEQUENCE:
+                sub, _ = spec
+                if sub[0] == Nodetype.BASE and sub[1][0] in _PRIMS:
+                    ops.append(_Op('pseq', name_of(fpath), _PRIMS[sub[1][0]], fpath))
+                else:
+                    ok[0] = False
+                    ops.append(_Op('seq', name_of(fpath), '', fpath))
+                    return  # nothing after a complex sequence can be located
+            else:
+                ok[0] = False
+
+    def elem(sub: tuple[Any, Any], path: tuple[str | int, ...]) -> None:
+        node, spec = sub
+        if node == Nodetype.BASE:
+            base(spec[0], path)
+        elif node == Nodetype.NAME:
+            walk(spec, path)
+        else:
+            ok[0] = False
+
+    def base(typ: str, path: tuple[str | int, ...]) -> None:
+        if typ in _PRIMS:
+            ops.append(_Op('num', name_of(path), _PRIMS[typ], path))
+        elif typ == 'string':
+            ops.append(_Op('string', name_of(path), '', path))
+        else:  # wstring: not in the project's types
+            ok[0] = False
+            ops.append(_Op('skip', name_of(path), '', path))
+
+    walk(msgtype, ())
+    has_header = any(op.name == 't' and op.kind == 'time' for op in ops)
+    return _Layout(tuple(ops), has_header, ok[0])
+
+
+def _column_names(layout: _Layout) -> list[str]:
+    return [op.name for op in layout.ops if op.kind in ('num', 'time')]
+
+
+# --------------------------------------------------------------------------------------------
+# Vectorised CDR decoding
+
+
+def _gather(buf: np.ndarray, offsets: np.ndarray, dtype: str) -> np.ndarray:
+    """Values of ``dtype`` at arbitrary byte ``offsets`` of ``buf`` (uint8), vectorised."""
+    dt = np.dtype(dtype)
+    size = dt.itemsize
+    if size == 1:
+        return buf[offsets].view(dt)
+    res = offsets % size
+    r0 = int(res[0]) if len(res) else 0
+    if np.all(res == r0):
+        return _view(buf, r0, dt)[offsets // size]
+    out = np.empty(len(offsets), dt)
+    for r in range(size):
+        mask = res == r
+        if mask.any():
+            out[mask] = _view(buf, r, dt)[offsets[mask] // size]
+    return out
+
+
+def _view(buf: np.ndarray, r: int, dt: np.dtype) -> np.ndarray:
+    """``buf`` seen as ``dt`` items starting at byte ``r``; item i covers bytes
+    ``r + i*size`` on, so byte offset o (with o % size == r) is item ``o // size``."""
+    size = dt.itemsize
+    usable = (len(buf) - r) // size * size
+    return buf[r:r + usable].view(dt)
+
+
+def _out_names(layout: _Layout) -> list[str]:
+    """Fields of the arrays: ``t``, ``t_log``, then the message's columns (header stamp
+    excluded: it is ``t``)."""
+    return ['t', 't_log'] + [n for n in _column_names(layout) if n != 't']
+
+
+def _decode_vectorised(layout: _Layout, buf: np.ndarray, offs: np.ndarray,
+                       lens: np.ndarray) -> np.ndarray | None:
+    """Columns of messages at ``offs`` (start of their CDR data) in ``buf``, vectorised.
+
+    CDR (XCDR1, little endian): a 4-byte encapsulation header, then each primitive aligned to
+    its size relative to the end of that header. The cursor is a scalar while every message
+    has the same layout and becomes an array per message after a string of varying length
+    (the header's ``frame_id``).
+
+    Returns:
+        float64 matrix (messages x :func:`_out_names`), column ``t_log`` left unset; None when
+        a message does not fit the layout (the caller then decodes message by message, which
+        names the bad one).
+    """
+    names = _out_names(layout)
+    index = {n: i for i, n in enumerate(names)}
+    n_msg = len(offs)
+    mat = np.empty((n_msg, len(names)))
+    if n_msg == 0:
+        return mat
+    if np.any(lens < 4):
+        return None
+    if np.any(buf[offs] != 0) or np.any(buf[offs + 1] != 1):  # not CDR_LE
+        return None
+    # Messages sorted by the residue of their origin modulo 8: within a group every field at a
+    # common offset has one alignment in the buffer, so each field is one gather per group.
+    origin_all = offs + 4
+    order = np.argsort(origin_all % 8, kind='stable')
+    origin = origin_all[order]
+    limit = (lens - 4)[order]  # bytes available after the encapsulation header
+    bounds = np.searchsorted(origin % 8, np.arange(9)).tolist()
+    groups = [(r, bounds[r], bounds[r + 1]) for r in range(8) if bounds[r] < bounds[r + 1]]
+    rel: int | np.ndarray = 0
+
+    def gather(r: int | np.ndarray, dtype: str, out: np.ndarray | None = None) -> np.ndarray:
+        if not isinstance(r, int):
+            values = _gather(buf, origin + r, dtype)
+            if out is None:
+                return values
+            out[:] = values
+            return out
+        dt = np.dtype(dtype)
+        size = dt.itemsize
+        if out is None:
+            out = np.empty(n_msg, dt)
+        for res, a, b in groups:
+            view = _view(buf, (res + r) % size, dt)
+            out[a:b] = view[(origin[a:b] + r) // size]
+        return out
+
+    def align(r: int | np.ndarray, a: int) -> int | np.ndarray:
+        return (r + (a - 1)) // a * a
+
+    def fits(r: int | np.ndarray) -> bool:
+        return bool(np.all(r <= limit))
+
+    ops = layout.ops
+    i = 0
+    while i < len(ops):
+        op = ops[i]
+        i += 1
+        if op.kind == 'num' and op.dtype == '<f8' and isinstance(rel, int):
+            # A run of float64 fields (contiguous once the first is aligned): one 2-D gather
+            # per group, every message's fields read together (one pass over the buffer).
+            k = 1
+            while (i - 1 + k < len(ops) and ops[i - 1 + k].kind == 'num'
+                   and ops[i - 1 + k].dtype == '<f8'):
+                k += 1
+            rel = align(rel, 8)
+            assert isinstance(rel, int)
+            if not fits(rel + 8 * k):
+                return None
+            j0 = index[op.name]
+            cols = np.arange(k)
+            for res, a, b in groups:
+                view = _view(buf, res, np.dtype('<f8'))
+                mat[a:b, j0:j0 + k] = view[((origin[a:b] + rel) // 8)[:, None] + cols]
+            rel += 8 * k
+            i += k - 1
+            continue
+        if op.kind == 'num':
+            size = np.dtype(op.dtype).itemsize
+            rel = align(rel, size)
+            if not fits(rel + size):
+                return None
+            gather(rel, op.dtype, mat[:, index[op.name]])
+            rel = rel + size
+        elif op.kind == 'time':
+            rel = align(rel, 4)
+            if not fits(rel + 8):
+                return None
+            sec = gather(rel, '<i4')
+            nsec = gather(rel + 4, '<u4')
+            np.add(sec, nsec * 1e-9, out=mat[:, index[op.name]])
+            rel = rel + 8
+        elif op.kind in ('string', 'pseq'):
+            rel = align(rel, 4)
+            if not fits(rel + 4):
+                return None
+            count = gather(rel, '<u4').astype(np.int64)
+            rel = rel + 4
+            if op.kind == 'pseq':
+                size = np.dtype(op.dtype).itemsize
+                rel = np.where(count > 0, align(rel, size), rel) + count * size
+            else:
+                rel = rel + count
+            if not fits(rel):
+                return None
+            if isinstance(rel, np.ndarray) and np.all(rel == rel[0]):
+                rel = int(rel[0])  # every message alike again: back to a scalar cursor
+        else:
+            return None
+    if len(groups) > 1:
+        unsorted = np.empty_like(mat)
+        unsorted[order] = mat
+        mat = unsorted
+    return mat
+
+
+def _decode_per_message(layout: _Layout, store: Typestore, msgtype: str, data: bytes,
+                        offs: Sequence[int], lens: Sequence[int], topic: str,
+                        file: pathlib.Path | str) -> np.ndarray:
+    """Columns by deserializing message by message with rosbags (the reference path).
+
+    Returns the same matrix as :func:`_decode_vectorised`.
+    """
+    names = _out_names(layout)
+    index = {n: i for i, n in enumerate(names)}
+    ops = [(index[op.name], op.kind == 'time', op.path) for op in layout.ops
+           if op.kind in ('num', 'time')]
+    mat = np.empty((len(offs), len(names)))
+    mv = memoryview(data)
+    deserialize = store.deserialize_cdr
+    for i, (off, n) in enumerate(zip(offs, lens)):
+        try:
+            msg = deserialize(mv[off:off + n], msgtype)
+        except Exception as exc:  # rosbags raises assorted errors on bad bytes
+            raise BagError(f'bag {file}: message {i} on topic {topic} ({msgtype}) does not '
+                           f'decode: {exc}') from None
+        row = mat[i]
+        for j, is_time, path in ops:
+            obj = msg
+            for key in path:
+                obj = obj[key] if isinstance(key, int) else getattr(obj, key)
+            row[j] = obj.sec + obj.nanosec * 1e-9 if is_time else obj
+    return mat
+
+
+# --------------------------------------------------------------------------------------------
+# Reading arrays
+
+
+class BagArrays(dict[str, np.ndarray]):
+    """Arrays of a bag, one structured numpy array per topic (see :func:`read_arrays`).
+
+    Attributes:
+        path: the bag that was read.
+        damage: the damage report (one line) if the bag was damaged and read with
+            ``allow_truncated=True``, else None.
+    """
+
+    path: str
+    damage: str | None
+
+    @property
+    def truncated(self) -> bool:
+        """True if the bag was damaged and only the whole messages before the damage are here."""
+        return self.damage is not None
+
+
+class _TopicParts(NamedTuple):
+    msgtype: str
+    layout: _Layout
+    store: Typestore
+    parts: list[tuple[bytes, np.ndarray, np.ndarray, np.ndarray]]  # data, offs, lens, log ns
+
+
+def read_arrays(
+    path: str | os.PathLike[str],
+    topics: Iterable[str],
+    *,
+    allow_truncated: bool = False,
+    check_order: bool = True,
+    fast: bool = True,
+    progress: ProgressCallback | None = None,
+) -> BagArrays:
+    """Read topics of a bag into numpy structured arrays, one per topic, without
+    deserializing message by message.
+
+    Each array has the float64 fields ``t`` (header stamp, s; the log time for types with no
+    header), ``t_log`` (receive time, s) and one column per numeric field of the message,
+    named by its path joined with ``_``: ``z``, ``theta`` (VehicleState; NED/FRD, SI units),
+    ``value`` (ActuatorSetpoint), ``hydrodynamic_force_z`` (HydrodynamicForces, body FRD, N),
+    ``data`` (std_msgs/Float64), ``clock`` (rosgraph_msgs/Clock, s). Strings are left out;
+    fixed arrays give one column per element (``pose_covariance_0`` ...).
+
+    Messages whose only variable part is a string (the header ``frame_id``) or a sequence of
+    primitives are decoded vectorised from the CDR bytes (little endian XCDR1; 8-byte
+    alignment of float64 relative to the end of the 4-byte encapsulation header); other types
+    are deserialized with rosbags message by message.
+
+    Args:
+        path: bag directory or ``.mcap`` file.
+        topics: topics to read; each must be in the bag.
+        allow_truncated: on damage, return what was read before it (``result.damage`` holds
+            the report) instead of raising.
+        check_order: require non-decreasing ``t`` within each topic.
+        fast: use the vectorised decoder where it applies (False: rosbags for every message;
+            the reference the benchmark compares against).
+        progress: called as ``progress(bytes_read, bytes_total)``.
+
+    Raises:
+        BagError: missing bag or topic; damage (unless ``allow_truncated``), with the number of
+            whole messages read before it; a topic whose stamps go back in time (topic and
+            message index named).
+    """
+    topics = list(dict.fromkeys(topics))
+    files = bag_files(path)
+    total = _total_size(files)
+    parts: dict[str, _TopicParts] = {}
+    present: dict[str, str] = {}
+    damage: str | None = None
+    whole = 0
+    done_bytes = 0
+    for file in files:
+        scanner = _Scanner(file, _offset_progress(progress, done_bytes, total))
+        try:
+            for block in scanner.blocks():
+                whole += len(block.channel)
+                _collect(block, scanner, topics, parts, present, file)
+        except _Damage as dmg:
+            damage = dmg.message(whole)
+        for chan in scanner.channels.values():
+            present.setdefault(chan.topic, _schema_name(scanner, chan))
+        done_bytes += scanner.size
+        if damage is not None:
+            break
+    if damage is not None and not allow_truncated:
+        raise BagError(damage)
+    _check_topics(path, topics, present)
+
+    result = BagArrays()
+    result.path = str(path)
+    result.damage = damage
+    for topic in topics:
+        tp = parts.get(topic)
+        if tp is None:  # declared, but no message before the end (or the damage)
+            layout = _layout(typestore(), present[topic])
+            result[topic] = _assemble(layout, np.empty((0, len(_out_names(layout)))),
+                                      np.empty(0, np.int64))
+            continue
+        mats = []
+        logs = []
+        for data, offs, lens, log in tp.parts:
+            mat = None
+            if fast and tp.layout.vectorisable:
+                mat = _decode_vectorised(tp.layout, np.frombuffer(data, np.uint8), offs, lens)
+            if mat is None:
+                mat = _decode_per_message(tp.layout, tp.store, tp.msgtype, data,
+                                          offs.tolist(), lens.tolist(), topic, path)
+            mats.append(mat)
+            logs.append(log)
+        mat = mats[0] if len(mats) == 1 else np.concatenate(mats)
+        arr = _assemble(tp.layout, mat, logs[0] if len(logs) == 1 else np.concatenate(logs))
+        if check_order and len(arr) > 1:
+            back = np.flatnonzero(np.diff(arr['t']) < 0)
+            if len(back):
+                i = int(back[0]) + 1
+                raise BagError(f'topic {topic} in bag {path}: time stamps go back at message '
+                               f'{i} ({arr["t"][i - 1]:.9f} s, then {arr["t"][i]:.9f} s)')
+        result[topic] = arr
+    return result
+
+
+def _joined(parts: list[tuple[bytes, np.ndarray, np.ndarray, np.ndarray]]
+            ) -> list[tuple[bytes, np.ndarray, np.ndarray, np.ndarray]]:
+    """The parts of one topic joined into one buffer (fewer, larger vectorised steps)."""
+    if len(parts) <= 1:
+        return parts
+    base = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
+    data = b''.join(p[0] for p in parts)
+    offs = np.concatenate([p[1] + b for p, b in zip(parts, base)])
+    lens = np.concatenate([p[2] for p in parts])
+    logs = np.concatenate([p[3] for p in parts])
+    return [(data, offs, lens, logs)]
+
+
+def _collect(block: _Block, scanner: _Scanner, topics: list[str],
+             parts: dict[str, _TopicParts], present: dict[str, str],
+             file: pathlib.Path) -> None:
+    """Split a block's messages by wanted topic (vectorised over the block)."""
+    if not len(block.channel):
+        return
+    chans, offs, lens, logs = block.channel, block.offset, block.length, block.log_time
+    first = chans[0]
+    single = bool(np.all(chans == first))
+    ids = [int(first)] if single else np.unique(chans).tolist()
+    for cid in ids:
+        chan = scanner.channels.get(int(cid))
+        if chan is None:
+            raise BagError(f'bag file {file}: message on undeclared channel {int(cid)}')
+        if chan.topic not in topics:
+            continue
+        msgtype = _schema_name(scanner, chan)
+        tp = parts.get(chan.topic)
+        if tp is None:
+            store = _bag_store(scanner.schemas)
+            tp = _TopicParts(msgtype, _layout(store, msgtype), store, [])
+            parts[chan.topic] = tp
+        elif tp.msgtype != msgtype:
+            raise BagError(f'bag {file}: topic {chan.topic} changes type from {tp.msgtype} '
+                           f'to {msgtype}')
+        if single:
+            tp.parts.append((block.data, offs, lens, logs))
+        else:
+            idx = np.flatnonzero(chans == cid)
+            tp.parts.append((block.data, offs[idx], lens[idx], logs[idx]))
+
+
+def _assemble(layout: _Layout, mat: np.ndarray, log_ns: np.ndarray) -> np.ndarray:
+    """The structured array (fields of :func:`_out_names`, float64, s) over ``mat``, no copy.
+
+    Fills ``t_log`` from the log times (ns) and, for types with no header, ``t`` too.
+    """
+    sec, nsec = np.divmod(log_ns, 1_000_000_000)
+    mat[:, 1] = sec.astype(np.float64) + nsec.astype(np.float64) * 1e-9
+    if not layout.has_header:
+        mat[:, 0] = mat[:, 1]
+    dtype = np.dtype([(n, '<f8') for n in _out_names(layout)])
+    return np.ascontiguousarray(mat).view(dtype).reshape(len(mat))
