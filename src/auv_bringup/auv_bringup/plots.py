@@ -1,0 +1,89 @@
+"""The report's result plots (figures 10-15) of a depth manoeuvre, from logged arrays.
+
+Inputs are the arrays of a bag or an offline run: time [s], NED position [m], Euler angles
+[rad], body FRD velocities [m/s, rad/s], dive-plane angle [rad]. Degrees only on the plots.
+"""
+from __future__ import annotations
+
+import pathlib
+from typing import Mapping
+
+import matplotlib
+
+matplotlib.use('Agg')
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+
+def plot_depth_run(state: Mapping[str, np.ndarray], bar_t: np.ndarray, bar: np.ndarray,
+                   out_dir: str | pathlib.Path, z_ref_t: np.ndarray | None = None,
+                   z_ref: np.ndarray | None = None, title: str = '') -> list[pathlib.Path]:
+    """Write depth, XY track, Euler angles, linear speeds, angular speeds and BAR plots.
+
+    ``state`` maps ``t, x, y, z, phi, theta, psi, u, v, w, p, q, r`` to arrays. Returns the
+    PNG paths (``fig10_depth.png`` ... ``fig15_bar.png``).
+    """
+    out = pathlib.Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    t = state['t'] - state['t'][0]
+    t0 = state['t'][0]
+    paths = []
+
+    def save(fig: plt.Figure, name: str) -> None:
+        fig.tight_layout()
+        path = out / name
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths.append(path)
+
+    fig, ax = plt.subplots(figsize=(8, 4))
+    ax.plot(t, state['z'], label='depth z')
+    if z_ref is not None and z_ref_t is not None and len(z_ref):
+        ax.step(np.concatenate([z_ref_t - t0, [t[-1]]]), np.concatenate([z_ref, [z_ref[-1]]]),
+                where='post', ls='--', label='depth command')
+    ax.invert_yaxis()
+    ax.set(xlabel='time [s]', ylabel='depth [m] (down)', title=f'Depth profile {title}')
+    ax.grid(True)
+    ax.legend()
+    save(fig, 'fig10_depth.png')
+
+    fig, ax = plt.subplots(figsize=(6, 5))
+    ax.plot(state['y'], state['x'])
+    ax.set(xlabel='east y [m]', ylabel='north x [m]', title='XY track (NED, seen from above)')
+    ax.axis('equal')
+    ax.grid(True)
+    save(fig, 'fig11_xy.png')
+
+    fig, axes = plt.subplots(3, 1, figsize=(8, 6), sharex=True)
+    for ax, key, label in zip(axes, ('phi', 'theta', 'psi'), ('roll', 'pitch', 'yaw')):
+        ax.plot(t, np.degrees(state[key]))
+        ax.set(ylabel=f'{label} [deg]')
+        ax.grid(True)
+    axes[-1].set(xlabel='time [s]')
+    axes[0].set(title='Euler angles (ZYX)')
+    save(fig, 'fig12_euler.png')
+
+    fig, axes = plt.subplots(3, 1, figsize=(8, 6), sharex=True)
+    for ax, key in zip(axes, ('u', 'v', 'w')):
+        ax.plot(t, state[key])
+        ax.set(ylabel=f'{key} [m/s]')
+        ax.grid(True)
+    axes[-1].set(xlabel='time [s]')
+    axes[0].set(title='Linear speeds (body FRD)')
+    save(fig, 'fig13_linear_speed.png')
+
+    fig, axes = plt.subplots(3, 1, figsize=(8, 6), sharex=True)
+    for ax, key in zip(axes, ('p', 'q', 'r')):
+        ax.plot(t, np.degrees(state[key]))
+        ax.set(ylabel=f'{key} [deg/s]')
+        ax.grid(True)
+    axes[-1].set(xlabel='time [s]')
+    axes[0].set(title='Angular speeds (body FRD)')
+    save(fig, 'fig14_angular_speed.png')
+
+    fig, ax = plt.subplots(figsize=(8, 3.5))
+    ax.step(bar_t - t0, np.degrees(bar), where='post')
+    ax.set(xlabel='time [s]', ylabel='BAR [deg]', title='Dive plane (BAR) command')
+    ax.grid(True)
+    save(fig, 'fig15_bar.png')
+    return paths

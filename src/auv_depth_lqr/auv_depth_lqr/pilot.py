@@ -1,0 +1,177 @@
+"""The depth pilot's logic, clock- and ROS-free: commands, state freshness, safe fallback.
+
+:class:`DepthPilot` wraps a :class:`~auv_depth_lqr.controller.DepthController` with what a
+pilot on a vehicle must also do:
+
+* a depth command that is NaN, infinite or outside the vehicle's depth envelope is rejected
+  (:class:`~auv_depth_lqr.errors.InvalidInputError` naming the value) and the last valid one
+  is kept; before any command the pilot holds the first depth it measured;
+* when no state has arrived for longer than ``state_timeout`` [s] it commands the documented
+  safe BAR (a gentle nose-up climb, default -0.12 rad = -6.9 deg: about +7 deg pitch and
+  0.25 m/s climb for the A18M at 2 m/s) and says so; when state returns it resumes, with the
+  controller reset so that no stale integrator or reference acts;
+* any failure of the controller on a sample gives the safe BAR, never an exception.
+
+The depth-pilot node and offline closed-loop runs both drive this class, so a lockstep graph
+run and an offline run give the same commands. Times are in seconds on any one clock.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+
+from auv_depth_lqr.controller import (DepthController, GainSchedule, GovernorSettings, Limits,
+                                      PlaneState, Weights, preset)
+from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
+from auv_sim.params import VehicleParams
+from auv_sim.trim import VerticalPlane
+
+SAFE_BAR_DEFAULT = -0.12
+"""Safe dive-plane angle [rad] without state: a gentle climb (nose up) on the A18M."""
+
+
+@dataclasses.dataclass(frozen=True)
+class PilotSettings:
+    """Design and run-time settings of the depth pilot (SI units, radians).
+
+    ``weights``: a preset name (``default``, ``report_4_4``, ``report_5``) or a
+    :class:`Weights`; ``bar_max`` / ``bar_rate`` default to the vehicle file's actuator limits;
+    ``speeds`` is the gain-scheduling grid [m/s].
+    """
+
+    rate_hz: float = 10.0
+    weights: str | Weights = 'default'
+    theta_max: float = math.radians(25.0)
+    bar_max: float | None = None
+    bar_rate: float | None = None
+    speeds: Sequence[float] = (1.0, 1.5, 2.0, 2.5, 3.0)
+    state_timeout: float = 0.5
+    safe_bar: float = SAFE_BAR_DEFAULT
+
+    def __post_init__(self) -> None:
+        for name in ('rate_hz', 'theta_max', 'state_timeout'):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise DesignError(f'pilot setting {name} = {value!r} must be finite and > 0')
+        if not math.isfinite(self.safe_bar):
+            raise DesignError(f'pilot setting safe_bar = {self.safe_bar!r} must be finite')
+
+    @property
+    def Ts(self) -> float:
+        """Sample period [s]."""
+        return 1.0 / self.rate_hz
+
+
+def vehicle_linearization(params: VehicleParams):  # type: ignore[no-untyped-def]
+    """``linearize(u0) -> (x_e, BAR_e, A, B)`` of the vehicle's vertical plane (full kinematics)."""
+    plane = VerticalPlane(params)
+
+    def linearize(u0: float):  # type: ignore[no-untyped-def]
+        trim = plane.trim(u0)
+        A, B = plane.linearize(trim)
+        return [trim.w, 0.0, trim.z, trim.theta, 0.0], trim.bar, A, B
+
+    return linearize
+
+
+def build_controller(params: VehicleParams, settings: PilotSettings) -> DepthController:
+    """Gain-scheduled LQR depth controller of a vehicle (see :mod:`auv_depth_lqr.controller`)."""
+    weights = preset(settings.weights) if isinstance(settings.weights, str) else settings.weights
+    Q, R = weights.matrices()
+    bar_max = settings.bar_max if settings.bar_max is not None else params.bar_max
+    bar_rate = settings.bar_rate if settings.bar_rate is not None else params.bar_rate
+    if not abs(settings.safe_bar) <= bar_max:
+        raise DesignError(f'safe_bar = {settings.safe_bar} rad is beyond bar_max = {bar_max}')
+    schedule = GainSchedule.design(vehicle_linearization(params), speeds=settings.speeds,
+                                   Q=Q, R=R, Ts=settings.Ts)
+    limits = Limits(bar_max=bar_max, bar_rate_max=bar_rate, theta_max=settings.theta_max)
+    return DepthController(schedule, limits, settings.Ts, GovernorSettings())
+
+
+class DepthPilot:
+    """Depth pilot around a controller (see module docstring)."""
+
+    def __init__(self, controller: DepthController, depth_min: float, depth_max: float,
+                 settings: PilotSettings) -> None:
+        self.controller = controller
+        self.depth_min = float(depth_min)
+        self.depth_max = float(depth_max)
+        self.settings = settings
+        self.z_ref: float | None = None
+        self._state: PlaneState | None = None
+        self._t_state: float | None = None
+        self._stale = True
+        self._last_bar: float | None = None
+        self.status = 'no_state'
+
+    @classmethod
+    def for_vehicle(cls, params: VehicleParams, settings: PilotSettings | None = None,
+                    ) -> 'DepthPilot':
+        """A pilot for a vehicle file's parameters and envelope."""
+        settings = settings or PilotSettings()
+        return cls(build_controller(params, settings), params.depth_min, params.depth_max,
+                   settings)
+
+    def set_depth_command(self, z: float) -> float:
+        """Accept a commanded depth [m, down]; InvalidInputError (last one kept) if bad."""
+        try:
+            value = float(z)
+        except (TypeError, ValueError):
+            raise InvalidInputError(f'depth command {z!r} is not a number; kept '
+                                    f'{self.z_ref} m') from None
+        if not math.isfinite(value):
+            raise InvalidInputError(f'depth command {value} is not finite; kept {self.z_ref} m')
+        if not self.depth_min <= value <= self.depth_max:
+            raise InvalidInputError(
+                f'depth command {value:g} m is outside the vehicle envelope '
+                f'[{self.depth_min:g}, {self.depth_max:g}] m; kept {self.z_ref} m')
+        self.z_ref = value
+        return value
+
+    def on_state(self, t: float, z: float, theta: float, w: float, q: float, u: float) -> None:
+        """Record a measured state received at time ``t`` [s]; non-finite states are ignored
+        (InvalidInputError)."""
+        values = (z, theta, w, q, u)
+        if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in values):
+            raise InvalidInputError(f'state with non-finite fields {values} ignored')
+        self._state = PlaneState(z=z, theta=theta, w=w, q=q, u=u)
+        self._t_state = float(t)
+        if self.z_ref is None:
+            self.z_ref = min(max(float(z), self.depth_min), self.depth_max)
+
+    def command(self, t: float) -> tuple[float, str]:
+        """BAR command [rad] at time ``t`` [s] and the status that produced it.
+
+        Status: ``ok``; ``stale`` (no state for longer than the timeout: safe BAR);
+        ``no_state`` (none yet: safe BAR); ``error: ...`` (controller failed: safe BAR).
+        """
+        if self._state is None or self._t_state is None:
+            self.status = 'no_state'
+            return self._safe(), self.status
+        if t - self._t_state > self.settings.state_timeout:
+            self._stale = True
+            self.status = 'stale'
+            return self._safe(), self.status
+        if self._stale:
+            self.controller.reset(bar_previous=self._last_bar)
+            self._stale = False
+        assert self.z_ref is not None
+        try:
+            bar = self.controller.step(self._state, self.z_ref)
+        except AuvLqrError as exc:
+            self._stale = True
+            self.status = f'error: {exc}'
+            return self._safe(), self.status
+        self._last_bar = bar
+        self.status = 'ok'
+        return bar, self.status
+
+    def _safe(self) -> float:
+        """The safe BAR, reached no faster than the plane's rate limit allows."""
+        target = self.settings.safe_bar
+        if self._last_bar is not None:
+            slew = self.controller.limits.bar_rate_max * self.settings.Ts
+            target = min(max(target, self._last_bar - slew), self._last_bar + slew)
+        self._last_bar = target
+        return target
