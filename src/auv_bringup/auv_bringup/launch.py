@@ -1,0 +1,203 @@
+"""``auv launch``: start the node graph (simulator, depth pilot, recorder) as processes.
+
+Each node runs in its own process (``python -m <module> --ros-args -p ...``), sharing the
+caller's environment (``ROS_DOMAIN_ID`` etc.). The graph stops cleanly: when the simulator
+reaches its ``stop_time`` (or on SIGINT/SIGTERM of ``auv launch``, or ``--duration`` wall
+seconds), the simulator and pilot get SIGINT, then the recorder gets SIGTERM so it closes its
+bag with every message it received; each stop has a deadline, after which the process is
+killed and the fact reported.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+
+from auv_bringup.errors import LaunchError
+
+ROOT = pathlib.Path(__file__).resolve().parents[3]
+STOP_DEADLINE = 10.0  # s a node gets to exit after its signal
+
+
+@dataclasses.dataclass
+class NodeProcess:
+    """One node of the graph: its name, command line and running process."""
+
+    name: str
+    argv: list[str]
+    log_path: pathlib.Path | None = None
+    proc: subprocess.Popen[bytes] | None = None
+
+    def start(self, env: dict[str, str]) -> None:
+        out = open(self.log_path, 'wb') if self.log_path else subprocess.DEVNULL
+        self.proc = subprocess.Popen(self.argv, env=env, stdout=out, stderr=subprocess.STDOUT,
+                                     start_new_session=True)
+
+    def running(self) -> bool:
+        return self.proc is not None and self.proc.poll() is None
+
+    def stop(self, sig: int, deadline: float = STOP_DEADLINE) -> int | None:
+        """Send ``sig``, wait up to ``deadline`` s; kill if still alive. Returns exit code."""
+        if self.proc is None:
+            return None
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            try:
+                self.proc.wait(deadline)
+            except subprocess.TimeoutExpired:
+                print(f'launch: {self.name} did not stop within {deadline} s; killed',
+                      file=sys.stderr)
+                self.proc.kill()
+                self.proc.wait(5.0)
+        return self.proc.returncode
+
+
+def ros_params(**params: object) -> list[str]:
+    """``--ros-args -p k:=v ...`` for the given parameters (bools lower-case)."""
+    out = ['--ros-args']
+    for key, value in params.items():
+        if isinstance(value, bool):
+            value = 'true' if value else 'false'
+        out += ['-p', f'{key}:={value}']
+    return out
+
+
+@dataclasses.dataclass
+class GraphConfig:
+    """What to launch; times in seconds, depths in metres, speed in m/s."""
+
+    vehicle: str = str(ROOT / 'config' / 'a18m.yaml')
+    effects: str = ''
+    lockstep: bool = False
+    real_time_factor: float = 1.0
+    initial_depth: float = 40.0
+    initial_speed: float = 2.0
+    stop_time: float = 0.0
+    pilot: bool = True
+    record: str | None = None
+    topics: Sequence[str] = ()
+    pilot_rate: float = 10.0
+    weights: str = 'default'
+    log_dir: str | None = None
+
+
+def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
+    """The node processes of a graph, recorder first (so it misses nothing)."""
+    py = sys.executable
+    log_dir = pathlib.Path(cfg.log_dir) if cfg.log_dir else None
+    if log_dir:
+        log_dir.mkdir(parents=True, exist_ok=True)
+
+    def log(name: str) -> pathlib.Path | None:
+        return log_dir / f'{name}.log' if log_dir else None
+
+    nodes = []
+    if cfg.record:
+        argv = [py, '-m', 'auv_bringup.record_node', '--out', cfg.record]
+        if cfg.topics:
+            argv += ['--topics', *cfg.topics]
+        nodes.append(NodeProcess('recorder', argv, log('recorder')))
+    if cfg.pilot:
+        nodes.append(NodeProcess('pilot', [py, '-m', 'auv_depth_lqr.node', *ros_params(
+            vehicle_file=cfg.vehicle, lockstep=cfg.lockstep, rate=cfg.pilot_rate,
+            weights=cfg.weights, use_sim_time=True)], log('pilot')))
+    nodes.append(NodeProcess('simulator', [py, '-m', 'auv_sim.node', *ros_params(
+        vehicle_file=cfg.vehicle, effects_file=cfg.effects or '""', lockstep=cfg.lockstep,
+        real_time_factor=cfg.real_time_factor, initial_depth=cfg.initial_depth,
+        initial_speed=cfg.initial_speed, stop_time=cfg.stop_time,
+        control_period=1.0 / cfg.pilot_rate)], log('simulator')))
+    return nodes
+
+
+def wait_for_file(path: pathlib.Path, proc: NodeProcess, deadline: float) -> None:
+    """Wait until ``path`` exists (a node's readiness mark), at most ``deadline`` s."""
+    end = time.monotonic() + deadline
+    while time.monotonic() < end:
+        if path.exists():
+            return
+        if not proc.running():
+            raise LaunchError(f'{proc.name} exited early (code {proc.proc and proc.proc.poll()})'
+                              + (f'; see {proc.log_path}' if proc.log_path else ''))
+        time.sleep(0.05)
+    raise LaunchError(f'{proc.name} not ready within {deadline} s')
+
+
+def run_graph(cfg: GraphConfig, duration: float | None = None,
+              env: dict[str, str] | None = None, settle: float = 1.5) -> dict[str, int | None]:
+    """Start the graph, wait for the simulator to finish (or ``duration`` wall s, or a
+    signal), stop everything cleanly. Returns each node's exit code."""
+    env = dict(env or os.environ)
+    nodes = graph_nodes(cfg)
+    stop_requested = []
+
+    def on_signal(signum: int, _frame: object) -> None:
+        stop_requested.append(signum)
+
+    old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    codes: dict[str, int | None] = {}
+    try:
+        for node in nodes:
+            node.start(env)
+            if node.name == 'recorder':
+                time.sleep(settle)  # let discovery settle before the publishers start
+            if not node.running():
+                raise LaunchError(f'{node.name} failed to start'
+                                  + (f'; see {node.log_path}' if node.log_path else ''))
+        sim = nodes[-1]
+        end = time.monotonic() + duration if duration else None
+        while not stop_requested and sim.running():
+            if end is not None and time.monotonic() > end:
+                break
+            for node in nodes:
+                if not node.running() and node.name != 'simulator':
+                    raise LaunchError(f'{node.name} died (code {node.proc and node.proc.poll()})'
+                                      + (f'; see {node.log_path}' if node.log_path else ''))
+            time.sleep(0.05)
+    finally:
+        for node in reversed(nodes):
+            if node.name != 'recorder':
+                codes[node.name] = node.stop(signal.SIGINT)
+        time.sleep(0.3)  # let the last messages reach the recorder
+        for node in nodes:
+            if node.name == 'recorder':
+                codes[node.name] = node.stop(signal.SIGTERM)
+        for s, handler in old.items():
+            signal.signal(s, handler)
+    return codes
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument('--vehicle', default=str(ROOT / 'config' / 'a18m.yaml'),
+                        help='vehicle file (default config/a18m.yaml)')
+    parser.add_argument('--effects', default='', help='effects file for the simulated vehicle')
+    parser.add_argument('--lockstep', action='store_true',
+                        help='simulator waits for the pilot each control instant (deterministic)')
+    parser.add_argument('--real-time-factor', type=float, default=1.0,
+                        help='simulated seconds per wall second; 0 = as fast as possible')
+    parser.add_argument('--initial-depth', type=float, default=40.0, help='m')
+    parser.add_argument('--initial-speed', type=float, default=2.0, help='m/s')
+    parser.add_argument('--stop-time', type=float, default=0.0,
+                        help='simulated time at which the graph stops [s]; 0 = never')
+    parser.add_argument('--duration', type=float, default=None, help='wall-time limit [s]')
+    parser.add_argument('--no-pilot', action='store_true', help='do not start the depth pilot')
+    parser.add_argument('--record', default=None, help='record the topics to this bag directory')
+    parser.add_argument('--log-dir', default=None, help='write each node\'s output here')
+
+
+def run(args: argparse.Namespace) -> int:
+    cfg = GraphConfig(vehicle=args.vehicle, effects=args.effects, lockstep=args.lockstep,
+                      real_time_factor=args.real_time_factor, initial_depth=args.initial_depth,
+                      initial_speed=args.initial_speed, stop_time=args.stop_time,
+                      pilot=not args.no_pilot, record=args.record, log_dir=args.log_dir)
+    codes = run_graph(cfg, duration=args.duration)
+    bad = {k: v for k, v in codes.items() if v not in (0, None, -2, 130)}
+    if bad:
+        print(f'error: nodes exited with failures: {bad}', file=sys.stderr)
+        return 1
+    return 0

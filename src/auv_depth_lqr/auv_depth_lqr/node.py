@@ -1,0 +1,193 @@
+"""The depth-pilot node: ``ros2 run auv_depth_lqr depth_pilot`` / ``auv pilot``.
+
+Subscribes ``/auv/depth_command`` (std_msgs/Float64, metres down; reliable, transient-local so
+a command sent before the pilot starts is not lost) and ``/auv/state``
+(auv_msgs/VehicleState, NED/FRD); publishes ``/auv/bar_command`` (auv_msgs/ActuatorSetpoint,
+rad) at a fixed rate (``rate``, default 10 Hz) from a timer, whether or not new state arrived.
+All logic is in :class:`auv_depth_lqr.pilot.DepthPilot`; this module converts messages.
+
+Lockstep (parameter ``lockstep``, with the simulator's ``lockstep``): no timer; each state
+whose stamp is a control instant ``k / rate`` gets its BAR command stamped with that same
+instant, so the simulator can wait for it (see :mod:`auv_sim.node`).
+
+Parameters (validated at start and on change): ``vehicle_file``, ``rate`` [Hz], ``weights``
+(preset name), ``theta_max_deg`` [deg], ``bar_max`` / ``bar_rate`` [rad, rad/s; 0 = vehicle
+file], ``state_timeout`` [s], ``safe_bar`` [rad], ``lockstep`` (bool).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import pathlib
+import sys
+from typing import Any
+
+import rclpy
+import rclpy.executors
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Float64
+
+from auv_depth_lqr.errors import AuvLqrError, InvalidInputError
+from auv_depth_lqr.pilot import SAFE_BAR_DEFAULT, DepthPilot, PilotSettings
+from auv_msgs.msg import ActuatorSetpoint, VehicleState
+from auv_sim.errors import AuvSimError
+from auv_sim.params import load_vehicle
+
+NS_PER_S = 1_000_000_000
+
+
+def default_vehicle_file() -> str:
+    """``config/a18m.yaml`` of the workspace (``AUV_ROOT``) or of the source tree."""
+    root = os.environ.get('AUV_ROOT')
+    base = pathlib.Path(root) if root else pathlib.Path(__file__).resolve().parents[3]
+    return str(base / 'config' / 'a18m.yaml')
+
+
+class DepthPilotNode(Node):
+    """Thin ROS wrapper of :class:`DepthPilot` (see module docstring)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__('depth_pilot', **kwargs)
+        self.declare_parameter('vehicle_file', default_vehicle_file())
+        self.declare_parameter('rate', 10.0)
+        self.declare_parameter('weights', 'default')
+        self.declare_parameter('theta_max_deg', 25.0)
+        self.declare_parameter('bar_max', 0.0)
+        self.declare_parameter('bar_rate', 0.0)
+        self.declare_parameter('state_timeout', 0.5)
+        self.declare_parameter('safe_bar', SAFE_BAR_DEFAULT)
+        self.declare_parameter('lockstep', False)
+        self.pilot = self._build(self._values({}))
+        self.add_on_set_parameters_callback(self._on_set)
+        self.pub = self.create_publisher(ActuatorSetpoint, '/auv/bar_command', 10)
+        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.create_subscription(Float64, '/auv/depth_command', self._on_depth, latched)
+        self.create_subscription(VehicleState, '/auv/state', self._on_state, 50)
+        self.timer = None
+        self._reported = ''
+        self._configure_timer()
+
+    # -- parameters --------------------------------------------------------------------------
+    def _values(self, changes: dict[str, Any]) -> dict[str, Any]:
+        names = ('vehicle_file', 'rate', 'weights', 'theta_max_deg', 'bar_max', 'bar_rate',
+                 'state_timeout', 'safe_bar', 'lockstep')
+        values = {n: self.get_parameter(n).value for n in names}
+        values.update(changes)
+        return values
+
+    def _build(self, v: dict[str, Any]) -> DepthPilot:
+        params = load_vehicle(v['vehicle_file'])
+        settings = PilotSettings(
+            rate_hz=float(v['rate']), weights=str(v['weights']),
+            theta_max=math.radians(float(v['theta_max_deg'])),
+            bar_max=float(v['bar_max']) or None, bar_rate=float(v['bar_rate']) or None,
+            state_timeout=float(v['state_timeout']), safe_bar=float(v['safe_bar']))
+        return DepthPilot.for_vehicle(params, settings)
+
+    def _on_set(self, params: list[Any]) -> SetParametersResult:
+        try:
+            pilot = self._build(self._values({p.name: p.value for p in params}))
+        except (AuvLqrError, AuvSimError, ValueError, TypeError) as exc:
+            return SetParametersResult(successful=False, reason=str(exc))
+        if self.pilot.z_ref is not None:
+            pilot.z_ref = self.pilot.z_ref
+        self.pilot = pilot
+        self.get_logger().info('parameters changed: controller redesigned')
+        # the timer period may have changed
+        self._pending_timer = True
+        return SetParametersResult(successful=True)
+
+    def _configure_timer(self) -> None:
+        if self.timer is not None:
+            self.destroy_timer(self.timer)
+            self.timer = None
+        self.lockstep = bool(self.get_parameter('lockstep').value)
+        self.control_ns = int(round(NS_PER_S / self.pilot.settings.rate_hz))
+        if not self.lockstep:
+            self.timer = self.create_timer(self.pilot.settings.Ts, self._on_timer)
+        self._pending_timer = False
+
+    # -- callbacks ---------------------------------------------------------------------------
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds / NS_PER_S
+
+    def _on_depth(self, msg: Float64) -> None:
+        try:
+            z = self.pilot.set_depth_command(msg.data)
+            self.get_logger().info(f'depth command {z:g} m accepted')
+        except InvalidInputError as exc:
+            self.get_logger().warning(f'rejected: {exc}')
+
+    def _on_state(self, msg: VehicleState) -> None:
+        try:
+            self.pilot.on_state(self._now(), z=msg.z, theta=msg.theta, w=msg.w, q=msg.q,
+                                u=msg.u)
+        except InvalidInputError as exc:
+            self.get_logger().warning(f'rejected: {exc}')
+            return
+        if self.lockstep:
+            stamp_ns = msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec
+            if stamp_ns % self.control_ns == 0:
+                self._publish(msg.header.stamp, self._now())
+
+    def _on_timer(self) -> None:
+        if self._pending_timer:
+            self._configure_timer()
+        self._publish(self.get_clock().now().to_msg(), self._now())
+
+    def _publish(self, stamp: Any, t: float) -> None:
+        bar, status = self.pilot.command(t)
+        if status != self._reported:
+            log = self.get_logger().info if status == 'ok' else self.get_logger().warning
+            text = {'ok': 'state received: depth control active',
+                    'stale': f'no state for more than {self.pilot.settings.state_timeout} s: '
+                             f'publishing safe BAR {self.pilot.settings.safe_bar:.3f} rad',
+                    'no_state': 'no state yet: publishing safe BAR'}.get(status, status)
+            log(text)
+            self._reported = status
+        out = ActuatorSetpoint()
+        out.header.stamp = stamp
+        out.header.frame_id = 'bar'
+        out.value = float(bar)
+        self.pub.publish(out)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """``auv pilot`` options; ROS parameters go after ``--ros-args -p name:=value``."""
+    parser.add_argument('ros_args', nargs=argparse.REMAINDER,
+                        help='ROS arguments, e.g. --ros-args -p rate:=10.0 -p lockstep:=true')
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the node until SIGINT/SIGTERM; 1 with a one-line error on bad parameters."""
+    return main(['depth_pilot', *getattr(args, 'ros_args', [])])
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv if argv is None else argv
+    rclpy.init(args=argv)
+    node = None
+    try:
+        node = DepthPilotNode()
+        rclpy.spin(node)
+    except (AuvLqrError, AuvSimError) as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        pass
+    except rclpy.executors.ExternalShutdownException:
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        if rclpy.ok():
+            rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
