@@ -1,0 +1,63 @@
+"""Publish one depth command (``auv depth Z``): std_msgs/Float64 on /auv/depth_command.
+
+The depth is in metres, positive down (NED). The command waits, with a deadline, for a
+subscriber (the depth pilot) to match, publishes once and waits briefly for the reliable
+delivery to be acknowledged, so that a script can rely on it having arrived.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+
+from auv_bringup.cli import CliError
+
+DEPTH_TOPIC = '/auv/depth_command'
+ACK_TIMEOUT = 2.0  # s
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``auv depth``."""
+    parser.add_argument('depth', type=float, metavar='Z',
+                        help='commanded depth (m, positive down)')
+    parser.add_argument('--topic', default=DEPTH_TOPIC,
+                        help='topic of the command (default: %(default)s)')
+    parser.add_argument('--timeout', type=float, default=5.0, metavar='S',
+                        help='deadline for a subscriber to appear (s, default 5)')
+
+
+def run(args: argparse.Namespace) -> int:
+    """Publish the command; exit status 0 once delivered."""
+    if not math.isfinite(args.depth):
+        raise CliError(f'depth must be a finite number of metres, got {args.depth}')
+    if not (math.isfinite(args.timeout) and args.timeout > 0):
+        raise CliError(f'--timeout must be a positive number of seconds, got {args.timeout}')
+
+    import rclpy
+    from rclpy.duration import Duration
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import Float64
+
+    rclpy.init()
+    try:
+        node = rclpy.create_node('auv_depth_command')
+        qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        pub = node.create_publisher(Float64, args.topic, qos)
+        deadline = time.monotonic() + args.timeout
+        while pub.get_subscription_count() == 0:
+            if time.monotonic() > deadline:
+                raise CliError(f'no subscriber on {args.topic} after {args.timeout:g} s '
+                               '(is the depth pilot running?)')
+            time.sleep(0.02)
+        pub.publish(Float64(data=float(args.depth)))
+        if not pub.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT)):
+            raise CliError(f'depth command on {args.topic} not acknowledged within '
+                           f'{ACK_TIMEOUT:g} s')
+        print(f'depth command {args.depth:g} m published on {args.topic}', file=sys.stderr)
+        node.destroy_node()
+    finally:
+        if rclpy.ok():
+            rclpy.shutdown()
+    return 0

@@ -1,0 +1,175 @@
+"""Replay a bag on its topics (``auv play``, ``ros2 run auv_bringup player``).
+
+Messages are published as the serialized CDR bytes stored in the bag (no deserialization), at
+their original spacing in log time divided by ``--rate``. With ``--clock`` the bag time is
+published on ``/clock`` (rosgraph_msgs/Clock) so nodes on simulated time follow the bag; a
+``/clock`` topic stored in the bag is then not replayed. The whole bag is read before the
+first message goes out, so a damaged bag is an error before anything is published.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import signal
+import sys
+import time
+from types import FrameType
+from typing import Any
+
+from auv_bringup.cli import CliError, standalone
+from auv_bringup.record_node import message_class
+
+CLOCK_TOPIC = '/clock'
+ACK_TIMEOUT = 5.0  # s, longest wait at the end for reliable delivery
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``auv play``."""
+    parser.add_argument('bag', help='bag directory or .mcap file')
+    parser.add_argument('--rate', type=float, default=1.0,
+                        help='playback rate factor (2 plays twice as fast; default 1)')
+    parser.add_argument('--clock', type=float, nargs='?', const=100.0, default=None,
+                        metavar='HZ', help='publish the bag time on /clock at HZ (default 100)')
+    parser.add_argument('--topics', nargs='+', metavar='TOPIC', default=None,
+                        help='replay only these topics (default: all)')
+    parser.add_argument('--loop', action='store_true', help='replay until stopped')
+    parser.add_argument('--delay', type=float, default=0.0, metavar='S',
+                        help='wait this long before the first message (s)')
+    parser.add_argument('--wait-for-subscribers', action='store_true',
+                        help='start only when every replayed topic has a subscriber')
+    parser.add_argument('--wait-timeout', type=float, default=10.0, metavar='S',
+                        help='deadline of --wait-for-subscribers (s)')
+    parser.add_argument('--qos-depth', type=int, default=1000, metavar='N',
+                        help='keep-last depth of the reliable publishers (messages)')
+
+
+def _check(args: argparse.Namespace) -> None:
+    if not (math.isfinite(args.rate) and args.rate > 0):
+        raise CliError(f'--rate must be a positive number, got {args.rate}')
+    if args.clock is not None and not (math.isfinite(args.clock) and args.clock > 0):
+        raise CliError(f'--clock must be a positive frequency in Hz, got {args.clock}')
+    for opt in ('delay', 'wait_timeout'):
+        value = getattr(args, opt)
+        if not (math.isfinite(value) and value >= 0):
+            raise CliError(f'--{opt.replace("_", "-")} must be >= 0 s, got {value}')
+
+
+def run(args: argparse.Namespace) -> int:
+    """Replay the bag once (or until stopped with ``--loop``); returns the exit status."""
+    _check(args)
+    from auv_ident.bag import bag_topics, read_messages
+
+    present = bag_topics(args.bag)
+    topics = list(present) if args.topics is None else list(dict.fromkeys(args.topics))
+    if args.clock is not None and CLOCK_TOPIC in topics:
+        topics.remove(CLOCK_TOPIC)
+    messages = [(m.log_time, m.topic, m.data)
+                for m in read_messages(args.bag, topics, decode=False)]
+    messages.sort(key=lambda m: m[0])  # stable: equal times keep the recording order
+    classes = {topic: message_class(present[topic]) for topic in topics}
+
+    import rclpy
+    from rclpy.duration import Duration
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.signals import SignalHandlerOptions
+
+    stop = {'signal': 0}
+
+    def on_signal(signum: int, _frame: FrameType | None) -> None:
+        stop['signal'] = signum
+
+    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        node = rclpy.create_node('auv_player')
+        qos = QoSProfile(depth=args.qos_depth, reliability=ReliabilityPolicy.RELIABLE)
+        pubs = {t: node.create_publisher(cls, t, qos) for t, cls in classes.items()}
+        clock_pub = None
+        if args.clock is not None:
+            from rosgraph_msgs.msg import Clock
+
+            clock_pub = node.create_publisher(Clock, CLOCK_TOPIC, qos)
+        if args.wait_for_subscribers:
+            _wait_for_subscribers(pubs, args.wait_timeout, stop)
+        if args.delay:
+            _sleep_until(time.monotonic() + args.delay, stop)
+        while not stop['signal']:
+            _play_once(messages, pubs, clock_pub, args, stop)
+            if not args.loop:
+                break
+        for pub in [*pubs.values(), *([clock_pub] if clock_pub else [])]:
+            pub.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT))
+        node.destroy_node()
+    finally:
+        if rclpy.ok():
+            rclpy.shutdown()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    return 130 if stop['signal'] == signal.SIGINT else 0
+
+
+def _wait_for_subscribers(pubs: dict[str, Any], timeout: float, stop: dict[str, int]) -> None:
+    deadline = time.monotonic() + timeout
+    while not stop['signal']:
+        missing = [t for t, p in pubs.items() if p.get_subscription_count() == 0]
+        if not missing:
+            return
+        if time.monotonic() > deadline:
+            raise CliError(f'no subscriber on {", ".join(missing)} after {timeout:g} s')
+        time.sleep(0.02)
+
+
+def _sleep_until(t_wall: float, stop: dict[str, int]) -> None:
+    while not stop['signal']:
+        left = t_wall - time.monotonic()
+        if left <= 0:
+            return
+        time.sleep(min(left, 0.05))
+
+
+def _clock_message(t_ns: int) -> Any:
+    from builtin_interfaces.msg import Time
+    from rosgraph_msgs.msg import Clock
+
+    sec, nsec = divmod(int(t_ns), 1_000_000_000)
+    return Clock(clock=Time(sec=sec, nanosec=nsec))
+
+
+def _play_once(messages: list[tuple[int, str, bytes]], pubs: dict[str, Any], clock_pub: Any,
+               args: argparse.Namespace, stop: dict[str, int]) -> None:
+    """Publish every message at its log time, scaled by the rate; /clock in between."""
+    if not messages:
+        return
+    t0 = messages[0][0]
+    start = time.monotonic()
+    clock_period = 1.0 / args.clock if clock_pub is not None else math.inf
+    next_clock = start
+
+    def bag_time(now: float) -> int:
+        return t0 + int((now - start) * args.rate * 1e9)
+
+    for log_ns, topic, data in messages:
+        target = start + (log_ns - t0) * 1e-9 / args.rate
+        while not stop['signal']:
+            now = time.monotonic()
+            if clock_pub is not None and now >= next_clock:
+                clock_pub.publish(_clock_message(min(bag_time(now), log_ns)))
+                next_clock = max(next_clock + clock_period, now)
+                continue
+            if now >= target:
+                break
+            time.sleep(max(0.0, min(target, next_clock) - now))
+        if stop['signal']:
+            return
+        pubs[topic].publish(data)
+    if clock_pub is not None:
+        clock_pub.publish(_clock_message(messages[-1][0]))
+
+
+def main() -> None:
+    """``ros2 run auv_bringup player``."""
+    sys.exit(standalone('auv_bringup.play_node', 'player'))
+
+
+if __name__ == '__main__':
+    main()

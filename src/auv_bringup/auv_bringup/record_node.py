@@ -1,0 +1,218 @@
+"""Record topics to an MCAP bag (``auv record``, ``ros2 run auv_bringup recorder``).
+
+Subscriptions are raw: the CDR bytes are written as received, never deserialized. Topics of
+the project have known types and are subscribed at once (so nothing published after the
+recorder starts is missed); other topics are subscribed when their type shows up in the graph.
+SIGINT and SIGTERM stop the recording cleanly: spinning stops, the messages already received
+by DDS are drained, and the bag is closed with its summary and ``metadata.yaml``.
+"""
+from __future__ import annotations
+
+import argparse
+import functools
+import importlib
+import math
+import signal
+import sys
+import time
+from types import FrameType
+from typing import Any
+
+from auv_bringup.cli import CliError, standalone
+
+#: Types of the project's topics (architecture contract), subscribed without waiting.
+KNOWN_TOPICS: dict[str, str] = {
+    '/auv/state': 'auv_msgs/msg/VehicleState',
+    '/auv/odom': 'nav_msgs/msg/Odometry',
+    '/auv/hydrodynamic_forces': 'auv_msgs/msg/HydrodynamicForces',
+    '/auv/bar_command': 'auv_msgs/msg/ActuatorSetpoint',
+    '/auv/helm_command': 'auv_msgs/msg/ActuatorSetpoint',
+    '/auv/thrust_command': 'auv_msgs/msg/ActuatorSetpoint',
+    '/auv/depth_command': 'std_msgs/msg/Float64',
+    '/clock': 'rosgraph_msgs/msg/Clock',
+}
+DEFAULT_TOPICS = list(KNOWN_TOPICS)
+
+DRAIN_QUIET = 0.3  # s without a new message that ends the drain after a stop
+DRAIN_MAX = 3.0  # s, longest drain after a stop
+GRAPH_POLL = 0.5  # s between looks at the graph for topics of unknown type
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``auv record``."""
+    parser.add_argument('--out', metavar='DIR', default=None,
+                        help='bag directory to create (default: out/bags/rosbag2_<date-time>)')
+    parser.add_argument('--topics', nargs='+', metavar='TOPIC', default=DEFAULT_TOPICS,
+                        help='topics to record (default: %(default)s)')
+    parser.add_argument('--duration', type=float, metavar='S', default=None,
+                        help='stop after this many seconds (wall clock; default: until '
+                             'SIGINT/SIGTERM)')
+    parser.add_argument('--qos-depth', type=int, metavar='N', default=1000,
+                        help='keep-last depth of the reliable subscriptions (messages)')
+    parser.add_argument('--compression', choices=['zstd', 'lz4', 'none'], default='zstd',
+                        help='chunk compression (default: zstd, as rosbag2)')
+    parser.add_argument('--flush-interval', type=float, metavar='S', default=1.0,
+                        help='longest time a received message waits in memory (s)')
+
+
+def message_class(msgtype: str) -> Any:
+    """The rclpy message class of ``pkg/msg/Type``.
+
+    Raises:
+        CliError: the package's Python messages are not importable.
+    """
+    parts = msgtype.split('/')
+    if len(parts) == 2:
+        parts = [parts[0], 'msg', parts[1]]
+    try:
+        return getattr(importlib.import_module(f'{parts[0]}.{parts[1]}'), parts[2])
+    except (ImportError, AttributeError, IndexError):
+        raise CliError(f'message type {msgtype} is not available to Python (is the '
+                       'workspace built and sourced?)') from None
+
+
+def _default_out() -> str:
+    return time.strftime('out/bags/rosbag2_%Y_%m_%d-%H_%M_%S')
+
+
+class Recorder:
+    """Raw subscriptions feeding a :class:`auv_ident.bag.BagWriter`."""
+
+    def __init__(self, node: Any, writer: Any, topics: list[str], qos_depth: int) -> None:
+        from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+        self.node = node
+        self.writer = writer
+        self.count = 0
+        self.late = 0  # messages received after the stop, not written
+        self.stop_ns: int | None = None  # receive time (ns, system clock) of the stop
+        self.last_message = time.monotonic()
+        self.pending: list[str] = []
+        self._reliable = QoSProfile(depth=qos_depth, reliability=ReliabilityPolicy.RELIABLE)
+        self._best_effort = QoSProfile(depth=qos_depth,
+                                       reliability=ReliabilityPolicy.BEST_EFFORT)
+        self.subscriptions: dict[str, tuple[Any, bool]] = {}  # topic -> (sub, reliable)
+        for topic in topics:
+            name = node.resolve_topic_name(topic)
+            msgtype = KNOWN_TOPICS.get(name)
+            if msgtype is None:
+                self.pending.append(name)
+            else:
+                self._subscribe(name, msgtype, reliable=True)
+
+    def _subscribe(self, topic: str, msgtype: str, reliable: bool) -> None:
+        from auv_ident.bag import qos_profiles_yaml
+
+        cls = message_class(msgtype)
+        old = self.subscriptions.pop(topic, None)
+        if old is not None:
+            self.node.destroy_subscription(old[0])
+        self.writer.add_topic(topic, msgtype, qos_profiles_yaml(
+            'reliable' if reliable else 'best_effort', 'volatile', self._reliable.depth))
+        sub = self.node.create_subscription(
+            cls, topic, functools.partial(self._on_message, topic),
+            self._reliable if reliable else self._best_effort, raw=True)
+        self.subscriptions[topic] = (sub, reliable)
+
+    def _on_message(self, topic: str, data: bytes, info: dict[str, int]) -> None:
+        """Write one message; its log time is its DDS receive time (ns, system clock)."""
+        received = info.get('received_timestamp') or time.time_ns()
+        if self.stop_ns is not None and received > self.stop_ns:
+            self.late += 1
+            return
+        self.writer.write(topic, data, received)
+        self.count += 1
+        self.last_message = time.monotonic()
+
+    def poll_graph(self) -> None:
+        """Subscribe topics whose type appeared; follow best-effort publishers."""
+        from rclpy.qos import ReliabilityPolicy
+
+        if self.pending:
+            types = dict(self.node.get_topic_names_and_types())
+            for topic in list(self.pending):
+                if topic in types and types[topic]:
+                    self._subscribe(topic, types[topic][0], reliable=True)
+                    self.pending.remove(topic)
+        for topic, (_, reliable) in list(self.subscriptions.items()):
+            if not reliable:
+                continue
+            infos = self.node.get_publishers_info_by_topic(topic)
+            if any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos):
+                # A reliable subscription would not match a best-effort publisher.
+                self.node.get_logger().warning(f'{topic}: best-effort publisher, '
+                                               'recording best effort')
+                self._subscribe(topic, self.writer.topics[topic], reliable=False)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Record until SIGINT/SIGTERM or ``--duration``; returns the exit status."""
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
+        raise CliError(f'--duration must be a positive number of seconds, got {args.duration}')
+    if args.qos_depth < 1:
+        raise CliError(f'--qos-depth must be at least 1, got {args.qos_depth}')
+    if not (math.isfinite(args.flush_interval) and args.flush_interval >= 0):
+        raise CliError(f'--flush-interval must be >= 0 s, got {args.flush_interval}')
+    out = args.out or _default_out()
+
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.signals import SignalHandlerOptions
+
+    from auv_ident.bag import BagWriter
+
+    stop = {'signal': 0}
+
+    def on_signal(signum: int, _frame: FrameType | None) -> None:
+        stop['signal'] = signum
+
+    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    writer = None
+    try:
+        node = rclpy.create_node('auv_recorder')
+        writer = BagWriter(out, compression=args.compression,
+                           flush_interval=args.flush_interval)
+        recorder = Recorder(node, writer, list(dict.fromkeys(args.topics)), args.qos_depth)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        print(f'recording {len(args.topics)} topics to {out}', file=sys.stderr, flush=True)
+        t_end = None if args.duration is None else time.monotonic() + args.duration
+        next_poll = time.monotonic()
+        while not stop['signal'] and (t_end is None or time.monotonic() < t_end):
+            executor.spin_once(timeout_sec=0.05)
+            if time.monotonic() >= next_poll:
+                recorder.poll_graph()
+                next_poll = time.monotonic() + GRAPH_POLL
+        # Drain what DDS had received before the stop, until quiet (bounded).
+        recorder.stop_ns = time.time_ns()
+        drain_end = time.monotonic() + DRAIN_MAX
+        quiet_from = time.monotonic()
+        while time.monotonic() < drain_end:
+            before = recorder.count
+            executor.spin_once(timeout_sec=0.02)
+            if recorder.count != before:
+                quiet_from = time.monotonic()
+            elif time.monotonic() - quiet_from > DRAIN_QUIET:
+                break
+        writer.close()
+        print(f'recorded {recorder.count} messages to {out}', file=sys.stderr, flush=True)
+        executor.shutdown()
+        node.destroy_node()
+    finally:
+        if writer is not None:
+            writer.close()
+        if rclpy.ok():
+            rclpy.shutdown()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    return 0  # a stop by signal is the normal end of a recording
+
+
+def main() -> None:
+    """``ros2 run auv_bringup recorder``."""
+    sys.exit(standalone('auv_bringup.record_node', 'recorder'))
+
+
+if __name__ == '__main__':
+    main()

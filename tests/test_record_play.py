@@ -1,0 +1,216 @@
+"""`auv record` and `auv play` as real processes on Fast DDS (no mocks).
+
+A publisher process streams VehicleState on /auv/state at about 200 Hz with reliable QoS once
+the recorder's subscription has matched; SIGTERM then stops the recorder, which must have
+written every message it had received. The bag is then replayed to a subscriber process, at
+rate 1 and 2, and the timing of what arrives is compared with the bag.
+"""
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from auv_ident.bag import read_arrays
+
+N = 500
+RATE_HZ = 200.0
+STATE = '/auv/state'
+
+PUBLISHER = r'''
+import sys, time
+import rclpy
+from rclpy.duration import Duration
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from auv_msgs.msg import VehicleState
+
+n, rate, mark = int(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3])
+rclpy.init()
+node = rclpy.create_node('test_state_publisher')
+pub = node.create_publisher(VehicleState, '/auv/state',
+                            QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
+deadline = time.monotonic() + 20.0
+while pub.get_subscription_count() == 0:
+    if time.monotonic() > deadline:
+        print('no subscriber', flush=True)
+        sys.exit(2)
+    time.sleep(0.01)
+start = time.monotonic()
+for i in range(n):
+    msg = VehicleState()
+    t = 1000.0 + i / rate
+    msg.header.stamp.sec = int(t)
+    msg.header.stamp.nanosec = int(round((t - int(t)) * 1e9))
+    msg.header.frame_id = 'ned' if i % 2 else 'base_link'
+    msg.x, msg.z, msg.theta, msg.r = float(i), 0.5 * i, -0.001 * i, 1.0 / (i + 1)
+    pub.publish(msg)
+    if i == mark:
+        print('mark', flush=True)
+    time.sleep(max(0.0, start + (i + 1) / rate - time.monotonic()))
+acked = pub.wait_for_all_acked(Duration(seconds=10))
+print('acked' if acked else 'not acked', flush=True)
+time.sleep(0.5 if mark >= 0 else 0.0)
+rclpy.shutdown()
+'''
+
+SUBSCRIBER = r'''
+import json, sys, time
+import rclpy
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from auv_msgs.msg import VehicleState
+
+n, timeout = int(sys.argv[1]), float(sys.argv[2])
+rclpy.init()
+node = rclpy.create_node('test_state_subscriber')
+got = []
+node.create_subscription(VehicleState, '/auv/state',
+                         lambda m: got.append((time.monotonic(), m.x, m.z)),
+                         QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
+print('ready', flush=True)
+deadline = time.monotonic() + timeout
+while len(got) < n and time.monotonic() < deadline:
+    rclpy.spin_once(node, timeout_sec=0.05)
+print(json.dumps(got), flush=True)
+rclpy.shutdown()
+'''
+
+
+def _auv(*args: str) -> list[str]:
+    return [sys.executable, '-m', 'auv_bringup.cli', *args]
+
+
+def _wait_line(proc: subprocess.Popen[str], want: str, timeout: float) -> str:
+    """Next stdout line of ``proc`` equal to ``want`` (with a deadline)."""
+    deadline = time.monotonic() + timeout
+    assert proc.stdout is not None
+    os.set_blocking(proc.stdout.fileno(), False)
+    buf = ''
+    while time.monotonic() < deadline:
+        chunk = proc.stdout.readline()
+        if chunk:
+            buf += chunk
+            if chunk.strip() == want:
+                return buf
+            continue
+        if proc.poll() is not None:
+            break
+        time.sleep(0.01)
+    raise AssertionError(f'no {want!r} from process (got {buf!r}, rc={proc.poll()})')
+
+
+def _record(ros_env: dict[str, str], out: pathlib.Path, mark: int) -> np.ndarray:
+    """Record while the publisher streams; SIGTERM the recorder after the 'mark' (mark >= 0)
+    or once every message is acknowledged (mark < 0). Returns the recorded state array."""
+    rec = subprocess.Popen(_auv('record', '--out', str(out), '--topics', STATE), env=ros_env,
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    pub = subprocess.Popen([sys.executable, '-c', PUBLISHER, str(N), str(RATE_HZ), str(mark)],
+                           env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           text=True)
+    try:
+        _wait_line(pub, 'mark' if mark >= 0 else 'acked', timeout=40)
+        rec.send_signal(signal.SIGTERM)
+        _, err = rec.communicate(timeout=20)
+        assert rec.returncode == 0, err
+        pub.communicate(timeout=30)
+    finally:
+        for proc in (rec, pub):
+            if proc.poll() is None:
+                proc.kill()
+                proc.communicate()
+    return read_arrays(out, [STATE])[STATE]
+
+
+def _check_contents(arr: np.ndarray, count: int) -> None:
+    i = np.arange(count)
+    np.testing.assert_array_equal(arr['x'], i)
+    np.testing.assert_array_equal(arr['z'], 0.5 * i)
+    np.testing.assert_array_equal(arr['theta'], -0.001 * i)
+    np.testing.assert_array_equal(arr['r'], 1.0 / (i + 1))
+    np.testing.assert_allclose(arr['t'], 1000.0 + i / RATE_HZ, atol=1e-9)
+
+
+@pytest.fixture(scope='module')
+def recorded(tmp_path_factory: pytest.TempPathFactory) -> pathlib.Path:
+    from conftest import ros_domain_id
+
+    env = dict(os.environ, ROS_DOMAIN_ID=str(ros_domain_id()),
+               ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST', RMW_IMPLEMENTATION='rmw_fastrtps_cpp',
+               PYTHONUNBUFFERED='1')
+    out = tmp_path_factory.mktemp('rec') / 'all'
+    arr = _record(env, out, mark=-1)
+    assert len(arr) == N
+    _check_contents(arr, N)
+    return out
+
+
+def test_sigterm_after_stream_keeps_every_message(recorded: pathlib.Path) -> None:
+    arr = read_arrays(recorded, [STATE])[STATE]
+    assert len(arr) == N
+    # Log times are receive times: the stream's spacing, in the same order as the stamps.
+    assert np.all(np.diff(arr['t_log']) >= 0)
+    span = arr['t_log'][-1] - arr['t_log'][0]
+    assert abs(span - (N - 1) / RATE_HZ) < 0.5
+    assert (recorded / 'metadata.yaml').is_file()
+
+
+def test_sigterm_mid_stream_closes_a_whole_bag(ros_env: dict[str, str],
+                                               tmp_path: pathlib.Path) -> None:
+    arr = _record(ros_env, tmp_path / 'mid', mark=N // 2)
+    # Everything received before the stop, as a gap-free prefix of the stream.
+    assert N // 2 < len(arr) < N
+    _check_contents(arr, len(arr))
+
+
+def _play(ros_env: dict[str, str], bag: pathlib.Path, rate: float) -> np.ndarray:
+    sub = subprocess.Popen([sys.executable, '-c', SUBSCRIBER, str(N), '30'], env=ros_env,
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        _wait_line(sub, 'ready', timeout=20)
+        play = subprocess.run(_auv('play', str(bag), '--rate', str(rate),
+                                   '--wait-for-subscribers'),
+                              env=ros_env, capture_output=True, text=True, timeout=60)
+        assert play.returncode == 0, play.stderr
+        out, err = sub.communicate(timeout=40)
+    finally:
+        if sub.poll() is None:
+            sub.kill()
+            sub.communicate()
+    got = np.array(json.loads(out.strip().splitlines()[-1]))
+    return got
+
+
+@pytest.mark.parametrize('rate', [1.0, 2.0])
+def test_play_preserves_timing(recorded: pathlib.Path, ros_env: dict[str, str],
+                               rate: float) -> None:
+    arr = read_arrays(recorded, [STATE])[STATE]
+    got = _play(ros_env, recorded, rate)
+    assert len(got) == N
+    np.testing.assert_array_equal(got[:, 1], arr['x'])
+    np.testing.assert_array_equal(got[:, 2], arr['z'])
+    bag_span = arr['t_log'][-1] - arr['t_log'][0]
+    play_span = got[-1, 0] - got[0, 0]
+    assert abs(play_span - bag_span / rate) < 0.05 * bag_span / rate + 0.05
+    # Message by message: arrival offsets follow the bag's log-time offsets / rate.
+    lag = (got[:, 0] - got[0, 0]) - (arr['t_log'] - arr['t_log'][0]) / rate
+    assert np.percentile(np.abs(lag), 95) < 0.03
+
+
+def test_play_bad_bag_is_one_line_error(ros_env: dict[str, str],
+                                        tmp_path: pathlib.Path) -> None:
+    bad = tmp_path / 'bad.mcap'
+    bad.write_bytes(b'\x89MCAP0\r\n' + b'\x01' * 40)
+    res = subprocess.run(_auv('play', str(bad)), env=ros_env, capture_output=True, text=True,
+                         timeout=30)
+    assert res.returncode == 1
+    assert res.stderr.count('\n') == 1 and res.stderr.startswith(f'error: bag {bad} is ')
+    res = subprocess.run(_auv('play', str(tmp_path), '--rate', '0'), env=ros_env,
+                         capture_output=True, text=True, timeout=30)
+    assert res.returncode == 1 and res.stderr == 'error: --rate must be a positive number, ' \
+                                                 'got 0.0\n'
