@@ -59,11 +59,13 @@ DEFAULT_QOS_DEPTH = 1000
 
 _MAGIC = b'\x89MCAP0\r\n'
 _OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 1, 2, 3, 4, 5, 6
+_OP_MESSAGE_INDEX = 0x07
 _OP_DATA_END = 0x0F
 _KNOWN_OPS = frozenset(range(0x01, 0x10))
 _U8 = struct.Struct('<Q')
 _MSG_HEAD = struct.Struct('<HIQQ')  # channel id, sequence, log time (ns), publish time (ns)
 _MSG_HEAD_SIZE = _MSG_HEAD.size  # 22 bytes
+_RECORD_PREFIX = 9 + _MSG_HEAD_SIZE  # opcode, length and message head before the CDR data
 _CHUNK_HEAD = struct.Struct('<QQQI')  # start time, end time, uncompressed size, uncompressed crc
 _TIME_TYPES = frozenset({'builtin_interfaces/msg/Time', 'builtin_interfaces/msg/Duration'})
 _SECTION = '=' * 80 + '\n'
@@ -465,9 +467,14 @@ class BagWriter:
 
 
 def _parse_yaml(text: str) -> Any:
-    from ruamel.yaml import YAML
+    try:  # PyYAML's C loader: metadata.yaml in ~1 ms rather than ~50 ms
+        import yaml
 
-    return YAML(typ='safe').load(text)
+        return yaml.load(text, Loader=getattr(yaml, 'CSafeLoader', yaml.SafeLoader))
+    except ImportError:
+        from ruamel.yaml import YAML
+
+        return YAML(typ='safe').load(text)
 
 
 # --------------------------------------------------------------------------------------------
@@ -574,24 +581,25 @@ class _Scanner:
             raise BagError(f'bag file {self.file} is not an MCAP file (bad magic bytes)')
         pos = 8
         loose = _LooseMessages()
+        chunk: list[Any] = []  # [chunk body, its offset, message index bodies...]
         seen_data_end = False
         while True:
             head = fh.read(9)
             if not head:
-                yield from loose.take()
+                yield from self._take(loose, chunk)
                 where = 'after the data section' if seen_data_end else 'before the summary'
                 raise self._damage('truncated', pos, f'the file ends {where}, no footer')
             if len(head) < 9:
-                yield from loose.take()
+                yield from self._take(loose, chunk)
                 raise self._damage('truncated', pos, 'the file ends inside a record header')
             op = head[0]
             (length,) = _U8.unpack_from(head, 1)
             if op not in _KNOWN_OPS and op < 0x80:
-                yield from loose.take()
+                yield from self._take(loose, chunk)
                 raise self._damage('corrupt', pos, f'unknown record opcode 0x{op:02x}')
             body_start = pos + 9
             if length > size - body_start:
-                yield from loose.take()
+                yield from self._take(loose, chunk)
                 if op == _OP_CHUNK:
                     part = fh.read()
                     block = self._partial_chunk(part)
@@ -604,18 +612,19 @@ class _Scanner:
                 body = fh.read(length)
                 loose.add(body)
             elif op == _OP_CHUNK:
-                yield from loose.take()
-                body = fh.read(length)
-                yield self._chunk(body, pos)
+                yield from self._take(loose, chunk)
+                chunk.extend((fh.read(length), pos))  # decoded once its indexes are read
+            elif op == _OP_MESSAGE_INDEX and chunk:
+                chunk.append(fh.read(length))
             elif op in (_OP_SCHEMA, _OP_CHANNEL):
-                yield from loose.take()
+                yield from self._take(loose, chunk)
                 body = fh.read(length)
                 try:
                     self._definition(op, body, 0, len(body))
                 except (struct.error, UnicodeDecodeError, IndexError):
                     raise self._damage('corrupt', pos, 'unreadable schema or channel') from None
             elif op == _OP_FOOTER:
-                yield from loose.take()
+                yield from self._take(loose, chunk)
                 fh.seek(length, 1)
                 tail = fh.read(8)
                 if tail != _MAGIC:
@@ -631,6 +640,14 @@ class _Scanner:
             pos = body_start + length
             if self.progress and op == _OP_CHUNK:
                 self.progress(pos, size)
+
+    def _take(self, loose: _LooseMessages, chunk: list[Any]) -> Iterator[_Block]:
+        """Blocks of the messages read but not yet handed out."""
+        yield from loose.take()
+        if chunk:
+            body, pos, *indexes = chunk
+            chunk.clear()
+            yield self._chunk(body, pos, indexes)
 
     def _definition(self, op: int, body: bytes, start: int, end: int) -> None:
         """Parse a schema or channel record body lying in ``body[start:end]``."""
@@ -650,7 +667,7 @@ class _Scanner:
                 raise IndexError
             self.channels[cid] = _Channel(topic, sid, enc)
 
-    def _chunk(self, body: bytes, pos: int) -> _Block:
+    def _chunk(self, body: bytes, pos: int, indexes: Sequence[bytes] = ()) -> _Block:
         try:
             _, _, usize, crc = _CHUNK_HEAD.unpack_from(body, 0)
             comp, p = _string(body, _CHUNK_HEAD.size)
@@ -669,9 +686,19 @@ class _Scanner:
             raise self._damage('corrupt', pos, f'chunk is {len(data)} bytes, expected {usize}')
         if crc and zlib.crc32(data) != crc:
             raise self._damage('corrupt', pos, 'chunk CRC mismatch')
-        block, complete = self._chunk_records(data)
-        if not complete:
-            raise self._damage('corrupt', pos, 'a record inside a chunk is cut short')
+        block = _indexed_records(data, indexes) if indexes else None
+        if block is not None and len(block.offset) and block.offset[0] > _RECORD_PREFIX:
+            # Schemas and channels before the first indexed message: walk that part.
+            head, complete = self._chunk_records(data[:int(block.offset[0]) - _RECORD_PREFIX])
+            if not complete:
+                raise self._damage('corrupt', pos, 'a record inside a chunk is cut short')
+            if len(head.offset):
+                block = _Block(data, *(np.concatenate([x, y]) for x, y in
+                                       zip(head[1:], block[1:])))
+        if block is None:
+            block, complete = self._chunk_records(data)
+            if not complete:
+                raise self._damage('corrupt', pos, 'a record inside a chunk is cut short')
         return block
 
     def _partial_chunk(self, body: bytes) -> _Block | None:
@@ -706,6 +733,7 @@ class _Scanner:
         n = len(data)
         pos = 0
         prev_len = -1
+        same = 0  # message records of equal length in a row
         complete = True
         while pos < n:
             if pos + 9 > n:
@@ -728,8 +756,10 @@ class _Scanner:
                 add_t(log_ns)
                 add_o(start + _MSG_HEAD_SIZE)
                 add_l(rlen - _MSG_HEAD_SIZE)
-                if rlen == prev_len:
+                same = same + 1 if rlen == prev_len else 0
+                if same >= 8:
                     run = _message_run(buf, pos, rlen)
+                    same = 0
                     if run is not None:
                         pieces.append(_lists_to_arrays(channel, log_time, offset, length))
                         channel.clear(), log_time.clear(), offset.clear(), length.clear()
@@ -748,6 +778,47 @@ class _Scanner:
         pieces.append(_lists_to_arrays(channel, log_time, offset, length))
         cols = [np.concatenate([p[i] for p in pieces]) for i in range(4)]
         return _Block(data, *cols), complete
+
+
+def _indexed_records(data: bytes, indexes: Sequence[bytes]) -> _Block | None:
+    """Messages of an uncompressed chunk located through its message index records.
+
+    Every indexed record is checked (opcode, channel, log time, no overlap); from the first
+    indexed record on, the records must tile the chunk with no gap, since a gap may hold a
+    schema, a channel or an unindexed message (the part before the first indexed record is
+    walked by the caller). Returns None when the index does not describe the chunk exactly
+    (the caller then walks the chunk record by record).
+    """
+    cids, pairs = [], []
+    try:
+        for body in indexes:
+            cid, nbytes = struct.unpack_from('<HI', body, 0)
+            if nbytes % 16 or 6 + nbytes > len(body):
+                return None
+            pair = np.frombuffer(body, '<u8', count=nbytes // 8, offset=6).reshape(-1, 2)
+            pairs.append(pair)
+            cids.append(np.full(len(pair), cid, np.int64))
+    except struct.error:
+        return None
+    if not pairs:
+        return None
+    pair = np.concatenate(pairs)
+    order = np.argsort(pair[:, 1], kind='stable')
+    offs = pair[order, 1].astype(np.int64)
+    log = pair[order, 0]
+    chan = np.concatenate(cids)[order]
+    head = _MSG_RECORD_HEAD.itemsize
+    if len(offs) == 0 or offs[-1] + head > len(data):
+        return None
+    buf = np.frombuffer(data, np.uint8)
+    rec = buf[offs[:, None] + np.arange(head)].view(_MSG_RECORD_HEAD)[:, 0]
+    ends = offs + 9 + rec['length'].astype(np.int64)
+    if not (np.all(rec['op'] == _OP_MESSAGE) and np.all(rec['channel'] == chan)
+            and np.all(rec['log_time'] == log) and np.all(rec['length'] >= _MSG_HEAD_SIZE)
+            and np.all(ends[:-1] == offs[1:]) and ends[-1] == len(data)):
+        return None
+    return _Block(data, chan, log.astype(np.int64), offs + 9 + _MSG_HEAD_SIZE,
+                  rec['length'].astype(np.int64) - _MSG_HEAD_SIZE)
 
 
 def _lists_to_arrays(*lists: list[int]) -> tuple[np.ndarray, ...]:
@@ -1181,9 +1252,11 @@ def _decode_vectorised(layout: _Layout, buf: np.ndarray, offs: np.ndarray,
     """Columns of messages at ``offs`` (start of their CDR data) in ``buf``, vectorised.
 
     CDR (XCDR1, little endian): a 4-byte encapsulation header, then each primitive aligned to
-    its size relative to the end of that header. The cursor is a scalar while every message
-    has the same layout and becomes an array per message after a string of varying length
-    (the header's ``frame_id``).
+    its size relative to the end of that header (the origin). Messages are split into groups
+    in which the origin and the cursor have the same residue modulo 8: within a group every
+    field lies at one alignment in the buffer, so it is one gather for the whole group, and
+    a run of float64 fields is one 2-D gather. After a string (the header's ``frame_id``) or
+    a sequence the cursor differs per message, and the group is split again by residue.
 
     Returns:
         float64 matrix (messages x :func:`_out_names`), column ``t_log`` left unset; None when
@@ -1200,98 +1273,93 @@ def _decode_vectorised(layout: _Layout, buf: np.ndarray, offs: np.ndarray,
         return None
     if np.any(buf[offs] != 0) or np.any(buf[offs + 1] != 1):  # not CDR_LE
         return None
-    # Messages sorted by the residue of their origin modulo 8: within a group every field at a
-    # common offset has one alignment in the buffer, so each field is one gather per group.
-    origin_all = offs + 4
-    order = np.argsort(origin_all % 8, kind='stable')
-    origin = origin_all[order]
-    limit = (lens - 4)[order]  # bytes available after the encapsulation header
-    bounds = np.searchsorted(origin % 8, np.arange(9)).tolist()
-    groups = [(r, bounds[r], bounds[r + 1]) for r in range(8) if bounds[r] < bounds[r + 1]]
-    rel: int | np.ndarray = 0
-
-    def gather(r: int | np.ndarray, dtype: str, out: np.ndarray | None = None) -> np.ndarray:
-        if not isinstance(r, int):
-            values = _gather(buf, origin + r, dtype)
-            if out is None:
-                return values
-            out[:] = values
-            return out
-        dt = np.dtype(dtype)
-        size = dt.itemsize
-        if out is None:
-            out = np.empty(n_msg, dt)
-        for res, a, b in groups:
-            view = _view(buf, (res + r) % size, dt)
-            out[a:b] = view[(origin[a:b] + r) // size]
-        return out
-
-    def align(r: int | np.ndarray, a: int) -> int | np.ndarray:
-        return (r + (a - 1)) // a * a
-
-    def fits(r: int | np.ndarray) -> bool:
-        return bool(np.all(r <= limit))
-
     ops = layout.ops
-    i = 0
-    while i < len(ops):
-        op = ops[i]
-        i += 1
-        if op.kind == 'num' and op.dtype == '<f8' and isinstance(rel, int):
-            # A run of float64 fields (contiguous once the first is aligned): one 2-D gather
-            # per group, every message's fields read together (one pass over the buffer).
-            k = 1
-            while (i - 1 + k < len(ops) and ops[i - 1 + k].kind == 'num'
-                   and ops[i - 1 + k].dtype == '<f8'):
-                k += 1
-            rel = align(rel, 8)
-            assert isinstance(rel, int)
-            if not fits(rel + 8 * k):
-                return None
-            j0 = index[op.name]
-            cols = np.arange(k)
-            for res, a, b in groups:
-                view = _view(buf, res, np.dtype('<f8'))
-                mat[a:b, j0:j0 + k] = view[((origin[a:b] + rel) // 8)[:, None] + cols]
-            rel += 8 * k
-            i += k - 1
-            continue
-        if op.kind == 'num':
-            size = np.dtype(op.dtype).itemsize
-            rel = align(rel, size)
-            if not fits(rel + size):
-                return None
-            gather(rel, op.dtype, mat[:, index[op.name]])
-            rel = rel + size
-        elif op.kind == 'time':
-            rel = align(rel, 4)
-            if not fits(rel + 8):
-                return None
-            sec = gather(rel, '<i4')
-            nsec = gather(rel + 4, '<u4')
-            np.add(sec, nsec * 1e-9, out=mat[:, index[op.name]])
-            rel = rel + 8
-        elif op.kind in ('string', 'pseq'):
-            rel = align(rel, 4)
-            if not fits(rel + 4):
-                return None
-            count = gather(rel, '<u4').astype(np.int64)
-            rel = rel + 4
-            if op.kind == 'pseq':
-                size = np.dtype(op.dtype).itemsize
-                rel = np.where(count > 0, align(rel, size), rel) + count * size
+    end = offs + lens  # absolute end of each message in buf
+    f8 = np.dtype('<f8')
+
+    # Rows of ``out`` are the messages in the order ``perm``; each group is a slice of rows.
+    perm = np.argsort((offs + 4) % 8, kind='stable')
+    out = np.empty_like(mat)
+
+    def walk(i: int, a: int, b: int, cur: np.ndarray, res: int) -> bool:
+        """Decode ops[i:] for messages ``perm[a:b]``; ``cur`` their absolute cursors, all with
+        ``(cur - origin) % 8 == res`` and the same ``cur % 8``."""
+        idx = perm[a:b]
+        rows = out[a:b]
+        stop = end[idx]
+        while i < len(ops):
+            op = ops[i]
+            i += 1
+            if op.kind == 'num' and op.dtype == '<f8':
+                k = 1
+                while (i - 1 + k < len(ops) and ops[i - 1 + k].kind == 'num'
+                       and ops[i - 1 + k].dtype == '<f8'):
+                    k += 1
+                pad = -res % 8
+                cur, res = cur + pad, 0
+                if np.any(cur + 8 * k > stop):
+                    return False
+                j0 = index[op.name]
+                view = _view(buf, int(cur[0]) % 8, f8)
+                rows[:, j0:j0 + k] = view[(cur // 8)[:, None] + np.arange(k)]
+                cur = cur + 8 * k
+                i += k - 1
+            elif op.kind in ('num', 'time', 'string', 'pseq'):
+                size = np.dtype(op.dtype).itemsize if op.kind == 'num' else 4
+                pad = -res % size
+                cur, res = cur + pad, (res + pad) % 8
+                width = 8 if op.kind == 'time' else size
+                if np.any(cur + width > stop):
+                    return False
+                if op.kind == 'num':
+                    dt = np.dtype(op.dtype)
+                    rows[:, index[op.name]] = _view(buf, int(cur[0]) % size, dt)[cur // size]
+                    cur, res = cur + size, (res + size) % 8
+                    continue
+                view = _view(buf, int(cur[0]) % 4, np.dtype('<u4'))
+                if op.kind == 'time':
+                    sec = view[cur // 4].view('<i4').astype(np.float64)
+                    nsec = view[cur // 4 + 1].astype(np.float64)
+                    rows[:, index[op.name]] = sec + nsec * 1e-9
+                    cur, res = cur + 8, (res + 8) % 8
+                    continue
+                count = view[cur // 4].astype(np.int64)
+                cur = cur + 4
+                res = (res + 4) % 8
+                if op.kind == 'pseq':
+                    esize = np.dtype(op.dtype).itemsize
+                    cur = cur + np.where(count > 0, -res % esize, 0) + count * esize
+                else:
+                    cur = cur + count
+                if np.any(cur > stop):
+                    return False
+                origin = offs[idx] + 4
+                key = (cur - origin) % 8 * 8 + cur % 8
+                first = int(key[0])
+                if np.all(key == first):
+                    res = first // 8
+                    continue
+                order = np.argsort(key, kind='stable')
+                perm[a:b] = idx[order]
+                out[a:b] = rows[order]  # the fields decoded so far follow their messages
+                key, cur = key[order], cur[order]
+                values = np.unique(key).tolist()
+                cuts = np.searchsorted(key, values + [key[-1] + 1]).tolist()
+                for value, lo, hi in zip(values, cuts, cuts[1:]):
+                    if not walk(i, a + lo, a + hi, cur[lo:hi], value // 8):
+                        return False
+                return True
             else:
-                rel = rel + count
-            if not fits(rel):
-                return None
-            if isinstance(rel, np.ndarray) and np.all(rel == rel[0]):
-                rel = int(rel[0])  # every message alike again: back to a scalar cursor
-        else:
+                return False
+        return True
+
+    origin_sorted = offs[perm] + 4
+    residue = origin_sorted % 8
+    cuts = np.searchsorted(residue, np.arange(9)).tolist()
+    for lo, hi in zip(cuts, cuts[1:]):
+        if lo < hi and not walk(0, lo, hi, origin_sorted[lo:hi], 0):
             return None
-    if len(groups) > 1:
-        unsorted = np.empty_like(mat)
-        unsorted[order] = mat
-        mat = unsorted
+    mat[perm] = out
     return mat
 
 

@@ -1,0 +1,94 @@
+"""Bag-to-arrays throughput for /auv/state: vectorised CDR decoding against rosbags.
+
+One hour of VehicleState at 50 Hz (180 000 messages) is written to a bag, then read into
+numpy arrays by two paths over the same file scan:
+
+* ``vectorised``: :func:`auv_ident.bag.read_arrays` (fields gathered from the CDR bytes);
+* ``rosbags``: the same with ``fast=False``, which deserializes every message with
+  ``typestore.deserialize_cdr`` and copies its fields into the arrays.
+
+Both must give identical arrays (asserted). Each path runs ``repeats`` times; the median wall
+time is reported, in messages per second. Run as a script to write ``bench/results/bag.json``.
+"""
+from __future__ import annotations
+
+import json
+import pathlib
+import platform
+import statistics
+import tempfile
+import time
+
+import numpy as np
+
+from auv_ident import bag
+
+STATE = '/auv/state'
+
+
+def write_state_bag(path: pathlib.Path, n: int, rate_hz: float = 50.0) -> None:
+    """A bag of ``n`` VehicleState messages at ``rate_hz`` (frame ids of two lengths)."""
+    ts = bag.typestore()
+    types = ts.types
+    state = types['auv_msgs/msg/VehicleState']
+    header = types['std_msgs/msg/Header']
+    stamp = types['builtin_interfaces/msg/Time']
+    rng = np.random.default_rng(1)
+    values = rng.normal(size=(n, 12))
+    with bag.BagWriter(path) as writer:
+        writer.add_topic(STATE, 'auv_msgs/msg/VehicleState')
+        for i in range(n):
+            t_ns = 1_700_000_000_000_000_000 + int(i * 1e9 / rate_hz)
+            sec, nsec = divmod(t_ns, 1_000_000_000)
+            msg = state(header(stamp(sec=sec, nanosec=nsec), 'ned' if i % 10 else 'base_link'),
+                        *values[i].tolist())
+            writer.write(STATE, bytes(ts.serialize_cdr(msg, 'auv_msgs/msg/VehicleState')),
+                         log_time_ns=t_ns + 1000)
+
+
+def _median_time(fn, repeats: int) -> tuple[float, object]:  # type: ignore[no-untyped-def]
+    times = []
+    result = None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        result = fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times), result
+
+
+def run(n: int = 180_000, repeats: int = 5) -> dict[str, object]:
+    """Measure both paths; returns the figures (times in s, rates in messages/s)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = pathlib.Path(tmp) / 'state'
+        t0 = time.perf_counter()
+        write_state_bag(path, n)
+        t_write = time.perf_counter() - t0
+        size = (path / 'state_0.mcap').stat().st_size
+        bag.read_arrays(path, [STATE])  # warm-up: imports, typestore, page cache
+        t_fast, fast = _median_time(lambda: bag.read_arrays(path, [STATE]), repeats)
+        t_slow, slow = _median_time(lambda: bag.read_arrays(path, [STATE], fast=False),
+                                    max(1, repeats // 2 + 1))
+    a, b = fast[STATE], slow[STATE]  # type: ignore[index]
+    assert len(a) == n and a.dtype == b.dtype
+    np.testing.assert_array_equal(a, b)
+    return {
+        'messages': n,
+        'bag_bytes': size,
+        'write_s': round(t_write, 3),
+        'vectorised_s': round(t_fast, 4),
+        'rosbags_s': round(t_slow, 4),
+        'vectorised_msgs_per_s': round(n / t_fast),
+        'rosbags_msgs_per_s': round(n / t_slow),
+        'speedup': round(t_slow / t_fast, 1),
+        'repeats': repeats,
+        'python': platform.python_version(),
+        'machine': platform.machine(),
+    }
+
+
+if __name__ == '__main__':
+    figures = run()
+    out = pathlib.Path(__file__).resolve().parent / 'results' / 'bag.json'
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(figures, indent=2) + '\n')
+    print(json.dumps(figures, indent=2))
