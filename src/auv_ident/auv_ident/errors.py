@@ -14,3 +14,15 @@ class IdentError(Exception):
 
 class BagError(IdentError, ValueError):
     """A bag cannot be read or written: missing, damaged, wrong topic, bad timestamps."""
+
+
+class IdentificationError(IdentError, ValueError):
+    """Data or options with which the coefficients cannot be identified."""
+
+
+class NotIdentifiableError(IdentificationError):
+    """The data do not excite a coefficient enough, or cannot tell two coefficients apart."""
+
+
+class GapError(IdentError, ValueError):
+    """The gap diagnosis cannot run: bad model or log, unknown effect, too little data."""
