@@ -1276,6 +1276,19 @@ def _decode_vectorised(layout: _Layout, buf: np.ndarray, offs: np.ndarray,
     ops = layout.ops
     end = offs + lens  # absolute end of each message in buf
     f8 = np.dtype('<f8')
+    copies: dict[int, np.ndarray] = {}
+
+    def aligned(r: int) -> np.ndarray:
+        """``buf`` from byte ``r`` on, 8-byte aligned in memory (a copy unless it already
+        is): gathers from aligned memory are several times faster."""
+        copy = copies.get(r)
+        if copy is None:
+            usable = (len(buf) - r) // 8 * 8
+            copy = buf[r:r + usable]
+            if copy.ctypes.data % 8:
+                copy = copy.copy()
+            copies[r] = copy
+        return copy
 
     # Rows of ``out`` are the messages in the order ``perm``; each group is a slice of rows.
     perm = np.argsort((offs + 4) % 8, kind='stable')
@@ -1300,8 +1313,9 @@ def _decode_vectorised(layout: _Layout, buf: np.ndarray, offs: np.ndarray,
                 if np.any(cur + 8 * k > stop):
                     return False
                 j0 = index[op.name]
-                view = _view(buf, int(cur[0]) % 8, f8)
-                rows[:, j0:j0 + k] = view[(cur // 8)[:, None] + np.arange(k)]
+                r = int(cur[0]) % 8
+                rows[:, j0:j0 + k] = aligned(r).view(f8)[((cur - r) // 8)[:, None]
+                                                         + np.arange(k)]
                 cur = cur + 8 * k
                 i += k - 1
             elif op.kind in ('num', 'time', 'string', 'pseq'):
@@ -1312,18 +1326,20 @@ def _decode_vectorised(layout: _Layout, buf: np.ndarray, offs: np.ndarray,
                 if np.any(cur + width > stop):
                     return False
                 if op.kind == 'num':
-                    dt = np.dtype(op.dtype)
-                    rows[:, index[op.name]] = _view(buf, int(cur[0]) % size, dt)[cur // size]
+                    r = int(cur[0]) % 8
+                    rows[:, index[op.name]] = aligned(r).view(op.dtype)[(cur - r) // size]
                     cur, res = cur + size, (res + size) % 8
                     continue
-                view = _view(buf, int(cur[0]) % 4, np.dtype('<u4'))
+                r = int(cur[0]) % 8
+                view = aligned(r).view('<u4')
+                at = (cur - r) // 4
                 if op.kind == 'time':
-                    sec = view[cur // 4].view('<i4').astype(np.float64)
-                    nsec = view[cur // 4 + 1].astype(np.float64)
+                    sec = view[at].view('<i4').astype(np.float64)
+                    nsec = view[at + 1].astype(np.float64)
                     rows[:, index[op.name]] = sec + nsec * 1e-9
                     cur, res = cur + 8, (res + 8) % 8
                     continue
-                count = view[cur // 4].astype(np.int64)
+                count = view[at].astype(np.int64)
                 cur = cur + 4
                 res = (res + 4) % 8
                 if op.kind == 'pseq':
