@@ -658,3 +658,26 @@ def summary(result: Identification) -> dict[str, Any]:
     return {'source': result.source, 'errors': result.errors, 'fit_offsets': result.fit_offsets,
             'bounds': {k: list(v) for k, v in result.bounds.items()},
             'coefficients': coefs, 'equations': eqs}
+
+
+def compare_nelder_mead(records: Sequence[ForceRecord], result: Identification,
+                        x0: Mapping[str, float] | None = None) -> dict[str, dict[str, Any]]:
+    """Run the report's bounded Nelder-Mead on the same data as ``result`` and compare.
+
+    For each equation: the least-squares and the Nelder-Mead coefficients, their largest
+    relative difference and the two sums of squares. The search starts from ``x0`` (default:
+    the base vehicle's values, as the report started from its prior values) and uses the
+    bounds of ``result`` (unbounded coefficients get none).
+    """
+    out: dict[str, dict[str, Any]] = {}
+    for name, fit in result.fits.items():
+        system = build_system(records, fit.equation, result.base, result.fit_offsets)
+        lsq = np.array([c.value for c in fit.coefficients])
+        start = [(x0 or {}).get(c, result.base.values[c]) for c in system.names]
+        nm = nelder_mead(system, start, result.bounds)
+        rel = np.abs(nm - lsq) / np.maximum(np.abs(lsq), 1e-12)
+        out[name] = {'names': list(system.names), 'least_squares': lsq.tolist(),
+                     'nelder_mead': nm.tolist(), 'max_relative_difference': float(rel.max()),
+                     'sum_of_squares_least_squares': system.sum_of_squares(lsq),
+                     'sum_of_squares_nelder_mead': system.sum_of_squares(nm)}
+    return out

@@ -1,0 +1,153 @@
+"""``auv ident BAG... --out DIR``: identify the hydrodynamic coefficients from bags.
+
+Reads ``/auv/state`` and either ``/auv/hydrodynamic_forces`` (simulator bags) or the actuator
+command topics (real logs: forces reconstructed from the motion), fits the report's section 2
+regressions (:mod:`auv_ident.identify`) and writes the identified vehicle file, ``report.json``,
+the fit figures and ``report.md`` (:mod:`auv_ident.report`). Progress goes to stderr; bad input
+(damaged bag, missing topic, stamps out of order, too little excitation) is one line
+``error: ...`` and exit status 1.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import sys
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from auv_ident.errors import IdentError, IdentificationError
+from auv_ident.identify import (EQUATIONS, ERROR_METHODS, SIGN_BOUNDS, ForceRecord,
+                                Identification, compare_nelder_mead, identify)
+from auv_ident.motion import SOURCES, WINDOW_S, choose_source, needed_topics, records_from_topics
+from auv_ident.report import write_outputs
+from auv_sim.params import VehicleParams, load_vehicle
+
+ROOT = pathlib.Path(__file__).resolve().parents[3]
+DEFAULT_BASE = ROOT / 'config' / 'a18m.yaml'
+
+Progress = Callable[[str], None]
+
+
+def stderr_progress(text: str) -> None:
+    """Progress line on stderr (overwritten in place on a terminal)."""
+    end = '\r' if text.endswith('%') and sys.stderr.isatty() else '\n'
+    print(text, file=sys.stderr, end=end, flush=True)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``auv ident``."""
+    parser.add_argument('bags', nargs='+', metavar='BAG', help='bag directories or .mcap files')
+    parser.add_argument('--base', default=str(DEFAULT_BASE),
+                        help='vehicle file the identified values replace (default: a18m)')
+    parser.add_argument('--out', required=True, help='output directory')
+    parser.add_argument('--fit-c0', action='store_true',
+                        help='fit CZ0 and CM0 too (default: fixed at the base values)')
+    parser.add_argument('--bounds', action='store_true',
+                        help='bounded solve with physical signs (Ksh >= 0; CZuw, CMuq, CYuv, '
+                             'CNur <= 0)')
+    parser.add_argument('--source', choices=SOURCES, default='auto',
+                        help='forces from the force topic, from the motion, or auto (the '
+                             'topic when every bag has it)')
+    parser.add_argument('--equations', nargs='+', choices=list(EQUATIONS), default=None,
+                        help='equations to fit (default: all)')
+    parser.add_argument('--errors', choices=ERROR_METHODS, default='hac',
+                        help='standard errors: hac (default), ess or iid')
+    parser.add_argument('--window', type=float, default=WINDOW_S,
+                        help='derivative window for forces from motion [s] (default 1)')
+    parser.add_argument('--no-nelder-mead', action='store_true',
+                        help='skip the Nelder-Mead comparison in the report')
+
+
+def load_records(bags: Sequence[str], base: VehicleParams, source: str = 'auto',
+                 window_s: float = WINDOW_S, progress: Progress | None = None
+                 ) -> tuple[list[ForceRecord], str]:
+    """Read the bags and build force records; returns them and the source used.
+
+    ``auto`` uses the force topic when every bag has it, else the motion of every bag.
+    """
+    from auv_ident.bag import bag_topics, read_arrays
+
+    present = [set(bag_topics(b)) for b in bags]
+    if source == 'auto':
+        source = 'forces' if all(choose_source(p) == 'forces' for p in present) else 'motion'
+    topics = needed_topics(source)
+    records: list[ForceRecord] = []
+    for bag in bags:
+        name = pathlib.Path(bag).name
+        if name.endswith('.mcap'):
+            name = name[:-5]
+        last = [-1]
+
+        def report(done: int, total: int, bag: str = bag, last: list[int] = last) -> None:
+            pct = int(100 * done / total) if total else 100
+            if progress is not None and pct // 25 != last[0] // 25:
+                last[0] = pct
+                progress(f'reading {bag}: {pct}%')
+
+        t0 = time.perf_counter()
+        arrays = read_arrays(bag, topics, progress=report)
+        if progress is not None:
+            n = sum(len(a) for a in arrays.values())
+            progress(f'read {bag}: {n} messages in {time.perf_counter() - t0:.2f} s')
+        records += records_from_topics(arrays, base, source, name=name, window_s=window_s)
+    return records, source
+
+
+def identify_and_report(records: Sequence[ForceRecord], base: VehicleParams, out: str,
+                        bags: Sequence[str], *, fit_c0: bool = False, bounds: bool = False,
+                        errors: str = 'hac', equations: Sequence[str] | None = None,
+                        nelder_mead: bool = True, progress: Progress | None = None,
+                        extra: dict[str, Any] | None = None
+                        ) -> tuple[Identification, dict[str, str]]:
+    """Fit, compare with Nelder-Mead (optional) and write every output into ``out``."""
+    if progress is not None:
+        progress(f'fitting {", ".join(equations or EQUATIONS)} on {len(records)} record(s), '
+                 f'{sum(len(r.t) for r in records)} samples')
+    t0 = time.perf_counter()
+    result = identify(records, base, equations=equations, fit_offsets=fit_c0,
+                      bounds=SIGN_BOUNDS if bounds else None, errors=errors)
+    if progress is not None:
+        progress(f'fitted in {time.perf_counter() - t0:.2f} s')
+    nm = None
+    if nelder_mead:
+        t0 = time.perf_counter()
+        nm = compare_nelder_mead(records, result)
+        if progress is not None:
+            progress(f'Nelder-Mead comparison in {time.perf_counter() - t0:.2f} s')
+    files = write_outputs(result, out, bags, nm, extra)
+    return result, files
+
+
+def run(args: argparse.Namespace) -> int:
+    """Identify from the bags of ``args``; prints the coefficients as JSON on stdout."""
+    base = load_vehicle(args.base)
+    if not (args.window > 0):
+        raise IdentificationError(f'--window must be > 0 s, got {args.window}')
+    records, source = load_records(args.bags, base, args.source, args.window, stderr_progress)
+    stderr_progress(f'force source: {source}')
+    result, files = identify_and_report(
+        records, base, args.out, args.bags, fit_c0=args.fit_c0, bounds=args.bounds,
+        errors=args.errors, equations=args.equations, nelder_mead=not args.no_nelder_mead,
+        progress=stderr_progress)
+    out = {name: {'value': c.value, 'std_error': c.std_error, 'ci95': list(c.ci95)}
+           for name, c in result.coefficients.items()}
+    print(json.dumps({'source': source, 'coefficients': out, 'files': files}, indent=2))
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``auv ident`` on its own (errors as one line, exit 1)."""
+    parser = argparse.ArgumentParser(prog='auv ident', description=__doc__.splitlines()[0])
+    add_arguments(parser)
+    args = parser.parse_args(argv)
+    try:
+        return run(args)
+    except (IdentError, ValueError, OSError) as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())
