@@ -18,7 +18,7 @@ import time
 import numpy as np
 import pytest
 
-from auv_ident.bag import read_arrays
+from auv_ident.bag import read_arrays, read_messages
 
 N = 500
 RATE_HZ = 200.0
@@ -118,6 +118,8 @@ def _record(ros_env: dict[str, str], out: pathlib.Path, mark: int) -> np.ndarray
         rec.send_signal(signal.SIGTERM)
         _, err = rec.communicate(timeout=20)
         assert rec.returncode == 0, err
+        if mark >= 0:
+            pub.terminate()  # the rest of the stream is not needed
         pub.communicate(timeout=30)
     finally:
         for proc in (rec, pub):
@@ -168,29 +170,43 @@ def test_sigterm_mid_stream_closes_a_whole_bag(ros_env: dict[str, str],
     _check_contents(arr, len(arr))
 
 
-def _play(ros_env: dict[str, str], bag: pathlib.Path, rate: float) -> np.ndarray:
-    sub = subprocess.Popen([sys.executable, '-c', SUBSCRIBER, str(N), '30'], env=ros_env,
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+def _play(ros_env: dict[str, str], bag: pathlib.Path, rate: float,
+          clock_hz: float | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Play ``bag`` to a /auv/state listener (and a /clock listener with ``clock_hz``):
+    arrival times (s, monotonic) with x and z; clock values (ns) or None."""
+    subs = [subprocess.Popen([sys.executable, '-c', SUBSCRIBER, str(N), '30'], env=ros_env,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)]
+    extra = []
     try:
-        _wait_line(sub, 'ready', timeout=20)
+        if clock_hz is not None:
+            subs.append(_listen(ros_env, '/clock', 'rosgraph_msgs.msg.Clock',
+                                '(m.clock.sec, m.clock.nanosec)', 100_000, 30, wait=False))
+            extra = ['--clock', str(clock_hz)]
+        # No need to wait for the listeners: the player waits until they have matched.
         play = subprocess.run(_auv('play', str(bag), '--rate', str(rate),
-                                   '--wait-for-subscribers'),
+                                   '--wait-for-subscribers', *extra),
                               env=ros_env, capture_output=True, text=True, timeout=60)
         assert play.returncode == 0, play.stderr
-        out, err = sub.communicate(timeout=40)
+        outs = [proc.communicate(timeout=40)[0] for proc in subs]
     finally:
-        if sub.poll() is None:
-            sub.kill()
-            sub.communicate()
-    got = np.array(json.loads(out.strip().splitlines()[-1]))
-    return got
+        for proc in subs:
+            if proc.poll() is None:
+                proc.kill()
+                proc.communicate()
+    got = np.array(json.loads(outs[0].strip().splitlines()[-1]))
+    clock = None
+    if clock_hz is not None:
+        pairs = json.loads(outs[1].strip().splitlines()[-1])
+        clock = np.array([sec * 1_000_000_000 + nsec for sec, nsec in pairs])
+    return got, clock
 
 
 @pytest.mark.parametrize('rate', [1.0, 2.0])
 def test_play_preserves_timing(recorded: pathlib.Path, ros_env: dict[str, str],
                                rate: float) -> None:
     arr = read_arrays(recorded, [STATE])[STATE]
-    got = _play(ros_env, recorded, rate)
+    clock_hz = 50.0 if rate == 2.0 else None
+    got, clock = _play(ros_env, recorded, rate, clock_hz)
     assert len(got) == N
     np.testing.assert_array_equal(got[:, 1], arr['x'])
     np.testing.assert_array_equal(got[:, 2], arr['z'])
@@ -200,6 +216,14 @@ def test_play_preserves_timing(recorded: pathlib.Path, ros_env: dict[str, str],
     # Message by message: arrival offsets follow the bag's log-time offsets / rate.
     lag = (got[:, 0] - got[0, 0]) - (arr['t_log'] - arr['t_log'][0]) / rate
     assert np.percentile(np.abs(lag), 95) < 0.03
+    if clock is not None:
+        # /clock: bag time (ns), never going back, from the first to the last log time, at
+        # about 50 Hz of wall time while the bag plays at rate 2.
+        log_ns = [m.log_time for m in read_messages(recorded, [STATE], decode=False)]
+        assert np.all(np.diff(clock) >= 0)
+        assert clock[0] >= log_ns[0] and clock[-1] == log_ns[-1]
+        expected = clock_hz * bag_span / rate
+        assert abs(len(clock) - expected) < 0.3 * expected + 3
 
 
 def test_play_bad_bag_is_one_line_error(ros_env: dict[str, str],
@@ -214,3 +238,59 @@ def test_play_bad_bag_is_one_line_error(ros_env: dict[str, str],
                          capture_output=True, text=True, timeout=30)
     assert res.returncode == 1 and res.stderr == 'error: --rate must be a positive number, ' \
                                                  'got 0.0\n'
+
+
+LISTENER = r'''
+import importlib, json, sys, time
+import rclpy
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+topic, typename, expr, n, timeout = sys.argv[1:6]
+module, name = typename.rsplit('.', 1)
+cls = getattr(importlib.import_module(module), name)
+rclpy.init()
+node = rclpy.create_node('test_listener')
+got = []
+last = [0.0]
+def on_message(m):
+    got.append(eval(expr, {'m': m}))
+    last[0] = time.monotonic()
+node.create_subscription(cls, topic, on_message,
+                         QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
+print('ready', flush=True)
+deadline = time.monotonic() + float(timeout)
+while len(got) < int(n) and time.monotonic() < deadline:
+    if got and time.monotonic() - last[0] > 1.0:  # the stream has ended
+        break
+    rclpy.spin_once(node, timeout_sec=0.05)
+print(json.dumps(got), flush=True)
+rclpy.shutdown()
+'''
+
+
+def _listen(ros_env: dict[str, str], topic: str, typename: str, expr: str, n: int,
+            timeout: float, wait: bool = True) -> subprocess.Popen[str]:
+    proc = subprocess.Popen([sys.executable, '-c', LISTENER, topic, typename, expr, str(n),
+                             str(timeout)], env=ros_env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    if wait:
+        _wait_line(proc, 'ready', timeout=20)
+    return proc
+
+
+def test_depth_command_is_delivered(ros_env: dict[str, str]) -> None:
+    res = subprocess.run(_auv('depth', 'nan'), env=ros_env, capture_output=True, text=True,
+                         timeout=30)
+    assert res.returncode == 1
+    assert res.stderr == 'error: depth must be a finite number of metres, got nan\n'
+    listener = _listen(ros_env, '/auv/depth_command', 'std_msgs.msg.Float64', 'm.data', 1, 20)
+    try:
+        res = subprocess.run(_auv('depth', '12.5'), env=ros_env, capture_output=True,
+                             text=True, timeout=30)
+        assert res.returncode == 0, res.stderr
+        out, _ = listener.communicate(timeout=30)
+    finally:
+        if listener.poll() is None:
+            listener.kill()
+            listener.communicate()
+    assert json.loads(out.strip().splitlines()[-1]) == [12.5]

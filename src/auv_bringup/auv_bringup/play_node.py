@@ -36,7 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--delay', type=float, default=0.0, metavar='S',
                         help='wait this long before the first message (s)')
     parser.add_argument('--wait-for-subscribers', action='store_true',
-                        help='start only when every replayed topic has a subscriber')
+                        help='start only when every replayed topic (and /clock with --clock) '
+                             'has a subscriber')
     parser.add_argument('--wait-timeout', type=float, default=10.0, metavar='S',
                         help='deadline of --wait-for-subscribers (s)')
     parser.add_argument('--qos-depth', type=int, default=1000, metavar='N',
@@ -90,7 +91,8 @@ def run(args: argparse.Namespace) -> int:
 
             clock_pub = node.create_publisher(Clock, CLOCK_TOPIC, qos)
         if args.wait_for_subscribers:
-            _wait_for_subscribers(pubs, args.wait_timeout, stop)
+            waited = dict(pubs, **({CLOCK_TOPIC: clock_pub} if clock_pub else {}))
+            _wait_for_subscribers(waited, args.wait_timeout, stop)
         if args.delay:
             _sleep_until(time.monotonic() + args.delay, stop)
         while not stop['signal']:

@@ -1215,32 +1215,6 @@ def _column_names(layout: _Layout) -> list[str]:
 # Vectorised CDR decoding
 
 
-def _gather(buf: np.ndarray, offsets: np.ndarray, dtype: str) -> np.ndarray:
-    """Values of ``dtype`` at arbitrary byte ``offsets`` of ``buf`` (uint8), vectorised."""
-    dt = np.dtype(dtype)
-    size = dt.itemsize
-    if size == 1:
-        return buf[offsets].view(dt)
-    res = offsets % size
-    r0 = int(res[0]) if len(res) else 0
-    if np.all(res == r0):
-        return _view(buf, r0, dt)[offsets // size]
-    out = np.empty(len(offsets), dt)
-    for r in range(size):
-        mask = res == r
-        if mask.any():
-            out[mask] = _view(buf, r, dt)[offsets[mask] // size]
-    return out
-
-
-def _view(buf: np.ndarray, r: int, dt: np.dtype) -> np.ndarray:
-    """``buf`` seen as ``dt`` items starting at byte ``r``; item i covers bytes
-    ``r + i*size`` on, so byte offset o (with o % size == r) is item ``o // size``."""
-    size = dt.itemsize
-    usable = (len(buf) - r) // size * size
-    return buf[r:r + usable].view(dt)
-
-
 def _out_names(layout: _Layout) -> list[str]:
     """Fields of the arrays: ``t``, ``t_log``, then the message's columns (header stamp
     excluded: it is ``t``)."""
@@ -1532,19 +1506,6 @@ def read_arrays(
                                f'{i} ({arr["t"][i - 1]:.9f} s, then {arr["t"][i]:.9f} s)')
         result[topic] = arr
     return result
-
-
-def _joined(parts: list[tuple[bytes, np.ndarray, np.ndarray, np.ndarray]]
-            ) -> list[tuple[bytes, np.ndarray, np.ndarray, np.ndarray]]:
-    """The parts of one topic joined into one buffer (fewer, larger vectorised steps)."""
-    if len(parts) <= 1:
-        return parts
-    base = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
-    data = b''.join(p[0] for p in parts)
-    offs = np.concatenate([p[1] + b for p, b in zip(parts, base)])
-    lens = np.concatenate([p[2] for p in parts])
-    logs = np.concatenate([p[3] for p in parts])
-    return [(data, offs, lens, logs)]
 
 
 def _collect(block: _Block, scanner: _Scanner, topics: list[str],
