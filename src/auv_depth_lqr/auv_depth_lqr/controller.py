@@ -197,9 +197,9 @@ class GovernorSettings:
 
     The governed reference ``z_r`` moves towards the commanded depth with a speed ``v_r``
     that obeys ``|v_r| <= v_lim`` (from the pitch and BAR limits, see
-    :meth:`GainSchedule.vertical_speed_bounds`), changes by at most ``accel_max`` per second,
-    and brakes on the square-root profile ``sqrt(2 accel_max |e|)``, ending on an exponential
-    approach of time constant ``approach_time``.
+    :meth:`GainSchedule.vertical_speed_bounds`), an acceleration of at most ``accel_max``
+    reached in ``jerk_time``, and brakes on a square-root profile ending in an exponential
+    approach (see :meth:`DepthController._govern`).
     """
 
     margin: float = 0.9
@@ -544,11 +544,12 @@ class DepthController:
     def _govern(self, op: OperatingPoint, u: float, z_cmd: float) -> tuple[float, float, float]:
         """Advance the governed reference one sample: new ``(z_r, v_r, a_r)``.
 
-        ``v_r`` heads for the braking profile ``sign(e) (sqrt(2 a_max |e| + (a_max T_a)^2)
-        - a_max T_a)`` (``e = z_cmd - z_r``; ``~ |e| / T_a`` near the target, decelerating at
-        most ``a_max``), clipped to the vertical speeds whose steady climb/dive respects
-        the pitch and BAR limits; its rate ``a_r`` is limited to ``+-accel_max`` and to what
-        the remaining BAR can sustain as pitch rate ``q = dtheta_dv a_r``.
+        ``v_r`` heads for the braking profile ``sign(e) (sqrt(2 a_max |e| + (a_max c)^2)
+        - a_max c)`` with ``c = T_a + jerk_time / 2`` (``e = z_cmd - z_r``; ``~ |e| / c`` near
+        the target, decelerating at most ``a_max``), clipped to the vertical speeds whose
+        steady climb/dive respects the pitch and BAR limits; its rate ``a_r`` is limited to
+        ``+-accel_max``, to what the BAR share can sustain as pitch rate
+        ``q = dtheta_dv a_r``, and changes by at most ``accel_max / jerk_time`` per second.
         """
         settings, lim, ts = self.governor, self.limits, self.Ts
         assert self._z_r is not None
