@@ -544,7 +544,8 @@ def fit_equation(system: LinearSystem, base: VehicleParams,
         g = As * resid[:, None]
         for i, (m, tau_i) in enumerate(taus):
             sel = system.record_index == i
-            lag_i = int(min(m // 4, math.ceil(3.0 * tau_i)))
+            tau_g = max([tau_i] + [correlation_time(g[sel, j]) for j in range(p)])
+            lag_i = int(min(m // 4, math.ceil(3.0 * tau_g)))
             lags = max(lags, lag_i)
             meat += _hac_meat(g[sel], lag_i)
         cov_s = xtx_inv @ meat @ xtx_inv * (n / dof)

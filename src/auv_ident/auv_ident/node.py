@@ -1,0 +1,292 @@
+"""The identification node (``ros2 run auv_ident identifier``, ``auv ident-node``).
+
+Subscribes to ``/auv/state``, ``/auv/hydrodynamic_forces`` (optional: without it the forces
+are reconstructed from the motion) and the actuator commands ``/auv/bar_command``,
+``/auv/helm_command``, ``/auv/thrust_command`` (reliable, deep queues), stores every message's
+fields in growing numpy buffers keyed by the message *header stamp* (not the arrival time),
+and on request (service ``~/identify``, std_srvs/Trigger) and on shutdown runs the same
+identification as ``auv ident`` (:func:`auv_ident.cli.identify_and_report`), writing the same
+outputs into the ``out`` directory. Fed the messages of a bag, it gives the offline command's
+coefficients. With ``estimate_period > 0`` it publishes the running estimate as JSON
+(std_msgs/String on ``~/estimate``) every so many seconds.
+
+Parameters: ``base`` (vehicle file), ``out`` (output directory), ``source``
+(auto|forces|motion), ``fit_c0``, ``bounds``, ``errors`` (hac|ess|iid), ``equations``
+(list; empty: all), ``window`` [s], ``estimate_period`` [s], ``qos_depth`` (messages).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import signal
+import sys
+from collections.abc import Sequence
+from types import FrameType
+from typing import Any
+
+import numpy as np
+
+from auv_ident.errors import IdentError
+from auv_ident.identify import EQUATIONS, ERROR_METHODS
+from auv_ident.motion import (COMMAND_TOPICS, FORCE_FIELDS, FORCES_TOPIC, SOURCES, STATE_FIELDS,
+                              STATE_TOPIC, WINDOW_S, records_from_topics)
+
+NODE_NAME = 'identifier'
+
+
+class ColumnBuffer:
+    """A growing float64 table (rows x named columns) with amortised doubling, no per-sample
+    Python objects kept."""
+
+    def __init__(self, names: Sequence[str], capacity: int = 4096) -> None:
+        self.names = tuple(names)
+        self._data = np.empty((max(16, capacity), len(self.names)))
+        self.size = 0
+
+    def append(self, row: Sequence[float]) -> None:
+        """Add one row (same order as ``names``)."""
+        if self.size == len(self._data):
+            grown = np.empty((2 * len(self._data), len(self.names)))
+            grown[:self.size] = self._data[:self.size]
+            self._data = grown
+        self._data[self.size] = row
+        self.size += 1
+
+    def array(self) -> np.ndarray:
+        """The rows so far as a structured array (float64 fields ``names``), a copy."""
+        dtype = np.dtype([(n, '<f8') for n in self.names])
+        return np.ascontiguousarray(self._data[:self.size]).view(dtype).reshape(self.size)
+
+
+def stamp_seconds(stamp: Any) -> float:
+    """Header stamp as seconds, computed as the bag reader does (``sec + nanosec * 1e-9``)."""
+    return float(np.float64(stamp.sec) + np.float64(stamp.nanosec) * 1e-9)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``auv ident-node`` (each sets the ROS parameter of the same name)."""
+    parser.add_argument('--base', default=None, help='vehicle file (default: config/a18m.yaml)')
+    parser.add_argument('--out', default='out/ident', help='output directory')
+    parser.add_argument('--source', choices=SOURCES, default='auto')
+    parser.add_argument('--fit-c0', action='store_true')
+    parser.add_argument('--bounds', action='store_true')
+    parser.add_argument('--errors', choices=ERROR_METHODS, default='hac')
+    parser.add_argument('--equations', nargs='+', choices=list(EQUATIONS), default=[])
+    parser.add_argument('--window', type=float, default=WINDOW_S)
+    parser.add_argument('--estimate-period', type=float, default=0.0,
+                        help='publish the running estimate every S seconds (0: never)')
+    parser.add_argument('--qos-depth', type=int, default=10000)
+
+
+def _make_node(overrides: dict[str, Any]) -> Any:
+    """Build the rclpy node (imports rclpy here: the rest of the package never does)."""
+    from rcl_interfaces.msg import SetParametersResult
+    from rclpy.node import Node
+    from rclpy.parameter import Parameter
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import String
+    from std_srvs.srv import Trigger
+
+    from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
+    from auv_ident.cli import DEFAULT_BASE, identify_and_report
+    from auv_sim.params import load_vehicle
+
+    class IdentifierNode(Node):  # type: ignore[misc]
+        """Accumulates the topics and identifies on request (see module docstring)."""
+
+        def __init__(self) -> None:
+            super().__init__(NODE_NAME, parameter_overrides=[
+                Parameter(k, value=v) for k, v in overrides.items()])
+            self.declare_parameter('base', str(DEFAULT_BASE))
+            self.declare_parameter('out', 'out/ident')
+            self.declare_parameter('source', 'auto')
+            self.declare_parameter('fit_c0', False)
+            self.declare_parameter('bounds', False)
+            self.declare_parameter('errors', 'hac')
+            self.declare_parameter('equations', [''])
+            self.declare_parameter('window', WINDOW_S)
+            self.declare_parameter('estimate_period', 0.0)
+            self.declare_parameter('qos_depth', 10000)
+            names = ('source', 'errors', 'equations', 'window', 'estimate_period', 'qos_depth')
+            problem = self._check({n: self.get_parameter(n).value for n in names})
+            if problem:
+                raise IdentError(problem)
+            self.add_on_set_parameters_callback(self._on_set)
+            self.base = load_vehicle(self.get_parameter('base').value)
+            self.state = ColumnBuffer(('t', *STATE_FIELDS))
+            self.forces = ColumnBuffer(('t', *FORCE_FIELDS))
+            self.commands = {topic: ColumnBuffer(('t', 'value')) for topic in
+                             COMMAND_TOPICS.values()}
+            qos = QoSProfile(depth=int(self.get_parameter('qos_depth').value),
+                             reliability=ReliabilityPolicy.RELIABLE,
+                             history=HistoryPolicy.KEEP_LAST)
+            self.create_subscription(VehicleState, STATE_TOPIC, self._on_state, qos)
+            self.create_subscription(HydrodynamicForces, FORCES_TOPIC, self._on_forces, qos)
+            for topic, buf in self.commands.items():
+                self.create_subscription(ActuatorSetpoint, topic,
+                                         lambda msg, buf=buf: buf.append(
+                                             (stamp_seconds(msg.header.stamp), msg.value)),
+                                         qos)
+            self.create_service(Trigger, '~/identify', self._on_identify)
+            self.estimate_pub = self.create_publisher(String, '~/estimate', 10)
+            period = float(self.get_parameter('estimate_period').value)
+            if period > 0:
+                self.create_timer(period, self._publish_estimate)
+            self._string = String
+            self._identify_and_report = identify_and_report
+
+        @staticmethod
+        def _check(values: dict[str, Any]) -> str | None:
+            if values.get('source', 'auto') not in SOURCES:
+                return f'parameter source must be one of {SOURCES}, got {values["source"]!r}'
+            if values.get('errors', 'hac') not in ERROR_METHODS:
+                return f'parameter errors must be one of {ERROR_METHODS}'
+            for eq in values.get('equations', ['']) or []:
+                if eq and eq not in EQUATIONS:
+                    return f'parameter equations: unknown equation {eq!r}'
+            window = values.get('window', WINDOW_S)
+            if not (isinstance(window, float) and math.isfinite(window) and window > 0):
+                return f'parameter window must be > 0 s, got {window!r}'
+            period = values.get('estimate_period', 0.0)
+            if not (isinstance(period, float) and math.isfinite(period) and period >= 0):
+                return f'parameter estimate_period must be >= 0 s, got {period!r}'
+            if int(values.get('qos_depth', 1)) < 1:
+                return 'parameter qos_depth must be >= 1'
+            return None
+
+        def _on_set(self, params: list[Any]) -> Any:
+            problem = self._check({p.name: p.value for p in params})
+            return SetParametersResult(successful=problem is None, reason=problem or '')
+
+        def _on_state(self, msg: Any) -> None:
+            self.state.append((stamp_seconds(msg.header.stamp), msg.x, msg.y, msg.z, msg.phi,
+                               msg.theta, msg.psi, msg.u, msg.v, msg.w, msg.p, msg.q, msg.r))
+
+        def _on_forces(self, msg: Any) -> None:
+            f, m = msg.hydrodynamic.force, msg.hydrodynamic.torque
+            self.forces.append((stamp_seconds(msg.header.stamp), f.x, f.y, f.z, m.x, m.y, m.z))
+
+        def arrays(self) -> dict[str, np.ndarray]:
+            """Topic arrays as the bag reader gives them (topics with messages only)."""
+            out = {STATE_TOPIC: self.state.array()}
+            if self.forces.size:
+                out[FORCES_TOPIC] = self.forces.array()
+            for topic, buf in self.commands.items():
+                if buf.size:
+                    out[topic] = buf.array()
+            return out
+
+        def identify(self, nelder_mead: bool = True) -> dict[str, Any]:
+            """Identify from everything received; writes the outputs; returns a summary."""
+            p = {k: self.get_parameter(k).value for k in
+                 ('out', 'source', 'fit_c0', 'bounds', 'errors', 'equations', 'window')}
+            equations = [e for e in (p['equations'] or []) if e] or None
+            records = records_from_topics(self.arrays(), self.base, p['source'],
+                                          name='live', window_s=p['window'])
+            result, files = self._identify_and_report(
+                records, self.base, p['out'], ['live topics'], fit_c0=p['fit_c0'],
+                bounds=p['bounds'], errors=p['errors'], equations=equations,
+                nelder_mead=nelder_mead,
+                progress=lambda text: self.get_logger().info(text))
+            return {'source': result.source, 'files': files,
+                    'coefficients': {n: {'value': c.value, 'std_error': c.std_error,
+                                         'ci95': list(c.ci95)}
+                                     for n, c in result.coefficients.items()},
+                    'samples': {STATE_TOPIC: self.state.size, FORCES_TOPIC: self.forces.size}}
+
+        def _on_identify(self, request: Any, response: Any) -> Any:
+            try:
+                response.message = json.dumps(self.identify())
+                response.success = True
+            except (IdentError, ValueError) as exc:
+                response.success = False
+                response.message = f'error: {exc}'
+                self.get_logger().error(response.message)
+            return response
+
+        def _publish_estimate(self) -> None:
+            if self.state.size < 100:
+                return
+            try:
+                p = {k: self.get_parameter(k).value for k in
+                     ('source', 'fit_c0', 'errors', 'equations', 'window')}
+                from auv_ident.identify import identify
+                equations = [e for e in (p['equations'] or []) if e] or None
+                records = records_from_topics(self.arrays(), self.base, p['source'],
+                                              name='live', window_s=p['window'])
+                result = identify(records, self.base, equations=equations,
+                                  fit_offsets=p['fit_c0'], errors=p['errors'])
+                text = json.dumps({'t': float(self.state.array()['t'][-1]),
+                                   'coefficients': {n: [c.value, c.std_error] for n, c in
+                                                    result.coefficients.items()}})
+            except (IdentError, ValueError) as exc:
+                text = json.dumps({'error': str(exc)})
+            self.estimate_pub.publish(self._string(data=text))
+
+    return IdentifierNode()
+
+
+def run(args: argparse.Namespace, ros_args: Sequence[str] | None = None) -> int:
+    """Run the node until SIGINT/SIGTERM; then identify once more and write the outputs."""
+    import rclpy
+    from rclpy.signals import SignalHandlerOptions
+
+    overrides: dict[str, Any] = {'out': args.out, 'source': args.source,
+                                 'fit_c0': bool(args.fit_c0), 'bounds': bool(args.bounds),
+                                 'errors': args.errors,
+                                 'equations': list(args.equations) or [''],
+                                 'window': float(args.window),
+                                 'estimate_period': float(args.estimate_period),
+                                 'qos_depth': int(args.qos_depth)}
+    if args.base:
+        overrides['base'] = args.base
+    stop = {'signal': 0}
+
+    def on_signal(signum: int, _frame: FrameType | None) -> None:
+        stop['signal'] = signum
+
+    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    rclpy.init(args=['--ros-args', *ros_args] if ros_args else None,
+               signal_handler_options=SignalHandlerOptions.NO)
+    status = 0
+    try:
+        node = _make_node(overrides)
+        node.get_logger().info('identifier ready: call ~/identify (std_srvs/Trigger)')
+        while not stop['signal'] and rclpy.ok():
+            rclpy.spin_once(node, timeout_sec=0.1)
+        if node.state.size:
+            try:
+                summary = node.identify()
+                node.get_logger().info(f'identified on shutdown: {summary["files"]}')
+            except (IdentError, ValueError) as exc:
+                print(f'error: {exc}', file=sys.stderr)
+                status = 1
+        node.destroy_node()
+    finally:
+        if rclpy.ok():
+            rclpy.shutdown()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    return status
+
+
+def main() -> None:
+    """``ros2 run auv_ident identifier [options] [--ros-args ...]``."""
+    argv = sys.argv[1:]
+    ros_args: list[str] = []
+    if '--ros-args' in argv:
+        i = argv.index('--ros-args')
+        argv, ros_args = argv[:i], argv[i + 1:]
+    parser = argparse.ArgumentParser(prog='identifier', description=__doc__.splitlines()[0])
+    add_arguments(parser)
+    args = parser.parse_args(argv)
+    try:
+        sys.exit(run(args, ros_args))
+    except (IdentError, ValueError) as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        sys.exit(1)
+
+
+if __name__ == '__main__':
+    main()
