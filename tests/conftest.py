@@ -15,10 +15,10 @@ A18M = ROOT / 'config' / 'a18m.yaml'
 
 
 @pytest.fixture
-def ros_env(worker_id: str = 'main') -> dict[str, str]:
-    """Environment for a test's ROS processes: a domain id of its own, localhost discovery."""
+def ros_env(_isolate_this_process: None) -> dict[str, str]:
+    """Environment for a test's ROS processes: the test's own domain id (the same as the
+    test process's participants), localhost discovery."""
     env = dict(os.environ)
-    env['ROS_DOMAIN_ID'] = str(ros_domain_id())
     env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
     env['RMW_IMPLEMENTATION'] = 'rmw_fastrtps_cpp'
     env['PYTHONUNBUFFERED'] = '1'

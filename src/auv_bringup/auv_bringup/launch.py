@@ -85,6 +85,7 @@ class GraphConfig:
     pilot_rate: float = 10.0
     weights: str = 'default'
     log_dir: str | None = None
+    depth_command: float | None = None  # published (and delivered) before the simulator starts
 
 
 def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
@@ -128,6 +129,18 @@ def wait_for_file(path: pathlib.Path, proc: NodeProcess, deadline: float) -> Non
     raise LaunchError(f'{proc.name} not ready within {deadline} s')
 
 
+def send_depth_command(z: float, env: dict[str, str], timeout: float = 20.0) -> None:
+    """Publish a depth command [m] with ``auv depth`` and wait until it is delivered."""
+    try:
+        proc = subprocess.run([sys.executable, '-m', 'auv_bringup.cli', 'depth', str(z),
+                               '--timeout', str(timeout)], env=env, capture_output=True,
+                              text=True, timeout=timeout + 10.0)
+    except subprocess.TimeoutExpired:
+        raise LaunchError(f'depth command {z} m not delivered within {timeout} s') from None
+    if proc.returncode != 0:
+        raise LaunchError(f'depth command {z} m failed: {proc.stderr.strip()}')
+
+
 def run_graph(cfg: GraphConfig, duration: float | None = None,
               env: dict[str, str] | None = None, settle: float = 1.5) -> dict[str, int | None]:
     """Start the graph, wait for the simulator to finish (or ``duration`` wall s, or a
@@ -149,6 +162,8 @@ def run_graph(cfg: GraphConfig, duration: float | None = None,
             if not node.running():
                 raise LaunchError(f'{node.name} failed to start'
                                   + (f'; see {node.log_path}' if node.log_path else ''))
+            if node.name == 'pilot' and cfg.depth_command is not None:
+                send_depth_command(cfg.depth_command, env)
         sim = nodes[-1]
         end = time.monotonic() + duration if duration else None
         while not stop_requested and sim.running():
@@ -188,13 +203,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--no-pilot', action='store_true', help='do not start the depth pilot')
     parser.add_argument('--record', default=None, help='record the topics to this bag directory')
     parser.add_argument('--log-dir', default=None, help='write each node\'s output here')
+    parser.add_argument('--depth', type=float, default=None,
+                        help='depth command [m] delivered to the pilot before the simulator '
+                             'starts (for deterministic lockstep runs)')
 
 
 def run(args: argparse.Namespace) -> int:
     cfg = GraphConfig(vehicle=args.vehicle, effects=args.effects, lockstep=args.lockstep,
                       real_time_factor=args.real_time_factor, initial_depth=args.initial_depth,
                       initial_speed=args.initial_speed, stop_time=args.stop_time,
-                      pilot=not args.no_pilot, record=args.record, log_dir=args.log_dir)
+                      pilot=not args.no_pilot, record=args.record, log_dir=args.log_dir,
+                      depth_command=args.depth)
     codes = run_graph(cfg, duration=args.duration)
     bad = {k: v for k, v in codes.items() if v not in (0, None, -2, 130)}
     if bad:

@@ -142,12 +142,13 @@ class DepthPilotNode(Node):
     def _publish(self, stamp: Any, t: float) -> None:
         bar, status = self.pilot.command(t)
         if status != self._reported:
-            log = self.get_logger().info if status == 'ok' else self.get_logger().warning
-            text = {'ok': 'state received: depth control active',
-                    'stale': f'no state for more than {self.pilot.settings.state_timeout} s: '
-                             f'publishing safe BAR {self.pilot.settings.safe_bar:.3f} rad',
-                    'no_state': 'no state yet: publishing safe BAR'}.get(status, status)
-            log(text)
+            if status == 'ok':
+                self.get_logger().info('state received: depth control active')
+            else:
+                text = {'stale': f'no state for more than {self.pilot.settings.state_timeout}'
+                                 f' s: publishing safe BAR {self.pilot.settings.safe_bar:.3f} rad',
+                        'no_state': 'no state yet: publishing safe BAR'}.get(status, status)
+                self.get_logger().warning(text)
             self._reported = status
         out = ActuatorSetpoint()
         out.header.stamp = stamp
