@@ -1,0 +1,356 @@
+"""The sim-to-real gap diagnosis: where the nominal model departs from a log, and which
+catalogue effect (or combination) explains it, scored on held-out windows.
+
+Steps (see :func:`diagnose`):
+
+1. Nominal free runs over all windows and their noise floor (a Monte Carlo over the
+   initial-state uncertainty plus the sensor noise); channels whose RMS exceeds the floor by
+   ``GAP_FACTOR`` carry a gap. No such channel: ``no_gap``.
+2. Equation error of the nominal model; where the gap lies (:mod:`auv_ident.gap.analysis`).
+3. Every catalogue effect fitted by equation error on the training windows, scored by free
+   run on the held-out windows; the ``top`` best refined by free-run error and scored again.
+4. Combinations, greedily: the best set plus each other top effect, refitted jointly, kept
+   while the held-out score improves.
+5. Verdict from the held-out share of the gap explained and from the candidates the
+   held-out windows cannot tell from the best.
+
+Score: ``ln(J_nominal / J_candidate) - PARAM_PRICE * k`` with ``J`` the held-out free-run
+cost (mean over samples of the squared channel errors over their scales) and ``k`` the number
+of identified parameters: a parameter must buy a PARAM_PRICE share of the held-out cost.
+``explained = (J_nominal - J) / (J_nominal - J_floor)``, clipped to [0, 1].
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from auv_ident.errors import GapError
+from auv_ident.gap import analysis
+from auv_ident.gap.catalogue import CATALOGUE, Perturbation, get_effect, separating_manoeuvre
+from auv_ident.gap.fit import EquationFit, FitResult, FreeRunFit
+from auv_ident.gap.logs import GapLog
+from auv_ident.gap.problem import CH_INDEX, CH_NAMES, EQUATIONS, EffectSet, Problem
+from auv_sim.params import VehicleParams
+
+GAP_FACTOR = analysis.GAP_FACTOR
+PARAM_PRICE = 0.05
+EXPLAINED = 0.8          # explained share of the held-out gap for "explained"
+PARTLY = 0.3             # ... for "partly_explained"
+AMBIGUOUS_RATIO = 1.25   # held-out cost within this factor of the best ...
+AMBIGUOUS_T = 2.0        # ... and not worse by this many standard errors over the windows
+MC_RUNS = 4
+
+Progress = Callable[[str], None]
+
+
+@dataclasses.dataclass
+class Candidate:
+    """A fitted effect set and its held-out scores."""
+
+    fit: FitResult
+    cost: float                 # held-out free-run cost J
+    window_cost: np.ndarray     # J per held-out window
+    rms: dict[str, float]       # held-out free-run RMS per state of CH_NAMES
+    score: float = -math.inf
+    explained: float = 0.0
+
+    @property
+    def label(self) -> str:
+        """Effect name, or names joined with '+'."""
+        return self.fit.effects.label
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Effect names."""
+        return self.fit.effects.names
+
+
+@dataclasses.dataclass
+class Diagnosis:
+    """The outcome: ``report`` (the report.json contract), ``details`` (everything else the
+    readable report shows) and arrays for plots in ``plots``."""
+
+    report: dict[str, Any]
+    details: dict[str, Any]
+    plots: dict[str, Any]
+
+
+class _Scorer:
+    """Held-out free-run scoring against the nominal model."""
+
+    def __init__(self, pr: Problem, frf: FreeRunFit, nominal_cost: float, floor_cost: float
+                 ) -> None:
+        self.pr, self.frf = pr, frf
+        self.nominal_cost, self.floor_cost = nominal_cost, floor_cost
+        self.rows = pr.window_rows(frf.held)
+
+    def evaluate(self, fits: Sequence[FitResult]) -> list[Candidate]:
+        if not fits:
+            return []
+        perts = [f.effects.perturbation(f.values) for f in fits]
+        out, meas = self.pr.free_run(perts, self.frf.held)
+        res = []
+        for c, f in enumerate(fits):
+            err = (out[c][:, CH_INDEX] - meas[:, CH_INDEX]) / self.frf.scales
+            err = np.clip(np.where(np.isfinite(err), err, 1e3), -1e3, 1e3)
+            per_w = np.array([np.mean(np.sum(err[r][1:] ** 2, axis=1)) for r in self.rows])
+            cost = float(np.mean(np.sum(err[np.concatenate(
+                [np.arange(r.start + 1, r.stop) for r in self.rows])] ** 2, axis=1)))
+            phys = out[c][:, CH_INDEX] - meas[:, CH_INDEX]
+            phys = np.where(np.isfinite(phys), phys, 1e3)
+            rms = {n: float(np.sqrt(np.mean(phys[:, i] ** 2))) for i, n in enumerate(CH_NAMES)}
+            cand = Candidate(f, cost, per_w, rms)
+            cand.score = self.score(cost, f.n_active)
+            gap = self.nominal_cost - self.floor_cost
+            cand.explained = float(np.clip((self.nominal_cost - cost) / gap, 0.0, 1.0)) \
+                if gap > 0 else 0.0
+            res.append(cand)
+        return res
+
+    def score(self, cost: float, k: int) -> float:
+        return float(math.log(self.nominal_cost / max(cost, 1e-12)) - PARAM_PRICE * k)
+
+
+def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 60.0,
+             held_out_logs: Sequence[int] = (), effects: Sequence[str] | None = None,
+             top: int = 3, max_effects: int = 3, progress: Progress | None = None
+             ) -> Diagnosis:
+    """Diagnose the gap between ``vehicle`` (the nominal model) and ``logs``.
+
+    Args:
+        vehicle: nominal vehicle parameters.
+        logs: log pieces (:func:`auv_ident.gap.logs.load_bag`).
+        window: free-run window [s]; windows restart from the logged state.
+        held_out_logs: indices of logs held out whole; default every third window.
+        effects: catalogue effects to try (default: all registered).
+        top: effects refined by free-run error and tried in combinations.
+        max_effects: largest combination.
+        progress: called with a line of text at each stage.
+    """
+    say = progress or (lambda _msg: None)
+    names = list(effects) if effects is not None else list(CATALOGUE)
+    for n in names:
+        get_effect(n)
+    pr = Problem(vehicle, logs, window=window, held_out_logs=held_out_logs)
+    nom = Perturbation.nominal(vehicle)
+    all_w = pr.select(None)
+    say(f'nominal free runs over {len(all_w)} windows of {window:g} s')
+
+    # 1. nominal free run and its noise floor
+    rng = np.random.default_rng(12345)
+    x0_sd = pr.noise * pr.initial_gain
+    x0_noise = np.zeros((MC_RUNS + 1, len(all_w), 12))
+    x0_noise[1:] = rng.standard_normal((MC_RUNS, len(all_w), 12)) * x0_sd
+    out, meas = pr.free_run([nom] * (MC_RUNS + 1), all_w, x0_noise=x0_noise)
+    err_nom = out[0] - meas
+    finite = np.all(np.isfinite(err_nom[:, CH_INDEX]), axis=1)
+    if not finite.all():
+        say('the nominal free run diverges in some windows')
+    rms_nom = np.sqrt(np.nanmean(np.where(finite[:, None], err_nom, np.nan)[:, CH_INDEX] ** 2,
+                                 axis=0))
+    spread = np.sqrt(np.nanmean((out[1:] - out[0][None]) [:, :, CH_INDEX] ** 2, axis=(0, 1)))
+    out_b, _ = pr.free_run([nom], all_w, x0_bias=True)
+    bias_spread = np.sqrt(np.nanmean((out_b[0] - out[0])[:, CH_INDEX] ** 2, axis=0))
+    floor = np.sqrt((pr.noise[list(CH_INDEX)] * pr.smooth_gain) ** 2 + spread ** 2
+                    + bias_spread ** 2)
+    gap_channels = [CH_NAMES[i] for i in range(len(CH_INDEX)) if rms_nom[i] > GAP_FACTOR * floor[i]]
+    scales = np.maximum(rms_nom, floor)
+    rows_all = pr.window_rows(all_w)
+    rms_z_win = np.array([np.sqrt(np.nanmean(err_nom[r, 2] ** 2)) for r in rows_all])
+
+    # 2. equation error and where the gap lies
+    act_nom = pr.actuators(nom)
+    e_nom = pr.equation_error(nom, act_nom)
+    eq_rms = np.sqrt(np.mean(e_nom ** 2, axis=0))
+    dom = analysis.dominant_equation(eq_rms, pr.eq_sigma)
+    ratio = eq_rms / pr.eq_sigma
+    focus = EQUATIONS.index(dom) if dom else int(np.argmax(ratio))
+    residual = e_nom[:, focus]
+    bar_act = np.interp(pr.eq_fine, np.arange(act_nom.shape[0]), act_nom[:, 0])
+    band_hz, band_info = analysis.band(pr, residual, focus)
+    bar_cmd = np.concatenate([_held_at(lg.commands['bar'], pr.eq_t[pr.eq_log == li])
+                              for li, lg in enumerate(pr.logs)])
+    thr_cmd = np.concatenate([_held_at(lg.commands['thrust'], pr.eq_t[pr.eq_log == li])
+                              for li, lg in enumerate(pr.logs)])
+    bar_rate = np.concatenate([np.gradient(bar_cmd[pr.eq_log == li], pr.eq_t[pr.eq_log == li])
+                               for li in range(len(pr.logs))])
+    signals = {'bar_command_rate': bar_rate, 'bar_command': bar_cmd, 'thrust_command': thr_cmd,
+               'u': pr.eq_state[:, 6], 'w': pr.eq_state[:, 8], 'q': pr.eq_state[:, 10],
+               'z': pr.eq_state[:, 2], 'theta': pr.eq_state[:, 4]}
+    corr = analysis.correlations(pr, residual, signals)
+    gap = {
+        'free_run_rms': {n: float(rms_nom[CH_NAMES.index(n)])
+                         for n in ('z', 'theta', 'w', 'q', 'u')},
+        'equation_rms': {n: float(eq_rms[i]) for i, n in enumerate(EQUATIONS[:5])},
+        'dominant_equation': dom,
+        'segments': analysis.segments(pr, all_w, rms_z_win),
+        'regimes': {'equation': EQUATIONS[focus],
+                    **analysis.regimes(pr, residual, bar_act)},
+        'band_hz': band_hz,
+    }
+
+    # 3. candidates
+    frf = FreeRunFit(pr, scales)
+    held_rows = pr.window_rows(frf.held)
+    held_idx = np.concatenate([np.arange(r.start + 1, r.stop) for r in held_rows])
+    out_h, meas_h = pr.free_run([nom], frf.held)
+    err_h = (out_h[0][:, CH_INDEX] - meas_h[:, CH_INDEX]) / scales
+    err_h = np.clip(np.where(np.isfinite(err_h), err_h, 1e3), -1e3, 1e3)
+    nominal_cost = float(np.mean(np.sum(err_h[held_idx] ** 2, axis=1)))
+    floor_cost = float(np.sum((floor / scales) ** 2))
+    scorer = _Scorer(pr, frf, nominal_cost, floor_cost)
+    nominal_cand = scorer.evaluate([FitResult(EffectSet([], vehicle), np.zeros(0),
+                                              np.zeros(0, bool), np.zeros(0), np.zeros(0),
+                                              'nominal')])[0]
+    eqf = EquationFit(pr)
+    say(f'equation-error fits of {len(names)} effects')
+    singles_a = {n: eqf.fit(EffectSet([n], vehicle)) for n in names}
+    cands_a = {c.label: c for c in scorer.evaluate(list(singles_a.values()))}
+    order = sorted(names, key=lambda n: -cands_a[n].score)
+    order = [n for n in order if singles_a[n].n_active > 0] + \
+        [n for n in order if singles_a[n].n_active == 0]
+    refine = [n for n in order[:top] if singles_a[n].n_active > 0]
+    say(f'free-run refinement of {", ".join(refine)}')
+    singles: dict[str, Candidate] = dict(cands_a)
+    refined = scorer.evaluate([frf.fit(singles_a[n]) for n in refine])
+    for c in refined:
+        if c.score >= singles[c.label].score:
+            singles[c.label] = c
+    ranked_singles = sorted(singles.values(), key=lambda c: -c.score)
+    candidates: list[Candidate] = list(ranked_singles)
+
+    # 4. combinations: equation error ranks every addition, free run refines the best ones
+    best = ranked_singles[0]
+    pool = list(names)
+    while gap_channels and best.score > 0 and len(best.names) < max_effects:
+        base_cost = eqf.cost(best.fit.effects, best.fit.values, held_out=True)
+        ranked = []
+        for n in pool:
+            if n in best.names:
+                continue
+            es = EffectSet(best.names + (n,), vehicle)
+            start = np.concatenate([best.fit.values, singles_a[n].values])
+            fa = eqf.fit(es, start=start)
+            cost = eqf.cost(es, fa.values, held_out=True)
+            if cost < base_cost:
+                ranked.append((cost, fa))
+        ranked.sort(key=lambda item: item[0])
+        trials = [frf.fit(fa) for _, fa in ranked[:max(1, top - 1)]]
+        if not trials:
+            break
+        say(f'combinations: {", ".join(t.effects.label for t in trials)}')
+        evaluated = scorer.evaluate(trials)
+        candidates.extend(evaluated)
+        top_trial = max(evaluated, key=lambda c: c.score)
+        if top_trial.score <= best.score:
+            break
+        best = top_trial
+    candidates.sort(key=lambda c: -c.score)
+
+    # 5. verdict
+    verdict, ambiguous, suggestion = _verdict(gap_channels, best, candidates)
+    best_label = best.label if verdict != 'no_gap' and best.score > 0 else None
+    after = best if best_label else nominal_cand
+    held = {
+        'rms_before': {'z': nominal_cand.rms['z'], 'theta': nominal_cand.rms['theta']},
+        'rms_after': {'z': after.rms['z'], 'theta': after.rms['theta']},
+        'shrink': float(np.clip(1.0 - after.rms['z'] / nominal_cand.rms['z'], 0.0, 1.0))
+        if nominal_cand.rms['z'] > 0 else 0.0,
+    }
+    report = {
+        'verdict': verdict,
+        'gap': gap,
+        'candidates': [_candidate_entry(c) for c in candidates],
+        'best': best_label,
+        'ambiguous_with': ambiguous,
+        'suggested_manoeuvre': suggestion,
+        'held_out': held,
+    }
+    details = {
+        'logs': [{'name': lg.name, 't0': float(lg.t[0]), 'duration_s': lg.duration,
+                  'period_s': lg.period, 'notes': list(lg.notes)} for lg in pr.logs],
+        'windows': [dataclasses.asdict(w) for w in pr.windows],
+        'sensor_noise': dict(zip(('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p',
+                                  'q', 'r'), map(float, pr.noise))),
+        'free_run_floor': dict(zip(CH_NAMES, map(float, floor))),
+        'free_run_rms_all': dict(zip(CH_NAMES, map(float, rms_nom))),
+        'gap_channels': gap_channels,
+        'equation_sigma': dict(zip(EQUATIONS, map(float, pr.eq_sigma))),
+        'equation_rms_all': dict(zip(EQUATIONS, map(float, eq_rms))),
+        'correlation': [{k: v for k, v in c.items() if k not in ('curve', 'lags')}
+                        for c in corr],
+        'held_out_cost': {'nominal': nominal_cost, 'floor': floor_cost},
+        'candidates': [_candidate_details(c) for c in candidates],
+        'integration_step_s': pr.dt,
+        'window_s': window,
+    }
+    plots = {'problem': pr, 'best': best if best_label else None, 'nominal': nom,
+             'e_nom': e_nom, 'corr': corr, 'band': band_info, 'band_hz': band_hz,
+             'candidates': candidates, 'focus': EQUATIONS[focus]}
+    return Diagnosis(report, details, plots)
+
+
+def _held_at(cmd: tuple[np.ndarray, np.ndarray], t: np.ndarray) -> np.ndarray:
+    st, va = cmd
+    i = np.searchsorted(st, t, side='right') - 1
+    return va[np.clip(i, 0, va.size - 1)]
+
+
+def _verdict(gap_channels: list[str], best: Candidate, candidates: list[Candidate]
+             ) -> tuple[str, list[str], str | None]:
+    if not gap_channels:
+        return 'no_gap', [], None
+    if best.score <= 0 or best.explained < PARTLY:
+        return 'unexplained', [], None
+    verdict = 'explained' if best.explained >= EXPLAINED else 'partly_explained'
+    mine = set(best.names)
+    ambiguous: list[str] = []
+    for c in candidates:
+        s = set(c.names)
+        if s <= mine or s >= mine or c.cost > AMBIGUOUS_RATIO * best.cost:
+            continue
+        d = c.window_cost - best.window_cost
+        se = float(np.std(d, ddof=1) / np.sqrt(d.size)) if d.size > 1 else math.inf
+        t = float(np.mean(d) / se) if se > 0 else math.inf
+        if t < AMBIGUOUS_T:
+            for n in c.names:
+                if n not in mine and n not in ambiguous:
+                    ambiguous.append(n)
+    if ambiguous:
+        return 'ambiguous', ambiguous, separating_manoeuvre(best.names[0], ambiguous[0])
+    return verdict, [], None
+
+
+def _param_key(c: Candidate, effect: str, name: str) -> str:
+    return name if len(c.names) == 1 else f'{effect}.{name}'
+
+
+def _candidate_entry(c: Candidate) -> dict[str, Any]:
+    f = c.fit
+    params = {_param_key(c, e, p.name): float(v)
+              for (e, p), v in zip(f.effects.params, f.values)}
+    ci = {_param_key(c, e, p.name): [float(lo), float(hi)]
+          for (e, p), lo, hi in zip(f.effects.params, f.lo95, f.hi95)}
+    return {'effect': c.label, 'params': params, 'ci95': ci, 'score': float(c.score),
+            'explained': float(c.explained)}
+
+
+def _candidate_details(c: Candidate) -> dict[str, Any]:
+    f = c.fit
+    return {'effect': c.label, 'stage': f.stage,
+            'units': {_param_key(c, e, p.name): p.unit for e, p in f.effects.params},
+            'identified': {_param_key(c, e, p.name): bool(a)
+                           for (e, p), a in zip(f.effects.params, f.active)},
+            'held_out_cost': c.cost, 'held_out_rms': c.rms, 'n_params': f.n_active}
+
+
+def check_effects(names: Sequence[str]) -> None:
+    """GapError unless every name is a registered effect."""
+    for n in names:
+        get_effect(n)
+    if not names:
+        raise GapError('no effects to try')

@@ -1,0 +1,339 @@
+"""The data of one diagnosis prepared for fast model runs: windows, actuator series, the
+equation-error samples, and the model evaluated for any set of effects.
+
+Windows: every log piece is cut into windows of ``window`` seconds; a free run restarts at
+each window from the smoothed logged state (so a long log never drifts far from the data and
+every window is an independent run). Whole windows are held out to score the effects.
+"""
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+
+import numpy as np
+
+from scipy.signal import savgol_filter
+
+from auv_ident.errors import GapError
+from auv_ident.gap.catalogue import CATALOGUE, Parameter, Perturbation, get_effect
+from auv_ident.gap.kernel import actuator_series, equation_terms, free_run_batch
+from auv_ident.gap.logs import CHANNELS, GapLog, Smoothed, smooth
+from auv_sim.params import VehicleParams, mass_matrix
+
+#: Equations of the equation error: body wrench rows (surge, heave, pitch, sway, yaw) and the
+#: depth kinematics ``z_dot = -u s_th + v c_th s_ph + w c_th c_ph`` (m/s).
+EQUATIONS = ('surge', 'heave', 'pitch', 'sway', 'yaw', 'depth_kinematics')
+EQ_ROWS = (0, 2, 4, 1, 5)
+EQ_UNITS = ('N', 'N', 'N m', 'N', 'N m', 'm/s')
+#: States compared in free runs: z, theta, u, w, q, v, r (indices into the 12-state).
+CH_INDEX = (2, 4, 6, 8, 10, 7, 11)
+CH_NAMES = ('z', 'theta', 'u', 'w', 'q', 'v', 'r')
+
+
+@dataclasses.dataclass(frozen=True)
+class Window:
+    """``n`` samples of log piece ``log`` from sample ``i0``; ``held_out`` for scoring."""
+
+    log: int
+    i0: int
+    n: int
+    held_out: bool
+    t0: float
+    t1: float
+
+
+class EffectSet:
+    """Several catalogue effects as one model: parameters concatenated in effect order."""
+
+    def __init__(self, names: Sequence[str], vehicle: VehicleParams) -> None:
+        self.names = tuple(names)
+        self.effects = [get_effect(n) for n in self.names]
+        self.vehicle = vehicle
+        self.params: list[tuple[str, Parameter]] = [
+            (e.name, p) for e in self.effects for p in e.parameters(vehicle)]
+        self.absent = np.array([p.absent for _, p in self.params])
+        self.lo = np.array([p.lo for _, p in self.params])
+        self.hi = np.array([p.hi for _, p in self.params])
+        self.scale = np.array([p.scale for _, p in self.params])
+
+    @property
+    def label(self) -> str:
+        """``name`` or ``name1+name2``."""
+        return '+'.join(self.names)
+
+    def perturbation(self, values: np.ndarray) -> Perturbation:
+        """The model change for parameter ``values`` (all parameters, set order)."""
+        pert = Perturbation.nominal(self.vehicle)
+        k = 0
+        for e in self.effects:
+            n = len(e.parameters(self.vehicle))
+            e.apply(pert, np.asarray(values[k:k + n], dtype=np.float64), self.vehicle)
+            k += n
+        return pert
+
+
+class Problem:
+    """Logs, windows and the model of one vehicle, ready for free runs and equation errors.
+
+    Args:
+        vehicle: the nominal model.
+        logs: log pieces (see :mod:`auv_ident.gap.logs`).
+        window: free-run window length [s].
+        held_out_logs: indices of logs held out entirely; if empty, every third window
+            (the 2nd, 5th, ...) is held out.
+        eq_period: spacing of equation-error samples [s].
+        smooth_window: Savitzky-Golay window [s] for states and derivatives.
+        cost_period: spacing of the free-run samples compared with the log [s].
+        max_step: largest integration step of the vehicle [s]; the actuators are integrated
+            apart on a finer grid, so the step only has to resolve the vehicle's own motion.
+    """
+
+    def __init__(self, vehicle: VehicleParams, logs: Sequence[GapLog], window: float = 60.0,
+                 held_out_logs: Sequence[int] = (), eq_period: float = 0.5,
+                 smooth_window: float = 1.0, cost_period: float = 0.2,
+                 max_step: float = 0.05) -> None:
+        if not logs:
+            raise GapError('no logs to diagnose')
+        if not window > 0:
+            raise GapError(f'window must be > 0 s, got {window}')
+        self.vehicle = vehicle
+        self.logs = list(logs)
+        self.P = vehicle.as_array()
+        self.M = mass_matrix(vehicle)
+        periods = np.array([lg.period for lg in self.logs])
+        if np.ptp(periods) > 1e-6 * periods.max():
+            raise GapError('all logs must have the same state sample period '
+                           f'(got {sorted(set(np.round(periods, 6)))} s)')
+        self.period = float(periods[0])
+        # free runs output every ``m`` log samples, each output interval ``sub`` RK4 steps
+        if self.period <= max_step:
+            self.m, self.sub = max(1, int(np.floor(max_step / self.period + 1e-9))), 1
+        else:
+            self.m, self.sub = 1, int(np.ceil(self.period / max_step - 1e-9))
+        self.dt = self.m * self.period / self.sub
+        self.h = self.dt / 2.0
+        self.smoothed: list[Smoothed] = [smooth(lg, smooth_window) for lg in self.logs]
+        # initial states of free runs: a wider smoother (the initial pitch error is what
+        # a free run integrates longest)
+        wide = [smooth(lg, 2.0 * smooth_window) for lg in self.logs]
+        self.initial = [s.state for s in wide]
+        self.initial_gain = wide[0].smooth_gain
+        # the smoother's bias at the window starts, estimated by smoothing twice
+        self.initial_bias = [s.state - savgol_filter(s.state, s.length, 3, axis=0,
+                                                     mode='interp') for s in wide]
+        self.smooth_window = smooth_window
+        self.noise = np.median(np.array([s.noise for s in self.smoothed]), axis=0)
+        self.deriv_gain = float(np.median([s.deriv_gain for s in self.smoothed]))
+        self.smooth_gain = float(np.median([s.smooth_gain for s in self.smoothed]))
+        # fine actuator grids, one per log, concatenated
+        self.fine_n = [((lg.t.size - 1) // self.m) * self.sub * 2 + 1 for lg in self.logs]
+        self.fine_off = np.r_[0, np.cumsum(self.fine_n)[:-1]].astype(np.int64)
+        self.windows = self._windows(window, held_out_logs)
+        if not any(w.held_out for w in self.windows) or all(w.held_out for w in self.windows):
+            raise GapError('the logs are too short to hold out whole windows: need at least '
+                           f'two windows of {window:g} s')
+        self.cost_every = max(1, int(round(cost_period / (self.m * self.period))))
+        self._eq_taps: tuple[np.ndarray, ...] | None = None
+        self._act_cache: dict[bytes, np.ndarray] = {}
+        self._eq_act_cache: dict[bytes, np.ndarray] = {}
+        self._eq_samples(eq_period, smooth_window)
+
+    # -- windows -----------------------------------------------------------------------------
+    def _windows(self, window: float, held_out_logs: Sequence[int]) -> list[Window]:
+        wins: list[Window] = []
+        nwin = max(2, int(round(window / (self.period * self.m)))) * self.m
+        k = 0
+        for li, lg in enumerate(self.logs):
+            n = lg.t.size
+            last = ((n - 1) // self.m) * self.m  # last sample on the output grid
+            starts = list(range(0, last, nwin))
+            if len(starts) > 1 and last - starts[-1] < nwin // 2:
+                starts.pop()
+            for j, i0 in enumerate(starts):
+                i1 = starts[j + 1] + 1 if j + 1 < len(starts) else last + 1
+                held = (li in held_out_logs) if held_out_logs else (k % 3 == 1)
+                wins.append(Window(li, i0, i1 - i0, held, float(lg.t[i0]),
+                                   float(lg.t[i1 - 1])))
+                k += 1
+        return wins
+
+    def select(self, held_out: bool | None) -> list[int]:
+        """Indices of the held-out (True), training (False) or all (None) windows."""
+        return [i for i, w in enumerate(self.windows) if held_out is None or w.held_out == held_out]
+
+    # -- actuators ---------------------------------------------------------------------------
+    def actuators(self, pert: Perturbation) -> np.ndarray:
+        """Actuator positions (F x 3) on the fine grids of all logs for ``pert`` (cached:
+        do not modify the result)."""
+        key = np.concatenate([pert.delay, pert.tau, pert.rate]).tobytes()
+        hit = self._act_cache.get(key)
+        if hit is not None:
+            return hit
+        out = np.empty((int(sum(self.fine_n)), 3))
+        v = self.vehicle
+        lims = ((-v.bar_max, v.bar_max), (-v.helm_max, v.helm_max),
+                (v.thrust_min, v.thrust_max))
+        for li, lg in enumerate(self.logs):
+            a, n = int(self.fine_off[li]), self.fine_n[li]
+            for c, ch in enumerate(CHANNELS):
+                st, va = lg.commands[ch]
+                lo, hi = lims[c]
+                a0 = min(max(float(va[0]), lo), hi)
+                out[a:a + n, c] = actuator_series(
+                    float(lg.t[0]), self.h, n, st, va, float(pert.delay[c]), float(pert.tau[c]),
+                    float(pert.rate[c]), lo, hi, a0)
+        if len(self._act_cache) > 8:
+            self._act_cache.clear()
+        self._act_cache[key] = out
+        return out
+
+    # -- free runs ---------------------------------------------------------------------------
+    def free_run(self, perts: Sequence[Perturbation], windows: Sequence[int],
+                 x0_noise: np.ndarray | None = None, x0_bias: bool = False
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted measurements (nc x S x 12) of each model over ``windows``, and the
+        log (S x 12) smoothed over ``smooth_window`` (white sensor noise removed, which no
+        model can explain); rows are the windows' outputs, concatenated.
+
+        ``x0_noise`` (nc x nw x 12) is added to the initial states (Monte Carlo of the
+        initial-state uncertainty); ``x0_bias`` adds the smoother's estimated bias.
+        """
+        nc, nw = len(perts), len(windows)
+        wins = [self.windows[i] for i in windows]
+        nsamp = np.array([self.outputs(w) for w in wins], dtype=np.int64)
+        out_base = np.r_[0, np.cumsum(nsamp)[:-1]].astype(np.int64)
+        fine_base = np.array([self.fine_off[w.log] + (w.i0 // self.m) * self.sub * 2
+                              for w in wins], dtype=np.int64)
+        act = np.empty((nc, int(sum(self.fine_n)), 3))
+        X0 = np.zeros((nc, nw, 15))
+        cur = np.empty((nc, 3))
+        C = np.empty((nc,) + perts[0].C.shape)
+        for c, pert in enumerate(perts):
+            act[c] = self.actuators(pert)
+            cur[c] = pert.current
+            C[c] = pert.C
+            for k, w in enumerate(wins):
+                X0[c, k, :12] = self.initial[w.log][w.i0] - pert.bias
+                if x0_bias:
+                    X0[c, k, :12] += self.initial_bias[w.log][w.i0]
+                X0[c, k, 12:] = act[c, fine_base[k]]
+        if x0_noise is not None:
+            X0[:, :, :12] += x0_noise
+        out = np.empty((nc, int(nsamp.sum()), 12))
+        free_run_batch(self.P, X0, act, fine_base, nsamp, out_base, cur, C, self.dt, self.sub,
+                       out)
+        for c, pert in enumerate(perts):
+            out[c] += pert.bias
+        meas = np.concatenate([self.smoothed[w.log].state[w.i0:w.i0 + w.n:self.m]
+                               for w in wins])
+        return out, meas
+
+    def outputs(self, w: Window) -> int:
+        """Number of free-run outputs of window ``w`` (every ``m``-th log sample)."""
+        return (w.n - 1) // self.m + 1
+
+    def output_times(self, windows: Sequence[int]) -> np.ndarray:
+        """Log times [s] of the rows of :meth:`free_run`."""
+        return np.concatenate([self.logs[self.windows[i].log].t[
+            self.windows[i].i0:self.windows[i].i0 + self.windows[i].n:self.m] for i in windows])
+
+    def window_rows(self, windows: Sequence[int]) -> list[slice]:
+        """Row slices of each window in the arrays of :meth:`free_run`."""
+        rows, a = [], 0
+        for i in windows:
+            n = self.outputs(self.windows[i])
+            rows.append(slice(a, a + n))
+            a += n
+        return rows
+
+    # -- equation error ----------------------------------------------------------------------
+    def _eq_samples(self, eq_period: float, smooth_window: float) -> None:
+        every = max(1, int(round(eq_period / self.period)))
+        edge = int(round(0.5 * smooth_window / self.period)) + 1
+        idx, logi, win = [], [], []
+        for wi, w in enumerate(self.windows):
+            lg = self.logs[w.log]
+            lo = max(w.i0, edge)
+            hi = min(w.i0 + w.n - 1, lg.t.size - edge)
+            if wi + 1 < len(self.windows) and self.windows[wi + 1].log == w.log:
+                hi = min(hi, self.windows[wi + 1].i0)
+            ii = np.arange(lo + (-lo) % every, hi, every)
+            idx.append(ii)
+            logi.append(np.full(ii.size, w.log))
+            win.append(np.full(ii.size, wi))
+        self.eq_index = np.concatenate(idx).astype(np.int64)
+        self.eq_log = np.concatenate(logi).astype(np.int64)
+        self.eq_window = np.concatenate(win).astype(np.int64)
+        self.eq_held = np.array([self.windows[w].held_out for w in self.eq_window])
+        xs = np.empty((self.eq_index.size, 12))
+        xd = np.empty((self.eq_index.size, 12))
+        tt = np.empty(self.eq_index.size)
+        fine = np.empty(self.eq_index.size)
+        for li, sm in enumerate(self.smoothed):
+            m = self.eq_log == li
+            xs[m] = sm.state[self.eq_index[m]]
+            xd[m] = sm.rate[self.eq_index[m]]
+            tt[m] = self.logs[li].t[self.eq_index[m]]
+            fine[m] = self.fine_off[li] + self.eq_index[m] * (self.sub * 2.0 / self.m)
+        self.eq_t, self.eq_state, self.eq_rate, self.eq_fine = tt, xs, xd, fine
+        # noise of each equation: velocity noise through the derivative filter and M
+        sd = self.noise[6:12] * self.deriv_gain
+        sig = np.sqrt((self.M ** 2) @ (sd ** 2))
+        sz = np.hypot(self.noise[2] * self.deriv_gain, self.noise[8] * self.smooth_gain)
+        self.eq_sigma = np.array([sig[r] for r in EQ_ROWS] + [sz])
+
+    def equation_error(self, pert: Perturbation, act: np.ndarray | None = None) -> np.ndarray:
+        """Equation error (n x 6) at the equation samples: ``M (nu_dot + omega x nu_c) -
+        tau`` for surge, heave, pitch, sway, yaw [N, N m] and the depth-kinematics error
+        [m/s], with the states corrected for the sensor biases of ``pert``."""
+        if act is None:
+            act = self.actuators(pert)
+        X = np.empty((self.eq_index.size, 15))
+        X[:, :12] = self.eq_state - pert.bias
+        key = np.concatenate([pert.delay, pert.tau, pert.rate]).tobytes()
+        eq_act = self._eq_act_cache.get(key)
+        if eq_act is None:
+            eq_act = self._smoothed_actuators(act)
+            if len(self._eq_act_cache) > 8:
+                self._eq_act_cache.clear()
+            self._eq_act_cache[key] = eq_act
+        X[:, 12:] = eq_act
+        tau, oxc = equation_terms(X, pert.current, pert.C, self.P)
+        acc = self.eq_rate[:, 6:12].copy()
+        acc[:, :3] += oxc
+        lhs = acc @ self.M.T
+        e = np.empty((X.shape[0], 6))
+        for k, r in enumerate(EQ_ROWS):
+            e[:, k] = lhs[:, r] - tau[:, r]
+        th, ph = X[:, 4], X[:, 3]
+        zdot = (-X[:, 6] * np.sin(th) + X[:, 7] * np.cos(th) * np.sin(ph)
+                + X[:, 8] * np.cos(th) * np.cos(ph))
+        e[:, 5] = self.eq_rate[:, 2] - zdot
+        return e
+
+
+    def _smoothed_actuators(self, act: np.ndarray) -> np.ndarray:
+        """Actuator positions at the equation samples, smoothed by the same filter as the
+        logged velocities (both sides of the equation see the same low-pass)."""
+        if self._eq_taps is None:
+            n = self.smoothed[0].length
+            imp = np.zeros(n)
+            imp[n // 2] = 1.0
+            taps = savgol_filter(imp, n, 3, mode='interp')[::-1]
+            offs = np.arange(n) - n // 2
+            stride = 2 * self.sub / self.m  # fine points per log sample
+            pos = (self.fine_off[self.eq_log][:, None]
+                   + (self.eq_index[:, None] + offs[None, :]) * stride)
+            j0 = np.clip(np.floor(pos).astype(np.int64), 0, act.shape[0] - 1)
+            self._eq_taps = (taps, j0, np.minimum(j0 + 1, act.shape[0] - 1), pos - j0)
+        taps, j0, j1, frac = self._eq_taps
+        out = np.empty((self.eq_index.size, 3))
+        for c in range(3):
+            a = act[:, c]
+            out[:, c] = ((a[j0] * (1.0 - frac) + a[j1] * frac) @ taps)
+        return out
+
+
+def known_effects() -> list[str]:
+    """Names of the registered effects."""
+    return list(CATALOGUE)
