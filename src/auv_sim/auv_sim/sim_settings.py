@@ -1,0 +1,219 @@
+"""Settings and simulated-time grid of the simulator node, as pure code (no rclpy).
+
+The node (:mod:`auv_sim.node`) declares one ROS parameter per field of :class:`SimSettings`;
+this module validates them, resolves the vehicle and effects files, builds the initial state
+and the :class:`~auv_sim.simulator.Simulator`, and does the integer arithmetic of the time
+grid: simulated time is ``t_k = k dt`` with ``k`` the integration-step counter, and a stamp is
+``k * dt_ns`` integer nanoseconds, never a float product, so stamps never drift and two
+parties compare them exactly.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import pathlib
+from typing import Any
+
+import numpy as np
+
+from auv_sim.environment import Environment, load_environment
+from auv_sim.errors import ParameterError, TrimError
+from auv_sim.params import VehicleParams, load_vehicle
+from auv_sim.simulator import Simulator, initial_state
+from auv_sim.trim import VerticalPlane
+
+#: Repository root when running from the source tree (src/auv_sim/auv_sim/ -> root).
+SOURCE_ROOT = pathlib.Path(__file__).resolve().parents[3]
+NS_PER_S = 1_000_000_000
+_GRID_TOL = 1e-6  # relative tolerance for "a whole number of steps" checks
+
+
+@dataclasses.dataclass(frozen=True)
+class SimSettings:
+    """The simulator node's parameters (SI units; angles in rad; NED/FRD conventions).
+
+    ``dt = 0`` takes the vehicle file's step; ``real_time_factor = 0`` runs as fast as
+    possible; the initial state is trimmed (:meth:`VerticalPlane.trim`) at ``initial_speed``
+    and ``initial_depth`` when ``initial_trim`` (``initial_pitch`` must then stay 0: the trim
+    sets it), else it is ``z, u, theta, psi`` as given with planes at 0 and no thrust.
+    Wall-clock durations (``lockstep_timeout``, ``lockstep_startup_timeout``) are in wall
+    seconds; everything else is simulated time.
+    """
+
+    vehicle_file: str = 'config/a18m.yaml'
+    effects_file: str = ''
+    publish_rate: float = 50.0          # Hz of simulated time
+    dt: float = 0.0                     # s, RK4 step; 0: the vehicle file's
+    real_time_factor: float = 1.0       # simulated s per wall s; 0: as fast as possible
+    use_sim_clock: bool = True          # publish /clock and stamp on simulated time
+    initial_trim: bool = True
+    initial_depth: float = 40.0         # m, NED z (positive down)
+    initial_speed: float = 2.0          # m/s, body FRD surge
+    initial_pitch: float = 0.0          # rad, positive nose up (only without initial_trim)
+    initial_heading: float = 0.0        # rad, NED yaw (0 north, pi/2 east)
+    lockstep: bool = False
+    control_period: float = 0.1         # s of simulated time between control instants
+    lockstep_timeout: float = 1.0       # wall s to wait for a control instant's command
+    lockstep_startup_timeout: float = 30.0  # wall s to wait for the pilot to connect
+
+    def replace(self, **changes: Any) -> SimSettings:
+        """A copy with some fields changed (not validated; see :func:`check_settings`)."""
+        return dataclasses.replace(self, **changes)
+
+
+FLOAT_FIELDS = tuple(f.name for f in dataclasses.fields(SimSettings) if f.type == 'float')
+BOOL_FIELDS = tuple(f.name for f in dataclasses.fields(SimSettings) if f.type == 'bool')
+STR_FIELDS = tuple(f.name for f in dataclasses.fields(SimSettings) if f.type == 'str')
+#: Fields the running node accepts changes of; the others need a restart.
+RUNTIME_FIELDS = ('publish_rate', 'real_time_factor', 'lockstep_timeout')
+
+
+def whole_steps(duration: float, dt: float, what: str) -> int:
+    """``duration / dt`` as an integer >= 1, or ParameterError if it is not a whole number."""
+    n = round(duration / dt)
+    if n < 1 or abs(n * dt - duration) > _GRID_TOL * max(duration, dt):
+        raise ParameterError(f'{what} = {duration:.9g} s must be a whole multiple of the '
+                             f'integration step dt = {dt:.9g} s')
+    return int(n)
+
+
+def step_ns(dt: float) -> int:
+    """The step ``dt`` [s] in integer nanoseconds; ParameterError if it is not a whole ns."""
+    ns = round(dt * NS_PER_S)
+    if ns < 1 or abs(ns - dt * NS_PER_S) > 1e-3:
+        raise ParameterError(f'dt = {dt!r} s must be a whole number of nanoseconds')
+    return int(ns)
+
+
+def check_settings(s: SimSettings, vehicle_dt: float | None = None) -> None:
+    """Range and consistency checks of ``s``; ParameterError naming the parameter.
+
+    With ``vehicle_dt`` [s] (the vehicle file's step, used when ``s.dt == 0``) the time grid is
+    checked too: whole-nanosecond step, publish and control periods whole numbers of steps.
+    """
+    for name in FLOAT_FIELDS:
+        value = getattr(s, name)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ParameterError(f'parameter {name} = {value!r} must be a number')
+        if not math.isfinite(value):
+            raise ParameterError(f'parameter {name} = {value} must be finite')
+    for name in BOOL_FIELDS:
+        if not isinstance(getattr(s, name), bool):
+            raise ParameterError(f'parameter {name} = {getattr(s, name)!r} must be a bool')
+    for name in STR_FIELDS:
+        if not isinstance(getattr(s, name), str):
+            raise ParameterError(f'parameter {name} = {getattr(s, name)!r} must be a string')
+    positive = ('publish_rate', 'control_period', 'lockstep_timeout',
+                'lockstep_startup_timeout')
+    for name in positive:
+        if getattr(s, name) <= 0.0:
+            raise ParameterError(f'parameter {name} = {getattr(s, name)} must be > 0')
+    for name in ('dt', 'real_time_factor', 'initial_depth'):
+        if getattr(s, name) < 0.0:
+            raise ParameterError(f'parameter {name} = {getattr(s, name)} must be >= 0')
+    if not s.vehicle_file:
+        raise ParameterError('parameter vehicle_file must name a vehicle file')
+    if abs(s.initial_pitch) >= math.pi / 2:
+        raise ParameterError(f'parameter initial_pitch = {s.initial_pitch} rad must be within '
+                             f'(-pi/2, pi/2)')
+    if s.initial_trim and s.initial_pitch != 0.0:
+        raise ParameterError('parameter initial_pitch is set by the trim; give it only with '
+                             'initial_trim:=false')
+    if s.initial_trim and s.initial_speed <= 0.0:
+        raise ParameterError(f'parameter initial_speed = {s.initial_speed} m/s: a trimmed start '
+                             f'needs a forward speed > 0 (or initial_trim:=false)')
+    if not s.use_sim_clock and s.real_time_factor == 0.0:
+        raise ParameterError('real_time_factor = 0 (as fast as possible) needs '
+                             'use_sim_clock:=true: wall-clock stamps would be meaningless')
+    if not s.use_sim_clock and s.lockstep:
+        raise ParameterError('lockstep needs use_sim_clock:=true (commands are matched to '
+                             'simulated-time stamps)')
+    if vehicle_dt is not None:
+        dt = s.dt or vehicle_dt
+        step_ns(dt)
+        whole_steps(1.0 / s.publish_rate, dt, 'publish period 1/publish_rate')
+        if s.lockstep:
+            whole_steps(s.control_period, dt, 'control_period')
+
+
+def resolve_file(name: str, what: str) -> pathlib.Path:
+    """Find a file given absolute, or relative to the working directory, ``$AUV_ROOT`` or
+    the source tree's root, in that order; ParameterError listing where it looked."""
+    path = pathlib.Path(name).expanduser()
+    if path.is_absolute():
+        candidates = [path]
+    else:
+        roots = [pathlib.Path.cwd()]
+        if os.environ.get('AUV_ROOT'):
+            roots.append(pathlib.Path(os.environ['AUV_ROOT']))
+        roots.append(SOURCE_ROOT)
+        candidates = list(dict.fromkeys(root / path for root in roots))
+    for candidate in candidates:
+        if candidate.is_file():
+            return candidate
+    raise ParameterError(f'{what} {name!r} not found (looked in: '
+                         f'{", ".join(str(c) for c in candidates)})')
+
+
+@dataclasses.dataclass(frozen=True)
+class SimSetup:
+    """What the node runs: parameters, environment, initial state and the time grid.
+
+    ``dt_ns`` is the step in integer ns; ``steps_per_publish`` and ``steps_per_control``
+    the publish and control periods in steps (``t_k = k dt``, stamp ``k dt_ns``).
+    """
+
+    settings: SimSettings
+    params: VehicleParams
+    environment: Environment
+    x0: np.ndarray
+    dt: float
+    dt_ns: int
+    steps_per_publish: int
+    steps_per_control: int
+
+    def simulator(self) -> Simulator:
+        """A fresh :class:`Simulator` at the initial state (what the node drives)."""
+        return Simulator(self.params, self.environment, x0=self.x0, dt=self.dt)
+
+    def stamp_ns(self, k: int) -> int:
+        """Stamp of step ``k`` [ns]: ``k dt_ns`` (exact)."""
+        return k * self.dt_ns
+
+
+def build_setup(s: SimSettings) -> SimSetup:
+    """Validate ``s``, load the files and trim: everything the node needs to start.
+
+    Raises ParameterError (bad parameter or file) with one line naming what is wrong.
+    """
+    check_settings(s)
+    params = load_vehicle(resolve_file(s.vehicle_file, 'vehicle_file'))
+    environment = (load_environment(resolve_file(s.effects_file, 'effects_file'))
+                   if s.effects_file else Environment())
+    check_settings(s, vehicle_dt=params.dt)
+    if not params.depth_min <= s.initial_depth <= params.depth_max:
+        raise ParameterError(
+            f'parameter initial_depth = {s.initial_depth} m outside the vehicle envelope '
+            f'[{params.depth_min}, {params.depth_max}] m of {params.path}')
+    if s.initial_trim:
+        try:
+            trim = VerticalPlane(params).trim(s.initial_speed, z=s.initial_depth)
+        except TrimError as exc:
+            raise ParameterError(f'initial state: {exc}') from None
+        x0 = trim.state()
+        x0[5] = s.initial_heading
+    else:
+        x0 = initial_state(z=s.initial_depth, u=s.initial_speed, theta=s.initial_pitch,
+                           psi=s.initial_heading)
+    dt = s.dt or params.dt
+    return SimSetup(settings=s, params=params, environment=environment, x0=x0, dt=dt,
+                    dt_ns=step_ns(dt),
+                    steps_per_publish=whole_steps(1.0 / s.publish_rate, dt, 'publish period'),
+                    steps_per_control=whole_steps(s.control_period, dt, 'control_period')
+                    if s.lockstep else 0)
+
+
+def next_multiple(k: int, n: int) -> int:
+    """The smallest multiple of ``n`` strictly greater than ``k`` (steps)."""
+    return (k // n + 1) * n
