@@ -9,7 +9,9 @@ doublets; the trim w changing with speed keeps w and q apart, correlation about 
 CNur. CYuv, CYur and CNuv are not: in a turn v and r keep a nearly fixed ratio (regressor
 correlation 0.999 even with the pseudo-random helm), so only the short transients separate
 them, and the sway force is small beside the (m - Yvdot) v_dot noise; their intervals (about
-+-20 %, +-6 % and +-6 %) still cover the true values.
++-20 %, +-6 % and +-6 %) still cover the true values. A 40-seed Monte Carlo of the same runs
+gives coverage of the 95 % intervals of 100 % (Ksh, CZuw, CZuq, CYuv, CYur), 95 % (CMuw),
+92.5 % (CMuq) and 90 % (CNuv, CNur); the noise seeds here are 0, 1, 2 (surge, pitch, yaw).
 """
 from __future__ import annotations
 
@@ -20,6 +22,7 @@ import pathlib
 import shutil
 import subprocess
 import sys
+from typing import Any
 
 import numpy as np
 import pytest
@@ -46,13 +49,13 @@ def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, pathlib.Path]:
         rec = run_mission(params, load_mission(name))
         write_record(root / name, rec, forces=True)
         write_record(root / f'{name}_real', rec, forces=False, noise=SensorNoise.realistic(),
-                     seed=100 + i)
+                     seed=i)
         out[name] = root / name
         out[f'{name}_real'] = root / f'{name}_real'
     return out
 
 
-def ident(bag_paths: list[pathlib.Path], out: pathlib.Path, *extra: str) -> dict:  # type: ignore[type-arg]
+def ident(bag_paths: list[pathlib.Path], out: pathlib.Path, *extra: str) -> dict[str, Any]:
     parser = argparse.ArgumentParser()
     cli.add_arguments(parser)
     args = parser.parse_args([*map(str, bag_paths), '--out', str(out), *extra])

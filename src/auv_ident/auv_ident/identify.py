@@ -4,7 +4,8 @@ Every regression of the report is linear in its coefficients. With the hydrodyna
 ``tau_H`` (body FRD, about the body origin; N and N m) and the velocities through the water
 ``nu = (u, v, w, p, q, r)`` (body FRD; m/s, rad/s), ``qs = 1/2 rho S_ref`` and ``L = L_ref``::
 
-    surge  X = -Ksh qs C_XF(Re) u|u|,  C_XF = 0.075 / (log10(Re) - 2)^2,  Re = max(|u| L / nu_w, 1e5)
+    surge  X = -Ksh qs C_XF(Re) u|u|,  C_XF = 0.075 / (log10(Re) - 2)^2,
+                                        Re = max(|u| L / nu_w, 1e5)
     heave  Z = qs   (CZ0 u|u| + CZuw u w + CZuq L u q)
     pitch  M = qs L (CM0 u|u| + CMuw u w + CMuq L u q)
     sway   Y = qs   (CYuv u v + CYur L u r)
@@ -48,7 +49,9 @@ from auv_sim.params import VehicleParams
 AXES = ('X', 'Y', 'Z', 'K', 'M', 'N')
 #: Velocity components (index into ``nu``).
 NU_NAMES = ('u', 'v', 'w', 'p', 'q', 'r')
-ERROR_METHODS = ('hac', 'ess', 'iid')
+ERROR_METHODS = ('hac', 'jackknife', 'ess', 'iid')
+#: Contiguous blocks of the delete-a-block jackknife.
+JACKKNIFE_BLOCKS = 40
 #: Column-scaled condition number above which an equation is declared not identifiable.
 COND_MAX = 1.0e3
 
@@ -313,9 +316,13 @@ def build_system(records: Sequence[ForceRecord], equation: Equation, base: Vehic
             # instruments: the filtered regressors one window before and after (noise-free
             # parts only: their noise windows do not overlap those of row t)
             lag = len(rec.kernel)
-            inst = np.full((len(meas), len(names)), np.nan)
-            inst[lag:-lag] = 0.5 * (stacked[:-2 * lag, :len(names)]
-                                    + stacked[2 * lag:, :len(names)])
+            k = len(names)
+            inst = np.full((len(meas), 2 * k), np.nan)
+            if len(meas) > 4 * lag:
+                inst[2 * lag:-2 * lag, :k] = 0.5 * (stacked[lag:-3 * lag, :k]
+                                                    + stacked[3 * lag:-lag, :k])
+                inst[2 * lag:-2 * lag, k:] = 0.5 * (stacked[:-4 * lag, :k]
+                                                    + stacked[4 * lag:, :k])
             ok &= np.all(np.isfinite(inst), axis=1)
             parts_z.append(inst[ok])
         a = stacked[ok, :len(names)]
@@ -506,6 +513,26 @@ def _hac_meat(g: np.ndarray, lags: int) -> np.ndarray:
     return S
 
 
+def _block_jackknife(design: np.ndarray, regressors: np.ndarray, b: np.ndarray,
+                     blocks: int = JACKKNIFE_BLOCKS) -> tuple[np.ndarray, int]:
+    """Delete-a-block jackknife covariance of ``theta = (D'A)^-1 D'b`` (D: design, A:
+    regressors; D = A for least squares, the instrument projection for two-stage LS) over
+    contiguous blocks of rows; returns it and the number of blocks."""
+    n, p = design.shape
+    blocks = int(max(2, min(blocks, n // max(10 * p, 1))))
+    edges = np.linspace(0, n, blocks + 1).astype(int)
+    G = design.T @ regressors
+    h = design.T @ b
+    thetas = np.empty((blocks, p))
+    for k in range(blocks):
+        sl = slice(edges[k], edges[k + 1])
+        Gb = G - design[sl].T @ regressors[sl]
+        hb = h - design[sl].T @ b[sl]
+        thetas[k] = np.linalg.solve(Gb, hb)
+    dev = thetas - thetas.mean(axis=0)
+    return (blocks - 1.0) / blocks * (dev.T @ dev), blocks
+
+
 def fit_equation(system: LinearSystem, base: VehicleParams,
                  bounds: Mapping[str, tuple[float, float]] | None = None,
                  errors: str = 'hac', check: bool = True) -> EquationFit:
@@ -532,17 +559,21 @@ def fit_equation(system: LinearSystem, base: VehicleParams,
         sel = system.record_index == i
         if np.count_nonzero(sel) > 3:
             tau_i = correlation_time(resid[sel])
-            taus.append((np.count_nonzero(sel), tau_i))
-    n_eff = sum(m / t for m, t in taus) if taus else float(n)
+            taus.append((i, np.count_nonzero(sel), tau_i))
+    n_eff = sum(m / t for _, m, t in taus) if taus else float(n)
+    tdof = n_eff - p
     if errors == 'iid':
         cov_s = sigma2 * xtx_inv
         n_eff = float(n)
     elif errors == 'ess':
         cov_s = sigma2 * xtx_inv * (n / n_eff)
+    elif errors == 'jackknife':
+        cov_s, blocks = _block_jackknife(As, system.regressors / scale, b)
+        tdof = blocks - 1.0
     else:
         meat = np.zeros((p, p))
         g = As * resid[:, None]
-        for i, (m, tau_i) in enumerate(taus):
+        for i, m, tau_i in taus:
             sel = system.record_index == i
             tau_g = max([tau_i] + [correlation_time(g[sel, j]) for j in range(p)])
             lag_i = int(min(m // 4, math.ceil(3.0 * tau_g)))
@@ -553,7 +584,7 @@ def fit_equation(system: LinearSystem, base: VehicleParams,
         cov_s = np.where(np.eye(p, dtype=bool), np.maximum(cov_s, sigma2 * xtx_inv), cov_s)
     cov = cov_s / np.outer(scale, scale)
     se = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    tq = float(stats.t.ppf(0.975, max(n_eff - p, 1.0)))
+    tq = float(stats.t.ppf(0.975, max(tdof, 1.0)))
     d = np.sqrt(np.diag(cov_s))
     corr = cov_s / np.outer(d, d) if np.all(d > 0) else np.eye(p)
     cond, _ = _conditioning(A)

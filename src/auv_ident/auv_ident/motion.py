@@ -91,7 +91,8 @@ def segments(t: np.ndarray, tolerance: float = 0.25) -> list[slice]:
 
 
 @njit(cache=True)
-def _integrate_actuators(x0, ev_step, ev_channel, ev_value, cmd0, P, dt, nsteps):  # type: ignore[no-untyped-def]  # noqa: E501
+def _integrate_actuators(x0, ev_step, ev_channel, ev_value,  # type: ignore[no-untyped-def]
+                         cmd0, P, dt, nsteps):
     """Actuator positions (nsteps+1, 3) on the grid ``k dt`` by the simulator's RK4 with
     :func:`auv_sim.model.actuator_rates`; command events take effect at their step."""
     out = np.empty((nsteps + 1, 3))
@@ -253,8 +254,9 @@ def records_from_topics(arrays: Mapping[str, np.ndarray], params: VehicleParams,
     source = choose_source(set(arrays), source)
     for topic in needed_topics(source):
         if topic not in arrays:
+            what = 'the force topic' if source == 'forces' else 'motion'
             raise IdentificationError(f'{name}: topic {topic} is missing (needed for forces '
-                                      f'from {"the force topic" if source == "forces" else "motion"})')
+                                      f'from {what})')
     st = arrays[STATE_TOPIC]
     if len(st) < 2:
         raise IdentificationError(f'{name}: topic {STATE_TOPIC} has {len(st)} message(s)')

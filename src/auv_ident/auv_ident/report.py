@@ -111,13 +111,16 @@ def _fmt(x: float, digits: int = 5) -> str:
 def markdown(result: Identification, doc: Mapping[str, Any], figures: Mapping[str, str],
              nelder_mead: Mapping[str, Mapping[str, Any]] | None) -> str:
     """The readable report (Markdown)."""
+    offsets = 'fitted' if result.fit_offsets else 'fixed at the base values (as the report)'
+    bounds = ', '.join(f'{k} in [{v[0]:g}, {v[1]:g}]' for k, v in result.bounds.items())
+    bounds = bounds or 'none'
     lines = [f'# Identified hydrodynamic coefficients: {result.base.name}', '',
              f'- Bags: {", ".join(doc["bags"])}',
              f'- Base vehicle: `{result.base.path}`',
              f'- Force source: {SOURCE_TEXT[result.source]}',
              f'- Standard errors: {doc["errors_text"]}',
-             f'- CZ0 and CM0: {"fitted" if result.fit_offsets else "fixed at the base values (as the report)"}',
-             f'- Bounds: {", ".join(f"{k} in [{v[0]:g}, {v[1]:g}]" for k, v in result.bounds.items()) or "none"}',
+             f'- CZ0 and CM0: {offsets}',
+             f'- Bounds: {bounds}',
              '', 'Each equation is linear in its coefficients, so its sum of squares is a '
              'quadratic form with a single minimum, solved exactly by linear least squares. ',
              '']
@@ -156,7 +159,8 @@ def markdown(result: Identification, doc: Mapping[str, Any], figures: Mapping[st
             for i in range(len(cn)) for j in range(i + 1, len(cn))))
     if nelder_mead:
         lines += ['', '## Bounded Nelder-Mead on the same data (the report\'s method)', '',
-                  '| equation | coefficients | least squares | Nelder-Mead | max rel. difference |',
+                  '| equation | coefficients | least squares | Nelder-Mead '
+                  '| max rel. difference |',
                   '| --- | --- | --- | --- | ---: |']
         for name, cmp in nelder_mead.items():
             lines.append(f'| {name} | {", ".join(cmp["names"])} | '

@@ -16,18 +16,18 @@ from auv_ident.motion import actuator_positions, consistent_kernel, reconstruct
 from auv_sim.environment import Environment
 from auv_sim.missions import load_mission, run_mission
 from auv_sim.model import wrench_series
-from auv_sim.params import load_vehicle
+from auv_sim.params import VehicleParams, load_vehicle
 
 A18M = pathlib.Path(__file__).resolve().parents[3] / 'config' / 'a18m.yaml'
 DT = 0.02
 
 
 @pytest.fixture(scope='module')
-def base():  # type: ignore[no-untyped-def]
+def base() -> VehicleParams:
     return load_vehicle(A18M)
 
 
-def synthetic(base, n: int = 20000, pitch: bool = True, yaw: bool = True,  # type: ignore[no-untyped-def]
+def synthetic(base: VehicleParams, n: int = 20000, pitch: bool = True, yaw: bool = True,
               noise: float = 0.0, seed: int = 0, collinear: bool = False) -> ForceRecord:
     """Velocities with independent excitation; forces from the model's own hydrodynamic row."""
     t = DT * np.arange(n)
@@ -46,7 +46,7 @@ def synthetic(base, n: int = 20000, pitch: bool = True, yaw: bool = True,  # typ
     return ForceRecord('synthetic', t, nu, tau)
 
 
-def test_least_squares_recovers_the_model_coefficients_exactly(base) -> None:  # type: ignore[no-untyped-def]
+def test_least_squares_recovers_the_model_coefficients_exactly(base: VehicleParams) -> None:
     result = identify([synthetic(base)], base, fit_offsets=True)
     for name, c in result.coefficients.items():
         assert c.value == pytest.approx(base.values[name], rel=1e-9), name
@@ -54,24 +54,24 @@ def test_least_squares_recovers_the_model_coefficients_exactly(base) -> None:  #
     assert result.params.CZuq == pytest.approx(base.CZuq, rel=1e-9)
 
 
-def test_no_pitch_excitation_names_the_coefficient_and_the_manoeuvre(base) -> None:  # type: ignore[no-untyped-def]
+def test_no_pitch_excitation_names_the_coefficient_and_the_manoeuvre(base: VehicleParams) -> None:
     with pytest.raises(NotIdentifiableError,
                        match=r'^CZuq: pitch rate q never varies by more than 0 deg/s .*'
                              r'fly the pitch mission \(plane doublets\)$'):
         identify([synthetic(base, pitch=False)], base, equations=['heave'])
 
 
-def test_no_yaw_excitation_is_an_error(base) -> None:  # type: ignore[no-untyped-def]
+def test_no_yaw_excitation_is_an_error(base: VehicleParams) -> None:
     with pytest.raises(NotIdentifiableError, match=r'^CYuv: sway velocity v .*yaw'):
         identify([synthetic(base, yaw=False)], base, equations=['sway'])
 
 
-def test_collinear_regressors_are_not_identifiable(base) -> None:  # type: ignore[no-untyped-def]
+def test_collinear_regressors_are_not_identifiable(base: VehicleParams) -> None:
     with pytest.raises(NotIdentifiableError, match=r'CZuw and CZuq cannot be told apart'):
         identify([synthetic(base, collinear=True)], base, equations=['heave'])
 
 
-def test_out_of_order_stamps_are_an_error(base) -> None:  # type: ignore[no-untyped-def]
+def test_out_of_order_stamps_are_an_error(base: VehicleParams) -> None:
     rec = synthetic(base, n=2000)
     t = rec.t.copy()
     t[100], t[101] = t[101], t[100]
@@ -80,7 +80,8 @@ def test_out_of_order_stamps_are_an_error(base) -> None:  # type: ignore[no-unty
 
 
 @pytest.mark.parametrize('equation', list(EQUATIONS))
-def test_bounded_nelder_mead_finds_the_least_squares_solution(base, equation: str) -> None:  # type: ignore[no-untyped-def]
+def test_bounded_nelder_mead_finds_the_least_squares_solution(base: VehicleParams,
+                                                              equation: str) -> None:
     system = build_system([synthetic(base, noise=5.0, seed=3)], EQUATIONS[equation], base, True)
     theta, _ = solve(system)
     start = [0.5 * base.values[n] for n in system.names]  # a poor start, as a prior would be
@@ -89,7 +90,7 @@ def test_bounded_nelder_mead_finds_the_least_squares_solution(base, equation: st
     assert system.sum_of_squares(nm) <= system.sum_of_squares(theta) * (1 + 1e-12)
 
 
-def test_active_bound_agrees_with_nelder_mead(base) -> None:  # type: ignore[no-untyped-def]
+def test_active_bound_agrees_with_nelder_mead(base: VehicleParams) -> None:
     system = build_system([synthetic(base, noise=5.0)], EQUATIONS['heave'], base, False)
     bounds = {'CZuw': (-10.0, -3.2)}  # excludes the true -3.105
     theta, at_bound = solve(system, bounds)
@@ -98,7 +99,7 @@ def test_active_bound_agrees_with_nelder_mead(base) -> None:  # type: ignore[no-
     np.testing.assert_allclose(nm, theta, rtol=1e-6)
 
 
-def test_autocorrelated_residuals_widen_the_interval(base) -> None:  # type: ignore[no-untyped-def]
+def test_autocorrelated_residuals_widen_the_interval(base: VehicleParams) -> None:
     rec = synthetic(base)
     rng = np.random.default_rng(5)
     e = np.zeros(len(rec.t))
@@ -129,7 +130,7 @@ def test_savgol_derivative_is_the_consistent_kernel_of_the_derivative() -> None:
     np.testing.assert_allclose(sg[m:-m], filt[m:-m], atol=2e-4)  # trapezoid rule at 50 Hz
 
 
-def test_actuators_are_reconstructed_exactly_from_the_commands(base) -> None:  # type: ignore[no-untyped-def]
+def test_actuators_are_reconstructed_exactly_from_the_commands(base: VehicleParams) -> None:
     rec = run_mission(base, load_mission('pitch'))
     cmds = {}
     for j, ch in enumerate(('bar', 'helm', 'thrust')):
@@ -139,7 +140,7 @@ def test_actuators_are_reconstructed_exactly_from_the_commands(base) -> None:  #
     np.testing.assert_allclose(pos, rec.x[:, 12:15], rtol=0, atol=1e-12)
 
 
-def test_forces_from_motion_match_the_filtered_true_forces(base) -> None:  # type: ignore[no-untyped-def]
+def test_forces_from_motion_match_the_filtered_true_forces(base: VehicleParams) -> None:
     rec = run_mission(base, load_mission('pitch'))
     cmds = {}
     for j, ch in enumerate(('bar', 'helm', 'thrust')):
