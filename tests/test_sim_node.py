@@ -1,0 +1,204 @@
+"""The simulator node in its own process, over DDS: commands in, state as the offline model says.
+
+The test process plays the depth pilot's side of the lockstep protocol (see auv_sim.node): it
+answers every state stamped at a control instant with a BAR command carrying that stamp. The
+run is then deterministic, so the node's states must equal an offline Simulator driven with the
+same commands at the same instants, exactly. Two of the answers are invalid (NaN, beyond the
+plane limit): the node must log their rejection and keep the last valid command, which the
+exact comparison checks.
+"""
+from __future__ import annotations
+
+import math
+import pathlib
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+import rclpy
+from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
+from nav_msgs.msg import Odometry
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+from rosgraph_msgs.msg import Clock
+
+from auv_sim import frames
+from auv_sim.node import stamp_from_ns, stamp_to_ns
+from auv_sim.sim_settings import SimSettings, build_setup
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+CONTROL_PERIOD = 0.1      # s
+T_END = 12.0              # s of simulated time compared
+NS = 1_000_000_000
+QOS = QoSProfile(depth=200, reliability=ReliabilityPolicy.RELIABLE)
+
+
+def bar_schedule(t: float, trim_bar: float) -> float:
+    """The BAR command [rad] the test answers at control instant t [s] (two invalid ones)."""
+    if abs(t - 2.0) < 1e-9:
+        return math.nan                  # rejected: not finite
+    if abs(t - 3.0) < 1e-9:
+        return 1.0                       # rejected: beyond bar_max = 0.4363 rad
+    if t < 1.0 - 1e-9:
+        return trim_bar
+    if t < 6.0 - 1e-9:
+        return trim_bar + 0.15           # planes trailing edge down -> nose down, dives
+    return trim_bar - 0.10
+
+
+def offline(settings: SimSettings, t_end: float) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """Measured state (15) and wrenches (4 x 6) at every publish instant [ns], offline."""
+    setup = build_setup(settings)
+    sim = setup.simulator()
+    trim_bar = float(setup.x0[12])
+    out: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    lo, hi = sim.limits('bar')
+    while sim.t <= t_end + 1e-9:
+        k = sim.k
+        out[setup.stamp_ns(k)] = (sim.measured_state(), sim.wrenches())
+        if k % setup.steps_per_control == 0:
+            value = bar_schedule(k * setup.dt, trim_bar)
+            if math.isfinite(value) and lo <= value <= hi:   # what the node keeps
+                sim.command('bar', value)
+        sim.step(setup.steps_per_publish)
+    return out
+
+
+@pytest.fixture
+def rclpy_context(ros_env: dict[str, str]) -> Iterator[tuple[Context, dict[str, str]]]:
+    context = Context()
+    rclpy.init(context=context, domain_id=int(ros_env['ROS_DOMAIN_ID']),
+               signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        yield context, ros_env
+    finally:
+        context.try_shutdown()
+
+
+def start_node(env: dict[str, str], args: list[str], log: pathlib.Path) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, '-m', 'auv_sim.node', *args], cwd=ROOT, env=env,
+                            stdout=subprocess.DEVNULL, stderr=log.open('w'))
+
+
+def test_lockstep_bar_commands_move_depth_and_pitch_as_offline(
+        rclpy_context: tuple[Context, dict[str, str]], tmp_path: pathlib.Path) -> None:
+    context, env = rclpy_context
+    settings = SimSettings(lockstep=True, real_time_factor=0.0, control_period=CONTROL_PERIOD,
+                           lockstep_timeout=10.0, lockstep_startup_timeout=30.0)
+    trim_bar = float(build_setup(settings).x0[12])
+    log = tmp_path / 'node.log'
+    proc = start_node(env, ['--lockstep', '--real-time-factor', '0', '--control-period',
+                            str(CONTROL_PERIOD), '--lockstep-timeout', '10',
+                            '--lockstep-startup-timeout', '30'], log)
+    node = Node('sim_node_test', context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    states: dict[int, VehicleState] = {}
+    odoms: dict[int, Odometry] = {}
+    forces: dict[int, HydrodynamicForces] = {}
+    clocks: list[int] = []
+    pending: list[int] = []
+    ctrl_ns = int(round(CONTROL_PERIOD * NS))
+
+    def on_state(msg: VehicleState) -> None:
+        ns = stamp_to_ns(msg.header.stamp)
+        states[ns] = msg
+        if ns % ctrl_ns == 0:
+            pending.append(ns)
+
+    node.create_subscription(VehicleState, '/auv/state', on_state, QOS)
+    node.create_subscription(Odometry, '/auv/odom',
+                             lambda m: odoms.__setitem__(stamp_to_ns(m.header.stamp), m), QOS)
+    node.create_subscription(HydrodynamicForces, '/auv/hydrodynamic_forces',
+                             lambda m: forces.__setitem__(stamp_to_ns(m.header.stamp), m), QOS)
+    node.create_subscription(Clock, '/clock', lambda m: clocks.append(stamp_to_ns(m.clock)),
+                             QOS)
+    bar_pub = node.create_publisher(ActuatorSetpoint, '/auv/bar_command', QOS)
+    end_ns = int(round(T_END * NS))
+    try:
+        deadline = time.monotonic() + 40.0
+        while max(states, default=-1) < end_ns:
+            assert time.monotonic() < deadline, f'no state beyond {max(states, default=-1)} ns'
+            assert proc.poll() is None, log.read_text()
+            executor.spin_once(timeout_sec=0.05)
+            if pending and bar_pub.get_subscription_count() > 0:
+                for ns in pending:
+                    msg = ActuatorSetpoint()
+                    msg.header.stamp = stamp_from_ns(ns)
+                    msg.value = bar_schedule(ns / NS, trim_bar)
+                    bar_pub.publish(msg)
+                pending.clear()
+        for _ in range(20):   # the forces and odometry of the last instants
+            executor.spin_once(timeout_sec=0.01)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            returncode = proc.wait(timeout=15.0)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            raise
+        executor.shutdown(timeout_sec=0.0)
+        node.destroy_node()
+    assert returncode == 0, log.read_text()
+
+    expected = offline(settings, T_END)
+    stamps = sorted(ns for ns in expected if ns <= end_ns)
+    assert set(stamps) <= set(states), 'a state of the lockstep run is missing'
+    got = np.array([[getattr(states[ns], f) for f in
+                     ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r')]
+                    for ns in stamps])
+    want = np.array([expected[ns][0][:12] for ns in stamps])
+    np.testing.assert_array_equal(got, want)          # bit for bit: same inputs, same numbers
+    z, theta = got[:, 2], got[:, 4]
+    assert z.max() - z[0] > 0.5, 'BAR step did not change the depth'
+    assert theta.min() < theta[0] - 0.05, 'BAR step did not pitch the nose down'
+
+    # forces: same stamps as the state, the offline breakdown
+    for ns in stamps[::25]:
+        f = forces[ns]
+        rows = [f.hydrodynamic, f.coriolis, f.restoring, f.actuators]
+        got_w = [[w.force.x, w.force.y, w.force.z, w.torque.x, w.torque.y, w.torque.z]
+                 for w in rows]
+        np.testing.assert_array_equal(got_w, expected[ns][1])
+    # odometry: the same state in ENU/FLU
+    for ns in stamps[::25]:
+        o = odoms[ns]
+        assert (o.header.frame_id, o.child_frame_id) == ('odom', 'base_link')
+        back = frames.odometry_to_state(frames.Odometry(
+            position=np.array([o.pose.pose.position.x, o.pose.pose.position.y,
+                               o.pose.pose.position.z]),
+            orientation=np.array([o.pose.pose.orientation.x, o.pose.pose.orientation.y,
+                                  o.pose.pose.orientation.z, o.pose.pose.orientation.w]),
+            linear=np.array([o.twist.twist.linear.x, o.twist.twist.linear.y,
+                             o.twist.twist.linear.z]),
+            angular=np.array([o.twist.twist.angular.x, o.twist.twist.angular.y,
+                              o.twist.twist.angular.z])))
+        np.testing.assert_allclose(back, expected[ns][0][:12], atol=1e-9)
+    assert clocks and set(clocks) <= set(states)       # /clock on simulated time
+
+    text = log.read_text()
+    rejected = [line for line in text.splitlines() if 'rejected bar command' in line]
+    assert len(rejected) == 2, text
+    assert 'nan' in rejected[0] and 'not finite' in rejected[0]
+    assert 'outside' in rejected[1]
+
+
+@pytest.mark.parametrize('ros_args, needle', [
+    (['-p', 'vehicle_file:=/nonexistent/vehicle.yaml'], 'vehicle_file'),
+    (['-p', 'publish_rate:=-5.0'], 'publish_rate'),
+])
+def test_bad_parameter_exits_with_one_line_error(ros_env: dict[str, str], ros_args: list[str],
+                                                 needle: str) -> None:
+    proc = subprocess.run([sys.executable, '-m', 'auv_sim.node', '--ros-args', *ros_args],
+                          cwd=ROOT, env=ros_env, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 1
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith('error: ') and needle in lines[0], \
+        proc.stderr
