@@ -25,6 +25,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='topic of the command (default: %(default)s)')
     parser.add_argument('--timeout', type=float, default=5.0, metavar='S',
                         help='deadline for a subscriber to appear (s, default 5)')
+    parser.add_argument('--min-subscribers', type=int, default=1, metavar='N',
+                        help='wait until at least N subscribers match (default 1)')
 
 
 def run(args: argparse.Namespace) -> int:
@@ -46,9 +48,11 @@ def run(args: argparse.Namespace) -> int:
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
         pub = node.create_publisher(Float64, args.topic, qos)
         deadline = time.monotonic() + args.timeout
-        while pub.get_subscription_count() == 0:
+        wanted = max(1, args.min_subscribers)
+        while pub.get_subscription_count() < wanted:
             if time.monotonic() > deadline:
-                raise CliError(f'no subscriber on {args.topic} after {args.timeout:g} s '
+                raise CliError(f'{pub.get_subscription_count()} of {wanted} subscriber(s) on '
+                               f'{args.topic} after {args.timeout:g} s '
                                '(is the depth pilot running?)')
             time.sleep(0.02)
         pub.publish(Float64(data=float(args.depth)))

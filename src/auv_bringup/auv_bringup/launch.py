@@ -112,6 +112,7 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
         vehicle_file=cfg.vehicle, effects_file=cfg.effects or '""', lockstep=cfg.lockstep,
         real_time_factor=cfg.real_time_factor, initial_depth=cfg.initial_depth,
         initial_speed=cfg.initial_speed, stop_time=cfg.stop_time,
+        start_subscribers=float(int(cfg.pilot) + int(bool(cfg.record))),
         control_period=1.0 / cfg.pilot_rate)], log('simulator')))
     return nodes
 
@@ -129,11 +130,14 @@ def wait_for_file(path: pathlib.Path, proc: NodeProcess, deadline: float) -> Non
     raise LaunchError(f'{proc.name} not ready within {deadline} s')
 
 
-def send_depth_command(z: float, env: dict[str, str], timeout: float = 20.0) -> None:
-    """Publish a depth command [m] with ``auv depth`` and wait until it is delivered."""
+def send_depth_command(z: float, env: dict[str, str], subscribers: int = 1,
+                       timeout: float = 20.0) -> None:
+    """Publish a depth command [m] with ``auv depth`` once ``subscribers`` match, and wait
+    until it is delivered."""
     try:
         proc = subprocess.run([sys.executable, '-m', 'auv_bringup.cli', 'depth', str(z),
-                               '--timeout', str(timeout)], env=env, capture_output=True,
+                               '--timeout', str(timeout), '--min-subscribers',
+                               str(subscribers)], env=env, capture_output=True,
                               text=True, timeout=timeout + 10.0)
     except subprocess.TimeoutExpired:
         raise LaunchError(f'depth command {z} m not delivered within {timeout} s') from None
@@ -163,7 +167,7 @@ def run_graph(cfg: GraphConfig, duration: float | None = None,
                 raise LaunchError(f'{node.name} failed to start'
                                   + (f'; see {node.log_path}' if node.log_path else ''))
             if node.name == 'pilot' and cfg.depth_command is not None:
-                send_depth_command(cfg.depth_command, env)
+                send_depth_command(cfg.depth_command, env, 2 if cfg.record else 1)
         sim = nodes[-1]
         end = time.monotonic() + duration if duration else None
         while not stop_requested and sim.running():

@@ -10,7 +10,8 @@ relative to the working directory, ``$AUV_ROOT`` or the source tree), ``effects_
 none), ``publish_rate`` [Hz], ``dt`` [s] (0: the vehicle file's), ``real_time_factor`` (0: as
 fast as possible), ``use_sim_clock``, ``initial_trim``, ``initial_depth`` [m],
 ``initial_speed`` [m/s], ``initial_pitch`` [rad], ``initial_heading`` [rad], ``lockstep``,
-``control_period`` [s], ``lockstep_timeout`` and ``lockstep_startup_timeout`` [wall s]. Only
+``control_period`` [s], ``lockstep_timeout`` and ``lockstep_startup_timeout`` [wall s],
+``stop_time`` [s of simulated time; 0: run until stopped]. Only
 ``publish_rate``, ``real_time_factor`` and ``lockstep_timeout`` may change while it runs.
 
 Topics (namespace ``/auv`` by default, remappable with ``-r __ns:=...``):
@@ -133,6 +134,10 @@ _DESCRIPTIONS = {
     'control_period': 'lockstep control period [s of simulated time]',
     'lockstep_timeout': 'wall seconds to wait for a control instant command',
     'lockstep_startup_timeout': 'wall seconds to wait for the pilot to connect',
+    'start_subscribers': 'before t = 0, wait (lockstep_startup_timeout) until /auv/state has '
+                         'this many subscribers, e.g. pilot and recorder (0: do not wait)',
+    'stop_time': 'simulated seconds after which the node publishes a last state and exits 0 '
+                 '(0: never)',
 }
 
 
@@ -315,6 +320,22 @@ class SimulatorNode(Node):
             executor.spin_once(timeout_sec=min(remaining, _SPIN_SLICE))
         return False
 
+    def _wait_for_subscribers(self, executor: SingleThreadedExecutor) -> None:
+        """Before t = 0, wait (startup timeout) for ``start_subscribers`` on every output."""
+        wanted = int(self.settings.start_subscribers)
+        timeout = self.settings.lockstep_startup_timeout
+        pubs = [self._pub_state, self._pub_odom, self._pub_forces]
+
+        def matched() -> bool:
+            return all(p.get_subscription_count() >= wanted for p in pubs[:1]) and all(
+                p.get_subscription_count() >= 1 for p in pubs[1:])
+
+        self.get_logger().info(f'waiting up to {timeout} s for {wanted} state subscriber(s)')
+        if not self._spin_until(executor, time.monotonic() + timeout, matched) \
+                and not self._stop.is_set():
+            self.get_logger().warning(f'fewer than {wanted} subscribers after {timeout} s; '
+                                      f'starting anyway')
+
     def _wait_for_pilot(self, executor: SingleThreadedExecutor) -> None:
         timeout = self.settings.lockstep_startup_timeout
 
@@ -345,6 +366,8 @@ class SimulatorNode(Node):
 
     def run_loop(self, executor: SingleThreadedExecutor) -> None:
         """Step, publish and serve callbacks until :meth:`stop`. DivergenceError propagates."""
+        if self.settings.start_subscribers > 0:
+            self._wait_for_subscribers(executor)
         if self.settings.lockstep:
             self._wait_for_pilot(executor)
         next_pub = next_ctrl = self.sim.k
@@ -368,6 +391,10 @@ class SimulatorNode(Node):
             control_instant = s.lockstep and k == next_ctrl
             if k == next_pub or control_instant:
                 self._publish()
+            if s.stop_time > 0.0 and self.sim.t >= s.stop_time - 0.5 * self.setup.dt:
+                if k != next_pub and not control_instant:
+                    self._publish()
+                break
             if control_instant:
                 self._await_command(executor)
                 next_ctrl = next_multiple(k, self.setup.steps_per_control)

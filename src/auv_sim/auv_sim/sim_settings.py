@@ -56,6 +56,8 @@ class SimSettings:
     control_period: float = 0.1         # s of simulated time between control instants
     lockstep_timeout: float = 1.0       # wall s to wait for a control instant's command
     lockstep_startup_timeout: float = 30.0  # wall s to wait for the pilot to connect
+    start_subscribers: float = 0.0      # state subscribers to wait for before t = 0
+    stop_time: float = 0.0              # s of simulated time at which the node ends; 0: never
 
     def replace(self, **changes: Any) -> SimSettings:
         """A copy with some fields changed (not validated; see :func:`check_settings`)."""
@@ -109,7 +111,7 @@ def check_settings(s: SimSettings, vehicle_dt: float | None = None) -> None:
     for name in positive:
         if getattr(s, name) <= 0.0:
             raise ParameterError(f'parameter {name} = {getattr(s, name)} must be > 0')
-    for name in ('dt', 'real_time_factor', 'initial_depth'):
+    for name in ('dt', 'real_time_factor', 'initial_depth', 'stop_time', 'start_subscribers'):
         if getattr(s, name) < 0.0:
             raise ParameterError(f'parameter {name} = {getattr(s, name)} must be >= 0')
     if not s.vehicle_file:

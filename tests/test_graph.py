@@ -1,0 +1,54 @@
+"""The closed loop through the real node graph: simulator, depth pilot and recorder processes."""
+from __future__ import annotations
+
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+from auv_bringup.launch import GraphConfig, run_graph
+from auv_depth_lqr.closed_loop import run_closed_loop
+from auv_depth_lqr.metrics import kinematic_bound, step_metrics
+from auv_ident.bag import read_arrays
+from auv_sim.params import load_vehicle
+from conftest import A18M
+
+FIELDS = ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r')
+
+
+def fly(tmp_path: pathlib.Path, env: dict[str, str], z0: float, z1: float,
+        stop_time: float) -> dict[str, np.ndarray]:
+    bag = tmp_path / 'bag'
+    cfg = GraphConfig(vehicle=str(A18M), lockstep=True, real_time_factor=0.0,
+                      initial_depth=z0, stop_time=stop_time, record=str(bag),
+                      log_dir=str(tmp_path / 'logs'), depth_command=z1)
+    codes = run_graph(cfg, duration=240.0, env=env)
+    assert codes['simulator'] == 0, codes
+    return read_arrays(bag, ['/auv/state', '/auv/bar_command'])
+
+
+def test_lockstep_graph_run_equals_offline_run(tmp_path: pathlib.Path, ros_env) -> None:
+    arrays = fly(tmp_path, ros_env, 40.0, 10.0, stop_time=30.0)
+    state, bar = arrays['/auv/state'], arrays['/auv/bar_command']
+    assert len(state) == 30 * 50 + 1 and len(bar) == 30 * 10 + 1
+    offline = run_closed_loop(load_vehicle(A18M), [(0.0, 10.0)], 30.0, z0=40.0)
+    rec = offline.record
+    np.testing.assert_array_equal(np.round(rec.t, 9), np.round(state['t'], 9))
+    graph = np.stack([state[k] for k in FIELDS], axis=1)
+    assert np.max(np.abs(graph - rec.measured[:, :12])) <= 1e-9
+    assert np.max(np.abs(bar['value'][:len(offline.bar)] - offline.bar)) <= 1e-9
+
+
+@pytest.mark.parametrize('z0,z1', [(40.0, 10.0), (10.0, 40.0)])
+def test_depth_change_through_the_graph_settles(tmp_path: pathlib.Path, ros_env, z0: float,
+                                                z1: float) -> None:
+    params = load_vehicle(A18M)
+    arrays = fly(tmp_path, ros_env, z0, z1, stop_time=120.0)
+    s, bar = arrays['/auv/state'], arrays['/auv/bar_command']
+    m = step_metrics(s['t'], s['z'], s['theta'], s['q'], np.interp(s['t'], bar['t'],
+                     bar['value']), z1, bar_max=params.bar_max)
+    assert m.settling_time <= 1.7 * kinematic_bound(z1 - z0, 2.0, math.radians(25)), m
+    assert abs(s['z'][-1] - z1) < 0.1
+    assert m.peak_pitch <= math.radians(25.5), m
+    assert np.all(np.abs(bar['value']) <= params.bar_max + 1e-12)
