@@ -203,3 +203,71 @@ def test_bad_parameter_exits_with_one_line_error(ros_env: dict[str, str], ros_ar
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith('error: ') and needle in lines[0], \
         proc.stderr
+
+
+def sim_rate(executor: SingleThreadedExecutor, clocks: list[tuple[float, int]],
+             duration: float) -> float:
+    """Simulated seconds per wall second seen on /clock over ``duration`` wall seconds."""
+    clocks.clear()
+    end = time.monotonic() + duration
+    while time.monotonic() < end:
+        executor.spin_once(timeout_sec=0.02)
+    assert len(clocks) > 10
+    (w0, s0), (w1, s1) = clocks[0], clocks[-1]
+    return (s1 - s0) / NS / (w1 - w0)
+
+
+def test_real_time_pacing_and_parameter_changes(
+        rclpy_context: tuple[Context, dict[str, str]], tmp_path: pathlib.Path) -> None:
+    from rcl_interfaces.srv import SetParameters
+    from rclpy.parameter import Parameter
+
+    context, env = rclpy_context
+    log = tmp_path / 'node.log'
+    proc = start_node(env, ['--real-time-factor', '1'], log)
+    node = Node('sim_param_test', context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    clocks: list[tuple[float, int]] = []
+    node.create_subscription(Clock, '/clock',
+                             lambda m: clocks.append((time.monotonic(), stamp_to_ns(m.clock))),
+                             QOS)
+    client = node.create_client(SetParameters, '/auv/simulator/set_parameters')
+
+    def set_parameter(name: str, value: object) -> tuple[bool, str]:
+        request = SetParameters.Request()
+        request.parameters = [Parameter(name, value=value).to_parameter_msg()]
+        future = client.call_async(request)
+        executor.spin_until_future_complete(future, timeout_sec=10.0)
+        assert future.done(), f'set_parameters {name} timed out'
+        result = future.result().results[0]
+        return result.successful, result.reason
+
+    try:
+        assert client.wait_for_service(timeout_sec=30.0), log.read_text()
+        deadline = time.monotonic() + 30.0
+        while not clocks:
+            assert time.monotonic() < deadline and proc.poll() is None, log.read_text()
+            executor.spin_once(timeout_sec=0.05)
+        assert sim_rate(executor, clocks, 2.0) == pytest.approx(1.0, rel=0.15)
+
+        ok, reason = set_parameter('publish_rate', -1.0)
+        assert not ok and 'publish_rate' in reason and '> 0' in reason
+        ok, reason = set_parameter('publish_rate', 30.0)     # not a whole number of steps
+        assert not ok and 'whole multiple' in reason
+        ok, reason = set_parameter('vehicle_file', 'config/other.yaml')
+        assert not ok and 'cannot change while the simulator runs' in reason
+        ok, reason = set_parameter('real_time_factor', 4.0)
+        assert ok, reason
+        assert sim_rate(executor, clocks, 2.0) == pytest.approx(4.0, rel=0.15)
+        assert proc.poll() is None
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            returncode = proc.wait(timeout=15.0)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            raise
+        executor.shutdown(timeout_sec=0.0)
+        node.destroy_node()
+    assert returncode == 0, log.read_text()
