@@ -215,7 +215,7 @@ class SimulatorNode(Node):
         changes: dict[str, Any] = {}
         for p in params:
             if p.name not in _DESCRIPTIONS:
-                return SetParametersResult(successful=False, reason=f'unknown parameter {p.name}')
+                continue  # rclpy's own (use_sim_time): stamps come from the step counter
             if p.value == getattr(self.settings, p.name):
                 continue
             if p.name not in RUNTIME_FIELDS:
