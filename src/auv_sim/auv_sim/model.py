@@ -58,6 +58,7 @@ ENV_SIZE = 13
 NX = 15
 STATE_NAMES = ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r',
                'bar', 'helm', 'thrust')
+_INV_LN10 = 1.0 / np.log(10.0)
 RE_MIN = 1.0e5  # below this the ITTC-1957 line is not valid; C_XF is held at its value here
 
 #: Wrench rows of :func:`wrenches`: what each force/moment comes from.
@@ -133,6 +134,7 @@ def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
     Rows: hydrodynamic (damping, lift, drag: report section 2), Coriolis (rigid-body with
     ``nu``, added-mass with ``nu_r``, plus ``M_A nu_c_dot`` of a varying current), restoring
     (weight and buoyancy), actuators (BAR, helm, propeller). Their sum is ``M nu_dot``.
+    Returns the attitude's (cos phi, sin phi, cos theta, sin theta, cos psi, sin psi).
     """
     rho = P[I_RHO]
     L = P[I_L]
@@ -179,7 +181,7 @@ def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
     re = aur * L / P[I_NU]
     if re.real < RE_MIN:
         re = RE_MIN + 0.0 * re
-    lg = np.log(re) / np.log(10.0) - 2.0
+    lg = np.log(re) * _INV_LN10 - 2.0
     cxf = 0.075 / (lg * lg)
     out[0, 0] = -P[I_KSH] * qs * cxf * ur * aur
     out[0, 1] = qs * (P[I_CYUV] * ur * vr + P[I_CYUR] * L * ur * r) + env[E_YVV] * vr * _sabs(vr)
@@ -281,6 +283,7 @@ def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
     out[3, 3] = 0.0 * dyn
     out[3, 4] = dyn * L * P[I_CMBAR] * bar
     out[3, 5] = dyn * L * P[I_CNHELM] * helm
+    return cph, sph, cth, sth, cps, sps
 
 
 @njit(cache=True)
@@ -313,21 +316,19 @@ def actuator_rates(x, cmd, P, xdot):  # type: ignore[no-untyped-def]
 @njit(cache=True)
 def kinematics(x, xdot):  # type: ignore[no-untyped-def]
     """eta_dot = J(eta) nu into ``xdot[0:6]`` (NED position rates, ZYX Euler-angle rates)."""
-    phi = x[3]
-    th = x[4]
-    psi = x[5]
+    _kinematics(x, xdot, np.cos(x[3]), np.sin(x[3]), np.cos(x[4]), np.sin(x[4]),
+                np.cos(x[5]), np.sin(x[5]))
+
+
+@njit(cache=True)
+def _kinematics(x, xdot, cph, sph, cth, sth, cps, sps):  # type: ignore[no-untyped-def]
+    """:func:`kinematics` with the attitude's cosines and sines given."""
     u = x[6]
     v = x[7]
     w = x[8]
     p = x[9]
     q = x[10]
     r = x[11]
-    cph = np.cos(phi)
-    sph = np.sin(phi)
-    cth = np.cos(th)
-    sth = np.sin(th)
-    cps = np.cos(psi)
-    sps = np.sin(psi)
     xdot[0] = cps * cth * u + (-sps * cph + cps * sth * sph) * v + (sps * sph + cps * cph * sth) * w
     xdot[1] = sps * cth * u + (cps * cph + sph * sth * sps) * v + (-cps * sph + sth * sps * cph) * w
     xdot[2] = -sth * u + cth * sph * v + cth * cph * w
@@ -339,8 +340,8 @@ def kinematics(x, xdot):  # type: ignore[no-untyped-def]
 @njit(cache=True)
 def dynamics(t, x, cmd, P, env, prof, xdot, work):  # type: ignore[no-untyped-def]
     """The model ``x_dot = f(t, x, cmd)`` into ``xdot`` (15); ``work`` is a 4 x 6 scratch."""
-    wrenches(t, x, P, env, prof, work)
-    kinematics(x, xdot)
+    cph, sph, cth, sth, cps, sps = wrenches(t, x, P, env, prof, work)
+    _kinematics(x, xdot, cph, sph, cth, sth, cps, sps)
     for i in range(6):
         acc = 0.0 * x[0]
         for j in range(6):

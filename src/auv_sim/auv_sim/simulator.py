@@ -16,7 +16,8 @@ import numpy as np
 
 from auv_sim.environment import Environment
 from auv_sim.errors import DivergenceError, ParameterError
-from auv_sim.model import NX, STATE_NAMES, rk4_batch, rk4_steps, wrenches
+from auv_sim.model import (NX, STATE_NAMES, rk4_batch, rk4_batch_parallel, rk4_steps,
+                            wrenches)
 from auv_sim.params import VehicleParams
 
 CHANNELS = ('bar', 'helm', 'thrust')
@@ -177,13 +178,15 @@ def record(samples: list[tuple[float, np.ndarray, np.ndarray, np.ndarray, np.nda
 
 def step_batch(params: VehicleParams, X: np.ndarray, CMD: np.ndarray, nsteps: int,
                environment: Environment | None = None, t0: float = 0.0,
-               dt: float | None = None) -> np.ndarray:
+               dt: float | None = None, parallel: bool = True) -> np.ndarray:
     """Advance N vehicles in place (rows of X, N x 15) ``nsteps`` RK4 steps (Monte Carlo).
 
     All share one vehicle file and environment; each has its own state and held command
     (rows of CMD, N x 3). Returns the per-vehicle status (-1 ok, else first bad step).
+    With ``parallel`` the vehicles are spread over the CPU's cores (same numbers).
     """
     env = environment or Environment()
     p = env.apply_to(params)
-    return rk4_batch(t0, X, CMD, p.as_array(), env.env_vector(), env.profile(),
+    kernel = rk4_batch_parallel if parallel else rk4_batch
+    return kernel(t0, X, CMD, p.as_array(), env.env_vector(), env.profile(),
                      float(dt if dt is not None else params.dt), nsteps)
