@@ -12,7 +12,9 @@ scale`` (:func:`scipy.optimize.least_squares`, trust-region reflective):
 
 Intervals (95 %) come from the cluster-robust sandwich covariance with the windows as
 clusters (residuals inside a window are strongly correlated; windows are independent runs)
-and Student's t with ``G - 1`` degrees of freedom for ``G`` windows. A parameter whose
+and Student's t with ``G - 1`` degrees of freedom for ``G`` windows; a free-run interval is
+widened to cover the equation-error estimate (two estimators with different systematic
+errors: initial-state smoothing for the free run, derivative filtering for the equation). A parameter whose
 residual sensitivity is negligible is "not identifiable from these data": it is held at its
 "absent" value and its interval is its whole range.
 """
@@ -251,4 +253,8 @@ class FreeRunFit:
         nch = len(CH_INDEX)
         cov, g = _sandwich(J, r, np.repeat(self.clusters, nch))
         lo, hi = _intervals(es, values, active, cov, g)
+        # the two fits are different estimators of the same parameters: widen the interval
+        # to cover the equation-error estimate, so a disagreement shows as a wider interval
+        lo = np.where(active, np.minimum(lo, start.values), lo)
+        hi = np.where(active, np.maximum(hi, start.values), hi)
         return FitResult(es, values, active, lo, hi, 'free_run')

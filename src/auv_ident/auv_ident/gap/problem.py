@@ -113,14 +113,19 @@ class Problem:
         self.dt = self.m * self.period / self.sub
         self.h = self.dt / 2.0
         self.smoothed: list[Smoothed] = [smooth(lg, smooth_window) for lg in self.logs]
-        # initial states of free runs: a wider smoother (the initial pitch error is what
-        # a free run integrates longest)
+        # initial states of free runs: a wider smoother (the initial pitch error is what a
+        # free run integrates longest), its bias removed by twicing: x0 = S x + (S x - S S x)
         wide = [smooth(lg, 2.0 * smooth_window) for lg in self.logs]
-        self.initial = [s.state for s in wide]
-        self.initial_gain = wide[0].smooth_gain
-        # the smoother's bias at the window starts, estimated by smoothing twice
-        self.initial_bias = [s.state - savgol_filter(s.state, s.length, 3, axis=0,
-                                                     mode='interp') for s in wide]
+        twice = [savgol_filter(s.state, s.length, 3, axis=0, mode='interp') for s in wide]
+        self.initial = [2.0 * s.state - s2 for s, s2 in zip(wide, twice)]
+        # what twicing changed: the estimated bias of the plain smoother at the window starts
+        self.initial_bias = [s2 - s.state for s, s2 in zip(wide, twice)]
+        n = wide[0].length
+        imp = np.zeros(2 * n)
+        imp[n] = 1.0
+        h1 = savgol_filter(imp, n, 3, mode='interp')
+        self.initial_gain = float(np.linalg.norm(2.0 * h1 - savgol_filter(h1, n, 3,
+                                                                          mode='interp')))
         self.smooth_window = smooth_window
         self.noise = np.median(np.array([s.noise for s in self.smoothed]), axis=0)
         self.deriv_gain = float(np.median([s.deriv_gain for s in self.smoothed]))
@@ -196,7 +201,8 @@ class Problem:
         model can explain); rows are the windows' outputs, concatenated.
 
         ``x0_noise`` (nc x nw x 12) is added to the initial states (Monte Carlo of the
-        initial-state uncertainty); ``x0_bias`` adds the smoother's estimated bias.
+        initial-state uncertainty); ``x0_bias`` starts from the plain smoother instead of
+        its twiced estimate (to size the initial-state bias).
         """
         nc, nw = len(perts), len(windows)
         wins = [self.windows[i] for i in windows]

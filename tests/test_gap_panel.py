@@ -1,0 +1,157 @@
+"""The effect panel of the gap diagnosis: for each effect file in ``config/effects`` a
+15-minute closed-loop log is flown on the simulator with that effect and realistic sensor
+noise, and the diagnosis, told nothing, must name the effect (or say it cannot tell it from
+another), bracket its size with its 95 % interval and shrink the held-out depth RMS.
+Also: a clean log (no gap), two effects at once, and an effect of a form the catalogue lacks
+(a current oscillating in time)."""
+from __future__ import annotations
+
+import json
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import yaml
+
+from auv_ident.gap import synth
+from auv_ident.gap.diagnose import Diagnosis, diagnose
+from auv_ident.gap.report import REPORT_KEYS, write_report
+from auv_sim.params import load_vehicle
+
+from conftest import A18M, ROOT
+
+EFFECT_FILES = {p.stem: yaml.safe_load(p.read_text())['effects']
+                for p in sorted((ROOT / 'config' / 'effects').glob('*.yaml'))}
+CASES: dict[str, dict[str, dict[str, float]]] = {
+    **EFFECT_FILES,
+    'clean': {},
+    'two_effects': {**EFFECT_FILES['current'], **EFFECT_FILES['actuator_delay']},
+}
+#: Effects the dynamics cannot see at all: with them the log is consistent with the model.
+INVISIBLE = {'depth_sensor_bias'}
+#: Effects of a form the catalogue does not have.
+OUTSIDE = {'current_oscillation'}
+
+
+@pytest.fixture(scope='module')
+def vehicle():  # type: ignore[no-untyped-def]
+    return load_vehicle(A18M)
+
+
+@pytest.fixture(scope='module')
+def panel(vehicle):  # type: ignore[no-untyped-def]
+    """Logs and diagnoses, made once per session and case, on demand."""
+    cache: dict[str, Diagnosis] = {}
+
+    def get(case: str) -> Diagnosis:
+        if case not in cache:
+            log = synth.simulate(vehicle, {'effects': CASES[case]}, seed=11)
+            cache[case] = diagnose(vehicle, log.gap_logs())
+        return cache[case]
+    return get
+
+
+def _truth(case: str) -> dict[str, dict[str, float]]:
+    return CASES[case]
+
+
+@pytest.mark.parametrize('case', sorted(CASES))
+def test_panel(panel, case: str) -> None:  # type: ignore[no-untyped-def]
+    r = panel(case).report
+    assert tuple(r) == REPORT_KEYS
+    effects = set(_truth(case))
+    if not effects or effects <= INVISIBLE:
+        assert r['verdict'] == 'no_gap', r['verdict']
+        assert r['best'] is None
+        return
+    if effects & OUTSIDE:
+        assert r['verdict'] in ('unexplained', 'partly_explained'), r['verdict']
+        return
+    assert r['verdict'] in ('explained', 'ambiguous'), r['verdict']
+    named = set(r['best'].split('+'))
+    if r['verdict'] == 'explained':
+        assert named == effects, r['best']
+    else:
+        assert effects <= named | set(r['ambiguous_with']), (r['best'], r['ambiguous_with'])
+        assert r['suggested_manoeuvre']
+    entry = next(c for c in r['candidates'] if c['effect'] == r['best'])
+    for effect, fields in _truth(case).items():
+        if effect not in named:
+            continue
+        for name, true in fields.items():
+            key = name if len(named) == 1 else f'{effect}.{name}'
+            lo, hi = entry['ci95'][key]
+            assert lo <= true <= hi, f'{key}: truth {true} outside [{lo}, {hi}] ' \
+                                     f'(estimate {entry["params"][key]})'
+    assert r['held_out']['shrink'] >= 0.8, r['held_out']
+
+
+def test_report_files(panel, tmp_path: pathlib.Path) -> None:  # type: ignore[no-untyped-def]
+    diag = panel('two_effects')
+    path = write_report(diag, tmp_path / 'gap')
+    report = json.loads(path.read_text())
+    assert tuple(report) == REPORT_KEYS
+    assert set(report['gap']) == {'free_run_rms', 'equation_rms', 'dominant_equation',
+                                  'segments', 'regimes', 'band_hz'}
+    assert set(report['gap']['free_run_rms']) == {'z', 'theta', 'w', 'q', 'u'}
+    assert set(report['gap']['equation_rms']) == {'surge', 'heave', 'pitch', 'sway', 'yaw'}
+    assert set(report['held_out']) == {'rms_before', 'rms_after', 'shrink'}
+    for c in report['candidates']:
+        assert set(c) == {'effect', 'params', 'ci95', 'score', 'explained'}
+        assert 0.0 <= c['explained'] <= 1.0
+    scores = [c['score'] for c in report['candidates']]
+    assert scores == sorted(scores, reverse=True)
+    text = (tmp_path / 'gap' / 'report.md').read_text()
+    assert 'Verdict: explained' in text and 'free_run_held_out.png' in text
+    assert (tmp_path / 'gap' / 'free_run_held_out.png').stat().st_size > 1000
+
+
+def _cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, '-m', 'auv_ident.gap_cli', *args],
+                          capture_output=True, text=True, timeout=300)
+
+
+def test_cli_bags_with_a_held_out_bag(vehicle, tmp_path: pathlib.Path) -> None:  # type: ignore
+    """Two bags of the same vehicle; the second is held out whole."""
+    bags = []
+    for k, scenario in enumerate((synth.panel_scenario(), synth.Scenario(
+            duration=360.0, z0=60.0, u0=2.0, depth=((0.0, 60.0), (120.0, 80.0)),
+            thrust=((0.0, 55.0), (200.0, 100.0)),
+            doublets=((40.0, 0.08, 3.0), (250.0, 0.1, 2.0))))):
+        log = synth.simulate(vehicle, {'effects': EFFECT_FILES['buoyancy_offset']}, scenario,
+                             seed=20 + k)
+        bags.append(tmp_path / f'run{k}')
+        synth.write_bag(bags[-1], log)
+    out = tmp_path / 'out'
+    res = _cli('--model', str(A18M), str(bags[0]), str(bags[1]), '--holdout', str(bags[1]),
+               '--out', str(out), '--no-plots', '--quiet')
+    assert res.returncode == 0, res.stderr
+    report = json.loads((out / 'report.json').read_text())
+    assert report['verdict'] == 'explained' and report['best'] == 'buoyancy_offset'
+    lo, hi = report['candidates'][0]['ci95']['dB']
+    assert lo <= 30.0 <= hi
+    details = json.loads((out / 'details.json').read_text())
+    held = {w['log'] for w in details['windows'] if w['held_out']}
+    assert held == {1}
+
+
+def test_cli_errors(tmp_path: pathlib.Path) -> None:
+    res = _cli('--model', str(A18M), str(tmp_path / 'nope'), '--out', str(tmp_path / 'o'),
+               '--quiet')
+    assert res.returncode == 1
+    assert res.stderr.startswith('error: ') and len(res.stderr.strip().splitlines()) == 1
+    res = _cli('--model', str(tmp_path / 'missing.yaml'), str(tmp_path / 'nope'),
+               '--out', str(tmp_path / 'o'))
+    assert res.returncode == 1 and 'missing.yaml' in res.stderr
+    res = _cli('--model', str(A18M), str(tmp_path / 'a'), '--holdout', str(tmp_path / 'b'),
+               '--out', str(tmp_path / 'o'))
+    assert res.returncode == 1 and 'not one of the bags' in res.stderr
+
+
+def test_unknown_effect_is_an_error(vehicle) -> None:  # type: ignore[no-untyped-def]
+    from auv_ident.errors import GapError
+    log = synth.simulate(vehicle, None, synth.panel_scenario(), seed=1, noise=np.zeros(12))
+    with pytest.raises(GapError, match="unknown effect 'waves'"):
+        diagnose(vehicle, log.gap_logs(), effects=['waves'])

@@ -1,0 +1,169 @@
+"""Unit tests of the gap diagnosis: the catalogue's own effect implementations against the
+simulator's (two separate implementations must agree), the registry, log checks and errors."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from auv_ident.errors import GapError
+from auv_ident.gap import catalogue
+from auv_ident.gap.catalogue import (CATALOGUE, Effect, Parameter, Perturbation, register,
+                                     separating_manoeuvre)
+from auv_ident.gap.logs import from_arrays
+from auv_ident.gap.problem import CH_INDEX, EffectSet, Problem
+from auv_ident.gap.synth import Scenario, simulate
+from auv_sim.params import load_vehicle
+
+from conftest import A18M
+
+#: A short flight: a depth change, a speed change and BAR doublets (300 s).
+SHORT = Scenario(duration=300.0, z0=60.0, u0=2.0,
+                 depth=((0.0, 60.0), (60.0, 80.0), (200.0, 65.0)),
+                 thrust=((0.0, 55.0), (150.0, 100.0)),
+                 doublets=((30.0, 0.08, 3.0), (110.0, 0.1, 2.0), (170.0, 0.06, 5.0),
+                           (240.0, 0.1, 3.0)))
+
+#: effect -> (the simulator's effects document, the catalogue's parameters for the same thing)
+ORACLES = {
+    'current': ({'current': {'north': 0.3, 'east': -0.2, 'down': 0.02}},
+                {'north': 0.3, 'east': -0.2, 'down': 0.02}),
+    'buoyancy_offset': ({'buoyancy_offset': {'dB': 30.0}}, {'dB': 30.0}),
+    'buoyancy_depth': ({'buoyancy_depth': {'k': -5e-5}}, {'k': -5e-5}),
+    'actuator_delay': ({'actuator_delay': {'bar': 0.4}}, {'bar': 0.4}),
+    'actuator_lag': ({'actuator_lag': {'bar_tau': 1.0}}, {'bar_tau': 1.0}),
+    'actuator_rate_limit': ({'actuator_rate_limit': {'bar_rate': 0.05}}, {'bar_rate': 0.05}),
+    'bar_bias': ({'bar_bias': {'bias': 0.02}}, {'bias': 0.02}),
+    'crossflow_drag': ({'crossflow_drag': {'Zww': -3000.0, 'Mqq': -20000.0}},
+                       {'Zww': -3000.0, 'Mqq': -20000.0, 'Yvv': 0.0, 'Nrr': 0.0}),
+    'cg_offset': ({'cg_offset': {'dxg': 0.005, 'dzg': 0.002}}, {'dxg': 0.005, 'dzg': 0.002}),
+    'pitch_sensor_bias': ({'pitch_sensor_bias': {'bias': 0.02}}, {'bias': 0.02}),
+    'depth_sensor_bias': ({'depth_sensor_bias': {'bias': 0.3}}, {'bias': 0.3}),
+}
+
+
+@pytest.fixture(scope='module')
+def vehicle():  # type: ignore[no-untyped-def]
+    return load_vehicle(A18M)
+
+
+def _values(es: EffectSet, params: dict[str, float]) -> np.ndarray:
+    return np.array([params[p.name] for _, p in es.params])
+
+
+def test_catalogue_holds_the_contract_effects() -> None:
+    names = {'current', 'buoyancy_offset', 'buoyancy_depth', 'actuator_delay', 'actuator_lag',
+             'actuator_rate_limit', 'bar_bias', 'crossflow_drag', 'cg_offset',
+             'depth_sensor_bias', 'pitch_sensor_bias'}
+    assert names <= set(CATALOGUE)
+
+
+@pytest.mark.parametrize('name', sorted(ORACLES))
+def test_catalogue_effect_reproduces_the_simulator(vehicle, name: str) -> None:  # type: ignore
+    """Noise-free log made by the simulator's effect; the catalogue's implementation with the
+    same parameters must reproduce it in free run and in equation error."""
+    doc, params = ORACLES[name]
+    log = simulate(vehicle, {'effects': doc}, SHORT, noise=np.zeros(12))
+    pr = Problem(vehicle, log.gap_logs(), window=60.0)
+    es = EffectSet([name], vehicle)
+    true = es.perturbation(_values(es, params))
+    nominal = Perturbation.nominal(vehicle)
+    out, ref = pr.free_run([nominal, true], pr.select(None))
+    rms = np.sqrt(np.mean((out - ref[None])[:, :, CH_INDEX] ** 2, axis=1))
+    assert rms[1, 0] < 0.03, f'depth RMS {rms[1, 0]:.4f} m with the true {name}'
+    assert rms[1, 1] < 6e-4, f'pitch RMS {rms[1, 1]:.2e} rad with the true {name}'
+    e_nom = pr.equation_error(nominal)
+    e_true = pr.equation_error(true)
+    # the equation error with the effect is at the level of the clean model's
+    clean = Problem(vehicle, simulate(vehicle, None, SHORT, noise=np.zeros(12)).gap_logs())
+    e_clean = np.sqrt(np.mean(clean.equation_error(nominal) ** 2, axis=0))
+    rms_nom = np.sqrt(np.mean(e_nom ** 2, axis=0))
+    rms_true = np.sqrt(np.mean(e_true ** 2, axis=0))
+    assert np.all(rms_true <= np.maximum(1.5 * e_clean, 0.05 * rms_nom) + 1e-6), rms_true
+    if name != 'depth_sensor_bias':  # a constant depth offset is invisible to the dynamics
+        gap_nom = np.sqrt(np.mean((out[0] - ref)[:, CH_INDEX] ** 2, axis=0))
+        assert np.max(gap_nom / np.maximum(rms[1], 1e-9)) > 3.0 or \
+            np.max(np.sqrt(np.mean(e_nom ** 2, axis=0)) / np.sqrt(np.mean(e_true ** 2, axis=0))
+                   ) > 3.0
+
+
+def test_depth_sensor_bias_is_not_identifiable(vehicle) -> None:  # type: ignore
+    from auv_ident.gap.fit import EquationFit
+    log = simulate(vehicle, {'effects': ORACLES['depth_sensor_bias'][0]}, SHORT, seed=1)
+    pr = Problem(vehicle, log.gap_logs())
+    fit = EquationFit(pr).fit(EffectSet(['depth_sensor_bias'], vehicle))
+    assert not fit.active.any()
+    assert (fit.lo95[0], fit.hi95[0]) == (-10.0, 10.0)
+
+
+def test_register_a_new_effect_plugs_in(vehicle) -> None:  # type: ignore
+    class HeaveForce(Effect):
+        name = 'test_heave_force'
+        description = 'a constant body heave force (N)'
+        signature = {'speed change': 0.0}
+
+        def parameters(self, v):  # type: ignore[no-untyped-def]
+            return (Parameter('Z', 'N', -100.0, 100.0, 0.0, 5.0),)
+
+        def apply(self, pert, values, v):  # type: ignore[no-untyped-def]
+            pert.C[0, 2] += values[0]
+
+    try:
+        register(HeaveForce())
+        es = EffectSet(['test_heave_force'], vehicle)
+        assert es.perturbation(np.array([7.0])).C[0, 2] == 7.0
+        with pytest.raises(GapError, match='registered already'):
+            register(HeaveForce())
+    finally:
+        CATALOGUE.pop('test_heave_force', None)
+
+
+def test_unknown_effect_and_manoeuvre_are_errors() -> None:
+    with pytest.raises(GapError, match="unknown effect 'wave'"):
+        catalogue.get_effect('wave')
+
+    class Bad(Effect):
+        name = 'test_bad'
+        signature = {'loop the loop': 1.0}
+
+    with pytest.raises(GapError, match='unknown manoeuvre'):
+        register(Bad())
+
+
+def test_separating_manoeuvres() -> None:
+    assert separating_manoeuvre('buoyancy_offset', 'buoyancy_depth').startswith(
+        'depth excursion')
+    assert separating_manoeuvre('buoyancy_offset', 'current').startswith('speed change')
+    assert separating_manoeuvre('actuator_delay', 'actuator_rate_limit').startswith(
+        'plane steps of several sizes')
+
+
+def _cmds(t: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    return {'bar': (t[:1], np.array([-0.08])), 'thrust': (t[:1], np.array([55.0]))}
+
+
+def test_log_checks() -> None:
+    t = np.arange(200) * 0.02
+    x = np.zeros((200, 12))
+    pieces = from_arrays('ok', t, x, _cmds(t))
+    assert len(pieces) == 1 and 'helm held at 0 rad' in pieces[0].notes[0]
+    back = t.copy()
+    back[50] = back[48]
+    with pytest.raises(GapError, match='go back at sample 50'):
+        from_arrays('back', back, x, _cmds(t))
+    bad = x.copy()
+    bad[7, 3] = np.nan
+    with pytest.raises(GapError, match='non-finite state sample at index 7'):
+        from_arrays('nan', t, bad, _cmds(t))
+    with pytest.raises(GapError, match='no bar commands'):
+        from_arrays('nobar', t, x, {'thrust': (t[:1], np.array([55.0]))})
+    gap = np.concatenate([t[:100], t[100:] + 10.0])
+    assert len(from_arrays('split', gap, x, _cmds(t))) == 2
+
+
+def test_too_short_for_held_out_windows(vehicle) -> None:  # type: ignore
+    t = np.arange(1500) * 0.02
+    x = np.zeros((1500, 12))
+    x[:, 6] = 2.0
+    x[:, 2] = 50.0
+    with pytest.raises(GapError, match='too short to hold out whole windows'):
+        Problem(vehicle, from_arrays('short', t, x, _cmds(t)), window=60.0)
