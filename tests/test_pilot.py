@@ -10,6 +10,7 @@ from auv_depth_lqr.closed_loop import run_closed_loop
 from auv_depth_lqr.errors import InvalidInputError
 from auv_depth_lqr.metrics import step_metrics
 from auv_depth_lqr.pilot import DepthPilot, PilotSettings
+from auv_sim.environment import Environment
 from auv_sim.params import load_vehicle
 from conftest import A18M
 
@@ -72,13 +73,59 @@ def test_non_finite_state_is_ignored(pilot_factory) -> None:
     assert pilot.command(0.0)[1] == 'no_state'
 
 
-@pytest.mark.parametrize('z0,z1', [(40.0, 10.0), (10.0, 40.0)])
-def test_closed_loop_depth_change_settles(params, z0: float, z1: float) -> None:
-    run = run_closed_loop(params, [(0.0, z1)], 150.0, z0=z0, u0=2.0)
+THETA_MAX = math.radians(25.0)  # rad, the benchmark's pitch limit (PilotSettings default)
+
+
+def closed_loop_metrics(params, z0: float, z1: float, u0: float,  # type: ignore[no-untyped-def]
+                        current: dict[str, float] | None = None):
+    """Fly z0 -> z1 [m] at u0 [m/s] for 150 s; (run, step metrics)."""
+    environment = None if current is None else Environment(effects={'current': current})
+    run = run_closed_loop(params, [(0.0, z1)], 150.0, z0=z0, u0=u0, environment=environment)
     rec = run.record
     m = step_metrics(rec.t, rec.x[:, 2], rec.x[:, 4], rec.x[:, 10], rec.x[:, 12], z1,
-                     bar_max=params.bar_max)
-    assert m.settling_time < 120.0, m
-    assert m.peak_pitch <= math.radians(25.0) + 1e-6, m
+                     bar_max=params.bar_max, u0=u0, theta_max=THETA_MAX)
+    return run, m
+
+
+# Measured on config/a18m.yaml (bench/bench_closed_loop.py): settling 1.53-1.57 T_kin without
+# current, 1.66 T_kin with a 0.3 m/s following current; overshoot <= 0.025 m; peak pitch
+# <= 24.6 deg; RMS pitch rate after settling <= 0.047 deg/s.
+@pytest.mark.parametrize(('z0', 'z1', 'u0', 'current', 'settle_bound'), [
+    (40.0, 10.0, 2.0, None, 1.6),
+    (10.0, 40.0, 2.0, None, 1.6),
+    (40.0, 10.0, 1.5, None, 1.6),
+    (40.0, 10.0, 2.5, None, 1.6),
+    (40.0, 10.0, 2.0, {'north': 0.3}, 1.7),
+])
+def test_closed_loop_depth_change_settles(
+    params, z0: float, z1: float, u0: float,  # type: ignore[no-untyped-def]
+    current: dict[str, float] | None, settle_bound: float,
+) -> None:
+    run, m = closed_loop_metrics(params, z0, z1, u0, current)
+    assert m.settling_time <= settle_bound * m.kinematic_bound, m
+    assert m.overshoot < 0.2, m
+    assert math.degrees(m.rms_q_settled) < 0.05, m
+    assert m.peak_pitch <= THETA_MAX + 1e-6, m
     assert np.all(np.abs(run.bar) <= params.bar_max + 1e-12)
     assert np.all(np.abs(np.diff(run.bar)) <= params.bar_rate * 0.1 + 1e-12)
+
+
+@pytest.mark.parametrize(('z0', 'z1'), [(20.0, 21.0), (21.0, 20.0), (20.0, 23.0),
+                                        (23.0, 20.0), (20.0, 25.0), (25.0, 20.0)])
+def test_small_steps_do_not_overshoot(
+    params, z0: float, z1: float,  # type: ignore[no-untyped-def]
+) -> None:
+    _, m = closed_loop_metrics(params, z0, z1, 2.0)
+    assert m.overshoot < 0.2, m
+    assert m.peak_pitch <= THETA_MAX + 1e-6, m
+    assert m.settling_time < 30.0, m
+
+
+@pytest.mark.xfail(strict=True, reason='open: 40 -> 10 m settles in 1.57 T_kin; the nose-up '
+                   'BAR left at 24 deg of pitch bounds the climb\'s acceleration (see '
+                   'bench/bench_closed_loop.py)')
+def test_big_climb_settles_within_1_5_kinematic_bounds(
+    params,  # type: ignore[no-untyped-def]
+) -> None:
+    _, m = closed_loop_metrics(params, 40.0, 10.0, 2.0)
+    assert m.settling_time <= 1.5 * m.kinematic_bound, m
