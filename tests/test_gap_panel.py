@@ -155,3 +155,18 @@ def test_unknown_effect_is_an_error(vehicle) -> None:  # type: ignore[no-untyped
     log = synth.simulate(vehicle, None, synth.panel_scenario(), seed=1, noise=np.zeros(12))
     with pytest.raises(GapError, match="unknown effect 'waves'"):
         diagnose(vehicle, log.gap_logs(), effects=['waves'])
+
+
+def test_ambiguous_without_the_separating_manoeuvre(vehicle) -> None:  # type: ignore
+    """At one depth a buoyancy error and a depth-dependent buoyancy look alike: the diagnosis
+    must say so and ask for a depth excursion."""
+    flat = synth.Scenario(duration=600.0, z0=60.0, u0=2.0, depth=((0.0, 60.0),),
+                          thrust=((0.0, 55.0), (200.0, 100.0), (400.0, 30.0)),
+                          doublets=((40.0, 0.08, 3.0), (120.0, 0.1, 2.0), (250.0, 0.06, 4.0),
+                                    (330.0, 0.1, 3.0), (450.0, 0.08, 3.0), (520.0, 0.1, 2.0)))
+    log = synth.simulate(vehicle, {'effects': EFFECT_FILES['buoyancy_offset']}, flat, seed=2)
+    r = diagnose(vehicle, log.gap_logs()).report
+    assert r['verdict'] == 'ambiguous'
+    assert {r['best'], *r['ambiguous_with']} == {'buoyancy_offset', 'buoyancy_depth'}
+    assert r['suggested_manoeuvre'].startswith('depth excursion')
+    assert r['held_out']['shrink'] >= 0.8

@@ -61,9 +61,7 @@ def expected_noise_psd(pr: Problem, row: int, fs: float, nperseg: int, seed: int
     rng = np.random.default_rng(seed)
     lg = pr.logs[0]
     n = min(lg.t.size, 200_000)
-    win = pr.smoothed[0]
-    nwin = max(5, int(round(1.0 / lg.period)) | 1)
-    del win
+    nwin = pr.smoothed[0].length
     every = max(1, int(round(1.0 / (fs * lg.period))))
     acc = None
     for _ in range(3):

@@ -28,7 +28,6 @@ from typing import Any
 
 import numpy as np
 
-from auv_ident.errors import GapError
 from auv_ident.gap import analysis
 from auv_ident.gap.catalogue import CATALOGUE, Perturbation, get_effect, separating_manoeuvre
 from auv_ident.gap.fit import EquationFit, FitResult, FreeRunFit
@@ -152,12 +151,13 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
         say('the nominal free run diverges in some windows')
     rms_nom = np.sqrt(np.nanmean(np.where(finite[:, None], err_nom, np.nan)[:, CH_INDEX] ** 2,
                                  axis=0))
-    spread = np.sqrt(np.nanmean((out[1:] - out[0][None]) [:, :, CH_INDEX] ** 2, axis=(0, 1)))
+    spread = np.sqrt(np.nanmean((out[1:] - out[0][None])[:, :, CH_INDEX] ** 2, axis=(0, 1)))
     out_b, _ = pr.free_run([nom], all_w, x0_bias=True)
     bias_spread = np.sqrt(np.nanmean((out_b[0] - out[0])[:, CH_INDEX] ** 2, axis=0))
     floor = np.sqrt((pr.noise[list(CH_INDEX)] * pr.smooth_gain) ** 2 + spread ** 2
                     + bias_spread ** 2)
-    gap_channels = [CH_NAMES[i] for i in range(len(CH_INDEX)) if rms_nom[i] > GAP_FACTOR * floor[i]]
+    gap_channels = [CH_NAMES[i] for i in range(len(CH_INDEX))
+                    if rms_nom[i] > GAP_FACTOR * floor[i]]
     scales = np.maximum(rms_nom, floor)
     rows_all = pr.window_rows(all_w)
     rms_z_win = np.array([np.sqrt(np.nanmean(err_nom[r, 2] ** 2)) for r in rows_all])
@@ -220,7 +220,7 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     for c in refined:
         if c.score >= singles[c.label].score:
             singles[c.label] = c
-    ranked_singles = sorted(singles.values(), key=lambda c: -c.score)
+    ranked_singles = sorted(singles.values(), key=lambda c: (c.fit.n_active == 0, -c.score))
     candidates: list[Candidate] = list(ranked_singles)
 
     # 4. combinations: equation error ranks every addition, free run refines the best ones
@@ -249,7 +249,7 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
         if top_trial.score <= best.score:
             break
         best = top_trial
-    candidates.sort(key=lambda c: -c.score)
+    candidates.sort(key=lambda c: (c.fit.n_active == 0, -c.score))
 
     # 5. verdict
     verdict, ambiguous, suggestion = _verdict(gap_channels, best, candidates)
@@ -346,11 +346,3 @@ def _candidate_details(c: Candidate) -> dict[str, Any]:
             'identified': {_param_key(c, e, p.name): bool(a)
                            for (e, p), a in zip(f.effects.params, f.active)},
             'held_out_cost': c.cost, 'held_out_rms': c.rms, 'n_params': f.n_active}
-
-
-def check_effects(names: Sequence[str]) -> None:
-    """GapError unless every name is a registered effect."""
-    for n in names:
-        get_effect(n)
-    if not names:
-        raise GapError('no effects to try')

@@ -164,7 +164,8 @@ class Problem:
 
     def select(self, held_out: bool | None) -> list[int]:
         """Indices of the held-out (True), training (False) or all (None) windows."""
-        return [i for i, w in enumerate(self.windows) if held_out is None or w.held_out == held_out]
+        return [i for i, w in enumerate(self.windows)
+                if held_out is None or w.held_out == held_out]
 
     # -- actuators ---------------------------------------------------------------------------
     def actuators(self, pert: Perturbation) -> np.ndarray:
