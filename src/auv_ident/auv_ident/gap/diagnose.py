@@ -220,7 +220,7 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     for c in refined:
         if c.score >= singles[c.label].score:
             singles[c.label] = c
-    ranked_singles = sorted(singles.values(), key=lambda c: (c.fit.n_active == 0, -c.score))
+    ranked_singles = sorted(singles.values(), key=lambda c: -c.score)
     candidates: list[Candidate] = list(ranked_singles)
 
     # 4. combinations: equation error ranks every addition, free run refines the best ones
@@ -249,7 +249,7 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
         if top_trial.score <= best.score:
             break
         best = top_trial
-    candidates.sort(key=lambda c: (c.fit.n_active == 0, -c.score))
+    candidates.sort(key=lambda c: -c.score)
 
     # 5. verdict
     verdict, ambiguous, suggestion = _verdict(gap_channels, best, candidates)
