@@ -117,13 +117,15 @@ def _markdown(diag: Diagnosis, figures: list[tuple[str, str]]) -> str:
         parts = []
         for k, v in c['params'].items():
             lo, hi = c['ci95'][k]
-            tag = '' if ident[c['effect']][k] else ' (not identifiable from these data)'
+            tag = '' if ident[c['effect']][k] else ' (not identified: no sensitivity at the fit)'
             parts.append(f'{k} = {_fmt(v)} [{_fmt(lo)}, {_fmt(hi)}] {units[c["effect"]][k]}'
                          + tag)
         lines.append(f'| {c["effect"]} | {_fmt(c["score"], digits=3)} | '
                      f'{c["explained"]:.2f} | {"; ".join(parts)} |')
-    unseen = [n for n, c in ((c['effect'], c) for c in d['candidates'])
-              if '+' not in n and not any(c['identified'].values())]
+    seen = {k.split('.')[0] if '+' in c['effect'] else c['effect']
+            for c in d['candidates'] for k, v in c['identified'].items() if v}
+    unseen = [c['effect'] for c in d['candidates']
+              if '+' not in c['effect'] and c['effect'] not in seen]
     if unseen:
         lines += ['', 'Not identifiable from these logs: '
                   + ', '.join(f'`{n}`' for n in unseen) + '. '
