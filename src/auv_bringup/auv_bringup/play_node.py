@@ -110,11 +110,18 @@ def run(args: argparse.Namespace) -> int:
     return 130 if stop['signal'] == signal.SIGINT else 0
 
 
+MATCH_SETTLE = 0.3  # s after the writers see their readers, for the readers to see the writers
+
+
 def _wait_for_subscribers(pubs: dict[str, Any], timeout: float, stop: dict[str, int]) -> None:
+    """Wait until every publisher has a subscriber, then :data:`MATCH_SETTLE` more: DDS
+    discovery is not symmetric, and a sample sent before the reader has matched the writer
+    arrives late, by retransmission, and distorts the replayed timing."""
     deadline = time.monotonic() + timeout
     while not stop['signal']:
         missing = [t for t, p in pubs.items() if p.get_subscription_count() == 0]
         if not missing:
+            _sleep_until(time.monotonic() + MATCH_SETTLE, stop)
             return
         if time.monotonic() > deadline:
             raise CliError(f'no subscriber on {", ".join(missing)} after {timeout:g} s')

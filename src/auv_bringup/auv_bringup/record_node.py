@@ -88,6 +88,7 @@ class Recorder:
         self.stop_ns: int | None = None  # receive time (ns, system clock) of the stop
         self.last_message = time.monotonic()
         self.pending: list[str] = []
+        self._last_ns: dict[str, int] = {}
         self._reliable = QoSProfile(depth=qos_depth, reliability=ReliabilityPolicy.RELIABLE)
         self._best_effort = QoSProfile(depth=qos_depth,
                                        reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -115,11 +116,16 @@ class Recorder:
         self.subscriptions[topic] = (sub, reliable)
 
     def _on_message(self, topic: str, data: bytes, info: dict[str, int]) -> None:
-        """Write one message; its log time is its DDS receive time (ns, system clock)."""
+        """Write one message; its log time is its DDS receive time (ns, system clock), held
+        non-decreasing per topic: a reliable reader delivers in publication order, but samples
+        repaired by retransmission carry a later receive time than the ones queued behind them,
+        and the bag's log-time order must be its delivery order."""
         received = info.get('received_timestamp') or time.time_ns()
         if self.stop_ns is not None and received > self.stop_ns:
             self.late += 1
             return
+        received = max(received, self._last_ns.get(topic, 0))
+        self._last_ns[topic] = received
         self.writer.write(topic, data, received)
         self.count += 1
         self.last_message = time.monotonic()
