@@ -72,6 +72,15 @@ def _sabs(a):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
+def rotation(cph, sph, cth, sth, cps, sps):  # type: ignore[no-untyped-def]
+    """Entries r00, r01, ..., r22 of the rotation body FRD -> NED (ZYX Euler angles), from the
+    cosines and sines of roll, pitch and yaw (Fossen 2011, eq. 2.18)."""
+    return (cps * cth, -sps * cph + cps * sth * sph, sps * sph + cps * cph * sth,
+            sps * cth, cps * cph + sph * sth * sps, -cps * sph + sth * sps * cph,
+            -sth, cth * sph, cth * cph)
+
+
+@njit(cache=True)
 def current_ned(t, z, env, prof):  # type: ignore[no-untyped-def]
     """Water current at depth z [m] and time t [s]: (v_n, v_e, v_d, dv/dz (3), dv/dt (3)).
 
@@ -158,16 +167,7 @@ def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
     sth = np.sin(th)
     cps = np.cos(psi)
     sps = np.sin(psi)
-    # rotation body -> NED (ZYX)
-    r00 = cps * cth
-    r01 = -sps * cph + cps * sth * sph
-    r02 = sps * sph + cps * cph * sth
-    r10 = sps * cth
-    r11 = cps * cph + sph * sth * sps
-    r12 = -cps * sph + sth * sps * cph
-    r20 = -sth
-    r21 = cth * sph
-    r22 = cth * cph
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation(cph, sph, cth, sth, cps, sps)
     vcn, vce, vcd, gn, ge, gd, tn, te, td = current_ned(t, x[2], env, prof)
     ucb = r00 * vcn + r10 * vce + r20 * vcd
     vcb = r01 * vcn + r11 * vce + r21 * vcd
@@ -329,9 +329,10 @@ def _kinematics(x, xdot, cph, sph, cth, sth, cps, sps):  # type: ignore[no-untyp
     p = x[9]
     q = x[10]
     r = x[11]
-    xdot[0] = cps * cth * u + (-sps * cph + cps * sth * sph) * v + (sps * sph + cps * cph * sth) * w
-    xdot[1] = sps * cth * u + (cps * cph + sph * sth * sps) * v + (-cps * sph + sth * sps * cph) * w
-    xdot[2] = -sth * u + cth * sph * v + cth * cph * w
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation(cph, sph, cth, sth, cps, sps)
+    xdot[0] = r00 * u + r01 * v + r02 * w
+    xdot[1] = r10 * u + r11 * v + r12 * w
+    xdot[2] = r20 * u + r21 * v + r22 * w
     xdot[3] = p + (q * sph + r * cph) * sth / cth
     xdot[4] = q * cph - r * sph
     xdot[5] = (q * sph + r * cph) / cth

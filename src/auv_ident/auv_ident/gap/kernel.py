@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from auv_sim.model import ENV_SIZE, I_MINV, kinematics, wrenches
+from auv_sim.model import ENV_SIZE, I_MINV, kinematics, rotation, wrenches
 
 #: Basis functions of the extra wrench, in :func:`basis` order (dimension given per row).
 BASIS_NAMES = (
@@ -66,21 +66,8 @@ def basis(x, xr, phi):  # type: ignore[no-untyped-def]
 @njit(cache=True)
 def current_body(x, cur, out):  # type: ignore[no-untyped-def]
     """``out`` (3) = R(eta)^T cur: an NED current [m/s] in body FRD axes."""
-    cph = np.cos(x[3])
-    sph = np.sin(x[3])
-    cth = np.cos(x[4])
-    sth = np.sin(x[4])
-    cps = np.cos(x[5])
-    sps = np.sin(x[5])
-    r00 = cps * cth
-    r01 = -sps * cph + cps * sth * sph
-    r02 = sps * sph + cps * cph * sth
-    r10 = sps * cth
-    r11 = cps * cph + sph * sth * sps
-    r12 = -cps * sph + sth * sps * cph
-    r20 = -sth
-    r21 = cth * sph
-    r22 = cth * cph
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation(
+        np.cos(x[3]), np.sin(x[3]), np.cos(x[4]), np.sin(x[4]), np.cos(x[5]), np.sin(x[5]))
     out[0] = r00 * cur[0] + r10 * cur[1] + r20 * cur[2]
     out[1] = r01 * cur[0] + r11 * cur[1] + r21 * cur[2]
     out[2] = r02 * cur[0] + r12 * cur[1] + r22 * cur[2]
