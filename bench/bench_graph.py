@@ -1,0 +1,98 @@
+"""Benchmark: timing of the node graph (simulator, depth pilot, recorder as processes).
+
+* ``lockstep``: 300 s of the 40 m -> 10 m manoeuvre in lockstep, as fast as the processes
+  allow; real-time factor = simulated time / wall time between the first and the last state
+  the recorder received (start-up excluded), and with start-up included. Target >= 20.
+* ``timer``: 30 s in real time (real-time factor 1, no lockstep): the pilot publishes from its
+  10 Hz timer; its publish period as received by the recorder (median, p99 of the deviation
+  from 0.1 s). Target: p99 jitter < 2 ms.
+* ``latency``: 30 s in real time with lockstep: for each control instant, the time from the
+  recorder's receipt of the state stamped t_k to its receipt of the pilot's BAR command
+  stamped t_k (state -> pilot -> BAR, both legs over DDS, measured at one process clock).
+  Target: p99 < 5 ms.
+
+Run: ``. .venv/bin/auv-env && python bench/bench_graph.py`` (writes bench/results/graph.json).
+"""
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import tempfile
+import time
+from typing import Any
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+def _fly(tmp: pathlib.Path, name: str, lockstep: bool, rtf: float, stop_time: float,
+         env: dict[str, str]) -> tuple[dict[str, np.ndarray], float]:
+    from auv_bringup.launch import GraphConfig, run_graph
+    from auv_ident.bag import read_arrays
+
+    bag = tmp / name
+    cfg = GraphConfig(vehicle=str(ROOT / 'config' / 'a18m.yaml'), lockstep=lockstep,
+                      real_time_factor=rtf, initial_depth=40.0, stop_time=stop_time,
+                      record=str(bag), log_dir=str(tmp / f'{name}_logs'), depth_command=10.0)
+    wall = time.monotonic()
+    codes = run_graph(cfg, duration=stop_time / max(rtf, 1.0) + 300.0, env=env)
+    wall = time.monotonic() - wall
+    if codes.get('simulator') != 0:
+        raise RuntimeError(f'graph run {name} failed: {codes}')
+    return read_arrays(bag, ['/auv/state', '/auv/bar_command']), wall
+
+
+def run(lockstep_time: float = 300.0, real_time: float = 30.0) -> dict[str, Any]:
+    """Run the three graph measurements; returns the figures."""
+    env = dict(os.environ)
+    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    env.setdefault('ROS_DOMAIN_ID', '87')
+    out: dict[str, Any] = {'targets': {'lockstep_real_time_factor_min': 20.0,
+                                       'timer_p99_jitter_ms_max': 2.0,
+                                       'latency_p99_ms_max': 5.0}}
+    with tempfile.TemporaryDirectory() as tmp_name:
+        tmp = pathlib.Path(tmp_name)
+        arrays, wall = _fly(tmp, 'lockstep', True, 0.0, lockstep_time, env)
+        st = arrays['/auv/state']
+        span = (st['t_log'][-1] - st['t_log'][0])
+        sim_span = st['t'][-1] - st['t'][0]
+        out['lockstep'] = {'simulated_s': float(sim_span), 'wall_s_running': float(span),
+                           'real_time_factor': float(sim_span / span),
+                           'wall_s_with_startup': wall,
+                           'real_time_factor_with_startup': float(sim_span / wall)}
+
+        arrays, _ = _fly(tmp, 'timer', False, 1.0, real_time, env)
+        bar = arrays['/auv/bar_command']
+        period = np.diff(bar['t_log'])[10:]  # after start-up
+        dev = np.abs(period - 0.1)
+        out['timer'] = {'commands': int(len(bar)), 'period_median_ms': float(
+            1e3 * np.median(period)), 'jitter_median_ms': float(1e3 * np.median(dev)),
+            'jitter_p99_ms': float(1e3 * np.percentile(dev, 99)),
+            'jitter_max_ms': float(1e3 * dev.max())}
+
+        arrays, _ = _fly(tmp, 'latency', True, 1.0, real_time, env)
+        st, bar = arrays['/auv/state'], arrays['/auv/bar_command']
+        state_at = dict(zip(np.round(st['t'], 6), st['t_log']))
+        lat = np.array([tl - state_at[t] for t, tl in zip(np.round(bar['t'], 6), bar['t_log'])
+                        if t in state_at])[5:]
+        out['latency'] = {'samples': int(len(lat)), 'median_ms': float(1e3 * np.median(lat)),
+                          'p99_ms': float(1e3 * np.percentile(lat, 99)),
+                          'max_ms': float(1e3 * lat.max())}
+    t = out['targets']
+    out['targets_met'] = {
+        'lockstep_real_time_factor': out['lockstep']['real_time_factor']
+        >= t['lockstep_real_time_factor_min'],
+        'timer_jitter': out['timer']['jitter_p99_ms'] <= t['timer_p99_jitter_ms_max'],
+        'latency': out['latency']['p99_ms'] <= t['latency_p99_ms_max']}
+    out['load_average_1min'] = os.getloadavg()[0]
+    return out
+
+
+if __name__ == '__main__':
+    figures = run()
+    path = ROOT / 'bench' / 'results' / 'graph.json'
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(figures, indent=2))
+    print(json.dumps(figures, indent=2))
