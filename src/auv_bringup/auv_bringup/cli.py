@@ -35,6 +35,7 @@ SUBCOMMANDS: dict[str, Subcommand] = {
     'play': Subcommand('auv_bringup.play_node', 'replay a bag on its topics'),
     'depth': Subcommand('auv_bringup.depth', 'publish one depth command (m, positive down)'),
     'run': Subcommand('auv_bringup.run', 'offline batch run written as a bag'),
+    'mission': Subcommand('auv_bringup.mission_node', 'fly a scripted mission through the graph'),
     'design': Subcommand('auv_depth_lqr.cli', 'trim, linearisation and LQR gains as JSON'),
     'ident': Subcommand('auv_ident.cli', 'identify coefficients from bags'),
     'gap': Subcommand('auv_ident.gap_cli', 'sim-to-real gap diagnosis'),

@@ -86,6 +86,7 @@ class GraphConfig:
     weights: str = 'default'
     log_dir: str | None = None
     depth_command: float | None = None  # published (and delivered) before the simulator starts
+    mission: str | None = None  # an open-loop mission (auv mission) instead of the pilot
 
 
 def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
@@ -104,7 +105,11 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
         if cfg.topics:
             argv += ['--topics', *cfg.topics]
         nodes.append(NodeProcess('recorder', argv, log('recorder')))
-    if cfg.pilot:
+    if cfg.mission:
+        nodes.append(NodeProcess('mission', [py, '-m', 'auv_bringup.cli', 'mission',
+                                             cfg.mission, '--vehicle', cfg.vehicle],
+                                 log('mission')))
+    elif cfg.pilot:
         nodes.append(NodeProcess('pilot', [py, '-m', 'auv_depth_lqr.node', *ros_params(
             vehicle_file=cfg.vehicle, lockstep=cfg.lockstep, rate=cfg.pilot_rate,
             weights=cfg.weights, use_sim_time=True)], log('pilot')))
@@ -112,7 +117,7 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
         vehicle_file=cfg.vehicle, effects_file=cfg.effects or '""', lockstep=cfg.lockstep,
         real_time_factor=cfg.real_time_factor, initial_depth=cfg.initial_depth,
         initial_speed=cfg.initial_speed, stop_time=cfg.stop_time,
-        start_subscribers=float(int(cfg.pilot) + int(bool(cfg.record))),
+        start_subscribers=float(int(cfg.pilot or bool(cfg.mission)) + int(bool(cfg.record))),
         control_period=1.0 / cfg.pilot_rate)], log('simulator')))
     return nodes
 
@@ -174,12 +179,18 @@ def run_graph(cfg: GraphConfig, duration: float | None = None,
             if end is not None and time.monotonic() > end:
                 break
             for node in nodes:
-                if not node.running() and node.name != 'simulator':
+                if not node.running() and node.name != 'simulator' \
+                        and node.proc is not None and node.proc.returncode != 0:
                     raise LaunchError(f'{node.name} died (code {node.proc and node.proc.poll()})'
                                       + (f'; see {node.log_path}' if node.log_path else ''))
             time.sleep(0.05)
     finally:
         for node in reversed(nodes):
+            if node.name == 'mission' and node.proc is not None and not stop_requested:
+                try:  # a mission ends by itself with the simulator's last state
+                    node.proc.wait(5.0)
+                except subprocess.TimeoutExpired:
+                    pass
             if node.name != 'recorder':
                 codes[node.name] = node.stop(signal.SIGINT)
         time.sleep(0.3)  # let the last messages reach the recorder
@@ -207,12 +218,36 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--no-pilot', action='store_true', help='do not start the depth pilot')
     parser.add_argument('--record', default=None, help='record the topics to this bag directory')
     parser.add_argument('--log-dir', default=None, help='write each node\'s output here')
+    parser.add_argument('--mission', default=None,
+                        help='fly an open-loop mission (surge, pitch, yaw or a file) instead of '
+                             'the pilot; start depth, speed and stop time come from it')
     parser.add_argument('--depth', type=float, default=None,
                         help='depth command [m] delivered to the pilot before the simulator '
                              'starts (for deterministic lockstep runs)')
 
 
+def mission_config(mission: str, **kwargs: object) -> GraphConfig:
+    """A graph that flies ``mission`` open loop: trimmed at its start, stopped at its end."""
+    from auv_sim.missions import load_mission
+
+    m = load_mission(mission)
+    return GraphConfig(mission=mission, pilot=False, initial_depth=m.z0, initial_speed=m.u0,
+                       stop_time=m.duration, **kwargs)  # type: ignore[arg-type]
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.mission:
+        if args.lockstep:
+            raise LaunchError('--lockstep needs the pilot; a mission follows simulated time')
+        cfg = mission_config(args.mission, vehicle=args.vehicle, effects=args.effects,
+                             real_time_factor=args.real_time_factor, record=args.record,
+                             log_dir=args.log_dir)
+        codes = run_graph(cfg, duration=args.duration)
+        bad = {k: v for k, v in codes.items() if v not in (0, None, -2, 130)}
+        if bad:
+            print(f'error: nodes exited with failures: {bad}', file=sys.stderr)
+            return 1
+        return 0
     cfg = GraphConfig(vehicle=args.vehicle, effects=args.effects, lockstep=args.lockstep,
                       real_time_factor=args.real_time_factor, initial_depth=args.initial_depth,
                       initial_speed=args.initial_speed, stop_time=args.stop_time,
