@@ -24,7 +24,9 @@ import pathlib
 import struct
 import time
 import zlib
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from io import StringIO
 from typing import IO, Any, NamedTuple
 
@@ -43,6 +45,7 @@ __all__ = [
     'ProgressCallback',
     'bag_files',
     'bag_topics',
+    'default_workers',
     'msg_dir',
     'normalize_msgtype',
     'qos_profiles_yaml',
@@ -490,9 +493,15 @@ def bag_files(path: str | os.PathLike[str]) -> list[pathlib.Path]:
     Raises:
         BagError: no such bag, unreadable ``metadata.yaml``, or no MCAP file.
     """
+    return _bag_contents(path)[0]
+
+
+def _bag_contents(path: str | os.PathLike[str]) -> tuple[list[pathlib.Path], dict[str, int]]:
+    """:func:`bag_files`, and the message count of each topic as ``metadata.yaml`` states it
+    (empty without one; a hint for sizing arrays, never trusted for results)."""
     p = pathlib.Path(path)
     if p.is_file():
-        return [p]
+        return [p], {}
     if not p.exists():
         raise BagError(f'bag {p} does not exist')
     meta = p / 'metadata.yaml'
@@ -509,11 +518,17 @@ def bag_files(path: str | os.PathLike[str]) -> list[pathlib.Path]:
         for f in files:
             if not f.is_file():
                 raise BagError(f'bag {p}: file {f.name} named in metadata.yaml is missing')
-        return files
+        counts: dict[str, int] = {}
+        try:
+            for entry in info.get('topics_with_message_count') or []:
+                counts[str(entry['topic_metadata']['name'])] = int(entry['message_count'])
+        except (KeyError, TypeError, ValueError):
+            counts = {}
+        return files, counts
     files = sorted(p.glob('*.mcap'))
     if not files:
         raise BagError(f'bag {p} has no metadata.yaml and no .mcap file')
-    return files
+    return files, {}
 
 
 # --------------------------------------------------------------------------------------------
@@ -549,15 +564,40 @@ class _Block(NamedTuple):
     length: np.ndarray  # CDR data length (bytes)
 
 
-class _Scanner:
-    """Reads one MCAP file front to back, record by record, and stops at the first bad one."""
+def default_workers() -> int:
+    """Threads that decompress and check chunks by default: the CPU count, at most 4."""
+    return max(1, min(4, os.cpu_count() or 1))
 
-    def __init__(self, file: pathlib.Path, progress: ProgressCallback | None = None) -> None:
+
+class _Pending(NamedTuple):
+    """A block read but not yet handed out: loose messages (``block``) or a chunk whose
+    decompression and CRC check run in the background (``inflated``)."""
+
+    block: _Block | None
+    inflated: Future[bytes] | None
+    pos: int  # file offset of the chunk record
+    indexes: list[bytes]  # message index records of the chunk
+    buffer: bytearray | None  # holding the chunk record, reused once it is inflated
+
+
+class _Scanner:
+    """Reads one MCAP file front to back, record by record, and stops at the first bad one.
+
+    Chunks are decompressed and CRC-checked by ``workers`` threads (the codecs and
+    ``zlib.crc32`` release the GIL) a few chunks ahead of the consumer; blocks are still handed
+    out in file order, and a bad chunk ends the scan after every block before it.
+    """
+
+    def __init__(self, file: pathlib.Path, progress: ProgressCallback | None = None,
+                 workers: int | None = None) -> None:
         self.file = file
         self.progress = progress
         self.schemas: dict[int, tuple[str, str, str]] = {}  # id -> name, encoding, text
         self.channels: dict[int, _Channel] = {}
         self.size = 0
+        self.workers = default_workers() if workers is None else max(1, int(workers))
+        self._pool: ThreadPoolExecutor | None = None
+        self._spare: list[bytearray] = []  # read buffers free for the next chunk records
 
     def blocks(self) -> Iterator[_Block]:
         """Blocks of whole messages; raises :class:`_Damage` after the last good one."""
@@ -565,9 +605,16 @@ class _Scanner:
             fh = open(self.file, 'rb')  # noqa: SIM115
         except OSError as exc:
             raise BagError(f'cannot open bag file {self.file}: {exc.strerror}') from None
-        with fh:
-            self.size = os.fstat(fh.fileno()).st_size
-            yield from self._records(fh)
+        pool = ThreadPoolExecutor(self.workers) if self.workers > 1 else None
+        self._pool = pool
+        try:
+            with fh:
+                self.size = os.fstat(fh.fileno()).st_size
+                yield from self._records(fh)
+        finally:
+            self._pool = None
+            if pool is not None:
+                pool.shutdown(wait=True, cancel_futures=True)
 
     def _damage(self, kind: str, offset: int, detail: str) -> _Damage:
         return _Damage(self.file, kind, offset, detail)
@@ -581,25 +628,27 @@ class _Scanner:
             raise BagError(f'bag file {self.file} is not an MCAP file (bad magic bytes)')
         pos = 8
         loose = _LooseMessages()
-        chunk: list[Any] = []  # [chunk body, its offset, message index bodies...]
+        pending: deque[_Pending] = deque()  # in file order
+        chunk: list[_Pending] = []  # the last chunk read, while its message indexes follow
+        ahead = 2 * self.workers if self._pool is not None else 0  # chunks kept in flight
         seen_data_end = False
         while True:
             head = fh.read(9)
             if not head:
-                yield from self._take(loose, chunk)
+                yield from self._take(loose, chunk, pending, 0)
                 where = 'after the data section' if seen_data_end else 'before the summary'
                 raise self._damage('truncated', pos, f'the file ends {where}, no footer')
             if len(head) < 9:
-                yield from self._take(loose, chunk)
+                yield from self._take(loose, chunk, pending, 0)
                 raise self._damage('truncated', pos, 'the file ends inside a record header')
             op = head[0]
             (length,) = _U8.unpack_from(head, 1)
             if op not in _KNOWN_OPS and op < 0x80:
-                yield from self._take(loose, chunk)
+                yield from self._take(loose, chunk, pending, 0)
                 raise self._damage('corrupt', pos, f'unknown record opcode 0x{op:02x}')
             body_start = pos + 9
             if length > size - body_start:
-                yield from self._take(loose, chunk)
+                yield from self._take(loose, chunk, pending, 0)
                 if op == _OP_CHUNK:
                     part = fh.read()
                     block = self._partial_chunk(part)
@@ -612,19 +661,22 @@ class _Scanner:
                 body = fh.read(length)
                 loose.add(body)
             elif op == _OP_CHUNK:
-                yield from self._take(loose, chunk)
-                chunk.extend((fh.read(length), pos))  # decoded once its indexes are read
+                yield from self._take(loose, chunk, pending, ahead)
+                buffer, body = self._read_into(fh, length)
+                inflated = (self._pool.submit(self._inflate, body, pos) if self._pool
+                            else _done(self._inflate, body, pos))
+                chunk.append(_Pending(None, inflated, pos, [], buffer))
             elif op == _OP_MESSAGE_INDEX and chunk:
-                chunk.append(fh.read(length))
+                chunk[0].indexes.append(fh.read(length))
             elif op in (_OP_SCHEMA, _OP_CHANNEL):
-                yield from self._take(loose, chunk)
+                yield from self._take(loose, chunk, pending, 0)
                 body = fh.read(length)
                 try:
                     self._definition(op, body, 0, len(body))
                 except (struct.error, UnicodeDecodeError, IndexError):
                     raise self._damage('corrupt', pos, 'unreadable schema or channel') from None
             elif op == _OP_FOOTER:
-                yield from self._take(loose, chunk)
+                yield from self._take(loose, chunk, pending, 0)
                 fh.seek(length, 1)
                 tail = fh.read(8)
                 if tail != _MAGIC:
@@ -641,13 +693,40 @@ class _Scanner:
             if self.progress and op == _OP_CHUNK:
                 self.progress(pos, size)
 
-    def _take(self, loose: _LooseMessages, chunk: list[Any]) -> Iterator[_Block]:
-        """Blocks of the messages read but not yet handed out."""
-        yield from loose.take()
+    def _take(self, loose: _LooseMessages, chunk: list[_Pending], pending: deque[_Pending],
+              keep: int) -> Iterator[_Block]:
+        """Queue the messages read so far (loose ones, then the last chunk) and hand out the
+        oldest queued blocks until at most ``keep`` chunks remain in flight."""
+        for block in loose.take():
+            pending.append(_Pending(block, None, 0, [], None))
         if chunk:
-            body, pos, *indexes = chunk
-            chunk.clear()
-            yield self._chunk(body, pos, indexes)
+            pending.append(chunk.pop())
+        while len(pending) > keep or (pending and pending[0].block is not None):
+            item = pending.popleft()
+            if item.block is not None:
+                yield item.block
+                continue
+            try:
+                data = item.inflated.result()  # type: ignore[union-attr]
+            except BaseException:
+                for rest in pending:
+                    if rest.inflated is not None:
+                        rest.inflated.cancel()
+                pending.clear()
+                raise
+            if item.buffer is not None:
+                self._spare.append(item.buffer)
+            yield self._locate(data, item.pos, item.indexes)
+
+    def _read_into(self, fh: IO[bytes], length: int) -> tuple[bytearray, memoryview]:
+        """Read ``length`` bytes into a spare buffer (fresh memory costs page faults): the
+        buffer and a view of what was read (shorter if the file shrank meanwhile)."""
+        buffer = self._spare.pop() if self._spare else bytearray()
+        if len(buffer) < length:
+            buffer = bytearray(length)
+        view = memoryview(buffer)[:length]
+        got = fh.readinto(view)  # type: ignore[attr-defined]
+        return buffer, view[:got or 0]
 
     def _definition(self, op: int, body: bytes, start: int, end: int) -> None:
         """Parse a schema or channel record body lying in ``body[start:end]``."""
@@ -667,7 +746,9 @@ class _Scanner:
                 raise IndexError
             self.channels[cid] = _Channel(topic, sid, enc)
 
-    def _chunk(self, body: bytes, pos: int, indexes: Sequence[bytes] = ()) -> _Block:
+    def _inflate(self, body: bytes | memoryview, pos: int) -> bytes:
+        """The uncompressed data of a chunk record body, its size and CRC checked (runs in a
+        worker thread; raises :class:`_Damage`)."""
         try:
             _, _, usize, crc = _CHUNK_HEAD.unpack_from(body, 0)
             comp, p = _string(body, _CHUNK_HEAD.size)
@@ -678,7 +759,7 @@ class _Scanner:
         if p + clen > len(body):
             raise self._damage('corrupt', pos, 'chunk data longer than the chunk record')
         try:
-            data = _decompress(body[p:p + clen], comp, usize)
+            data = _decompress(memoryview(body)[p:p + clen], comp, usize)
         except Exception as exc:  # each codec raises its own type
             raise self._damage('corrupt', pos, f'chunk does not decompress ({comp}: {exc})'
                                ) from None
@@ -686,6 +767,11 @@ class _Scanner:
             raise self._damage('corrupt', pos, f'chunk is {len(data)} bytes, expected {usize}')
         if crc and zlib.crc32(data) != crc:
             raise self._damage('corrupt', pos, 'chunk CRC mismatch')
+        return data
+
+    def _locate(self, data: bytes, pos: int, indexes: Sequence[bytes] = ()) -> _Block:
+        """The messages of an uncompressed chunk, through its message indexes if they describe
+        it exactly, else record by record (which also reads the definitions it holds)."""
         block = _indexed_records(data, indexes) if indexes else None
         if block is not None and len(block.offset) and block.offset[0] > _RECORD_PREFIX:
             # Schemas and channels before the first indexed message: walk that part.
@@ -802,16 +888,17 @@ def _indexed_records(data: bytes, indexes: Sequence[bytes]) -> _Block | None:
         return None
     if not pairs:
         return None
-    pair = np.concatenate(pairs)
-    order = np.argsort(pair[:, 1], kind='stable')
-    offs = pair[order, 1].astype(np.int64)
-    log = pair[order, 0]
-    chan = np.concatenate(cids)[order]
+    pair = pairs[0] if len(pairs) == 1 else np.concatenate(pairs)
+    offs = pair[:, 1].astype(np.int64)
+    log = pair[:, 0]
+    chan = cids[0] if len(cids) == 1 else np.concatenate(cids)
+    if len(offs) > 1 and not np.all(offs[1:] > offs[:-1]):
+        order = np.argsort(offs, kind='stable')
+        offs, log, chan = offs[order], log[order], chan[order]
     head = _MSG_RECORD_HEAD.itemsize
-    if len(offs) == 0 or offs[-1] + head > len(data):
+    if len(offs) == 0 or offs[0] < 0 or offs[-1] + head > len(data):
         return None
-    buf = np.frombuffer(data, np.uint8)
-    rec = buf[offs[:, None] + np.arange(head)].view(_MSG_RECORD_HEAD)[:, 0]
+    rec = _gather(data, offs, head).view(_MSG_RECORD_HEAD)[:, 0]
     ends = offs + 9 + rec['length'].astype(np.int64)
     if not (np.all(rec['op'] == _OP_MESSAGE) and np.all(rec['channel'] == chan)
             and np.all(rec['log_time'] == log) and np.all(rec['length'] >= _MSG_HEAD_SIZE)
@@ -819,6 +906,20 @@ def _indexed_records(data: bytes, indexes: Sequence[bytes]) -> _Block | None:
         return None
     return _Block(data, chan, log.astype(np.int64), offs + 9 + _MSG_HEAD_SIZE,
                   rec['length'].astype(np.int64) - _MSG_HEAD_SIZE)
+
+
+def _gather(data: bytes | np.ndarray, offs: np.ndarray, width: int) -> np.ndarray:
+    """The ``width`` bytes at each of the byte offsets ``offs`` of ``data``: a new
+    (len(offs), width) uint8 array (its rows 8-byte aligned when ``width`` is a multiple of 8).
+
+    One gather of ``width``-byte items from a view whose items start at every byte, so no
+    alignment is required of the offsets; every offset + ``width`` must lie within ``data``.
+    """
+    n = len(data) - width + 1
+    if n <= 0:
+        return np.empty((0, width), np.uint8)
+    items = np.ndarray((n,), dtype=np.dtype(('V', width)), buffer=data, strides=(1,))
+    return items[offs].view(np.uint8).reshape(len(offs), width)
 
 
 def _lists_to_arrays(*lists: list[int]) -> tuple[np.ndarray, ...]:
@@ -893,17 +994,27 @@ class _LooseMessages:
         yield _Block(data, *_lists_to_arrays(channel, log_time, offset, length))
 
 
-def _string(buf: bytes, pos: int) -> tuple[str, int]:
+def _string(buf: bytes | memoryview, pos: int) -> tuple[str, int]:
     (n,) = struct.unpack_from('<I', buf, pos)
     end = pos + 4 + n
     if end > len(buf):
         raise struct.error('string runs past its record')
-    return buf[pos + 4:end].decode(), end
+    return str(buf[pos + 4:end], 'utf-8'), end
 
 
-def _decompress(data: bytes, comp: str, usize: int) -> bytes:
+def _done(fn: Callable[..., bytes], *args: Any) -> Future[bytes]:
+    """A finished future holding ``fn(*args)`` or the exception it raised."""
+    fut: Future[bytes] = Future()
+    try:
+        fut.set_result(fn(*args))
+    except Exception as exc:  # re-raised where the result is taken, in file order
+        fut.set_exception(exc)
+    return fut
+
+
+def _decompress(data: bytes | memoryview, comp: str, usize: int) -> bytes:
     if comp == '':
-        return data
+        return bytes(data)
     if comp == 'zstd':
         import zstandard
 
@@ -1022,12 +1133,19 @@ def _bag_store(schemas: dict[int, tuple[str, str, str]]) -> Typestore:
     """A typestore able to decode every schema seen so far.
 
     The shared :func:`typestore` serves when it knows every type with the same definition;
-    otherwise a fresh one is built from the bag's own definitions.
+    otherwise a fresh one is built from the bag's own definitions. Stores are kept per set
+    of definitions (parsing them takes milliseconds); do not register types into them.
     """
+    return _bag_store_of(tuple(schemas.values()))
+
+
+@functools.lru_cache(maxsize=64)
+def _bag_store_of(schemas: tuple[tuple[str, str, str], ...]) -> Typestore:
+    """:func:`_bag_store` of the (name, encoding, text) of a bag's schemas."""
     base = typestore()
     extra: dict[str, Any] = {}
     conflict = False
-    for name, enc, text in schemas.values():
+    for name, enc, text in schemas:
         if enc != 'ros2msg' or not text:
             continue
         try:
@@ -1045,7 +1163,7 @@ def _bag_store(schemas: dict[int, tuple[str, str, str]]) -> Typestore:
     store = _base_store()
     if conflict:
         store = get_typestore(Stores.EMPTY)
-        for name, enc, text in schemas.values():
+        for name, enc, text in schemas:
             if enc == 'ros2msg' and text:
                 try:
                     extra.update(_types_from_schema(normalize_msgtype(name), text))
@@ -1221,136 +1339,135 @@ def _out_names(layout: _Layout) -> list[str]:
     return ['t', 't_log'] + [n for n in _column_names(layout) if n != 't']
 
 
-def _decode_vectorised(layout: _Layout, buf: np.ndarray, offs: np.ndarray,
-                       lens: np.ndarray) -> np.ndarray | None:
-    """Columns of messages at ``offs`` (start of their CDR data) in ``buf``, vectorised.
+@functools.lru_cache(maxsize=None)
+def _out_index(layout: _Layout) -> dict[str, int]:
+    return {n: i for i, n in enumerate(_out_names(layout))}
+
+
+def _decode_vectorised(layout: _Layout, data: bytes, offs: np.ndarray, lens: np.ndarray,
+                       out: np.ndarray) -> bool:
+    """Columns of the messages at ``offs`` (start of their CDR data, ``lens`` bytes each) in
+    ``data``, vectorised over the messages, written into ``out`` (messages x
+    :func:`_out_names`; column ``t_log`` is left unset).
 
     CDR (XCDR1, little endian): a 4-byte encapsulation header, then each primitive aligned to
-    its size relative to the end of that header (the origin). Messages are split into groups
-    in which the origin and the cursor have the same residue modulo 8: within a group every
-    field lies at one alignment in the buffer, so it is one gather for the whole group, and
-    a run of float64 fields is one 2-D gather. After a string (the header's ``frame_id``) or
-    a sequence the cursor differs per message, and the group is split again by residue.
+    its size relative to the end of that header (the origin). The message is cut into
+    segments in which every field lies at the same offset from the segment's start in all
+    messages: a segment ends at a string or sequence (whose length varies per message) and
+    wherever the alignment padding differs between messages. Each segment is one gather of
+    its bytes for all messages (no alignment needed of the offsets), then its fields are
+    strided views of the gathered rows.
 
     Returns:
-        float64 matrix (messages x :func:`_out_names`), column ``t_log`` left unset; None when
-        a message does not fit the layout (the caller then decodes message by message, which
-        names the bad one).
+        False when a message does not fit the layout (nothing else is meaningful in ``out``;
+        the caller then decodes message by message, which names the bad one).
     """
-    names = _out_names(layout)
-    index = {n: i for i, n in enumerate(names)}
     n_msg = len(offs)
-    mat = np.empty((n_msg, len(names)))
     if n_msg == 0:
-        return mat
-    if np.any(lens < 4):
-        return None
-    if np.any(buf[offs] != 0) or np.any(buf[offs + 1] != 1):  # not CDR_LE
-        return None
+        return True
+    index = _out_index(layout)
     ops = layout.ops
-    end = offs + lens  # absolute end of each message in buf
-    f8 = np.dtype('<f8')
-    copies: dict[int, np.ndarray] = {}
+    stop = offs + lens  # absolute end of each message in data
+    # Segment: absolute start ``base``, cursor ``off`` (bytes from base), ``brel`` the
+    # residue (base - origin) % 8 (an int when equal for all messages), fields to extract.
+    base = offs
+    brel: int | np.ndarray = 4
+    off = 4
+    fields: list[tuple[str, int, int, str, int]] = []  # kind, column, offset, dtype, count
+    # (kinds: encap, time, run of float64, num, count of a string or sequence)
 
-    def aligned(r: int) -> np.ndarray:
-        """``buf`` from byte ``r`` on, 8-byte aligned in memory (a copy unless it already
-        is): gathers from aligned memory are several times faster."""
-        copy = copies.get(r)
-        if copy is None:
-            usable = (len(buf) - r) // 8 * 8
-            copy = buf[r:r + usable]
-            if copy.ctypes.data % 8:
-                copy = copy.copy()
-            copies[r] = copy
-        return copy
+    def flush() -> np.ndarray | None:
+        """Gather the segment's bytes and extract its fields; None if a message is short."""
+        if np.any(base + off > stop):
+            return None
+        if not fields:
+            return np.empty((n_msg, 0), np.uint8)
+        rows = _gather(data, base, off)
+        for kind, col, at, dtype, count in fields:
+            if kind == 'encap':
+                if np.any(rows[:, 0] != 0) or np.any(rows[:, 1] != 1):  # not CDR_LE
+                    return None
+                continue
+            if kind == 'time':
+                sec = np.ndarray((n_msg,), '<i4', rows, at, (off,)).astype(np.float64)
+                nsec = np.ndarray((n_msg,), '<u4', rows, at + 4, (off,)).astype(np.float64)
+                out[:, col] = sec + nsec * 1e-9
+            elif kind == 'run':
+                out[:, col:col + count] = np.ndarray((n_msg, count), '<f8', rows, at, (off, 8))
+            elif kind == 'num':
+                out[:, col] = np.ndarray((n_msg,), dtype, rows, at, (off,))
+        fields.clear()
+        return rows
 
-    # Rows of ``out`` are the messages in the order ``perm``; each group is a slice of rows.
-    perm = np.argsort((offs + 4) % 8, kind='stable')
-    out = np.empty_like(mat)
-
-    def walk(i: int, a: int, b: int, cur: np.ndarray, res: int) -> bool:
-        """Decode ops[i:] for messages ``perm[a:b]``; ``cur`` their absolute cursors, all with
-        ``(cur - origin) % 8 == res`` and the same ``cur % 8``."""
-        idx = perm[a:b]
-        rows = out[a:b]
-        stop = end[idx]
-        while i < len(ops):
-            op = ops[i]
-            i += 1
-            if op.kind == 'num' and op.dtype == '<f8':
-                k = 1
-                while (i - 1 + k < len(ops) and ops[i - 1 + k].kind == 'num'
-                       and ops[i - 1 + k].dtype == '<f8'):
-                    k += 1
-                pad = -res % 8
-                cur, res = cur + pad, 0
-                if np.any(cur + 8 * k > stop):
-                    return False
-                j0 = index[op.name]
-                r = int(cur[0]) % 8
-                rows[:, j0:j0 + k] = aligned(r).view(f8)[((cur - r) // 8)[:, None]
-                                                         + np.arange(k)]
-                cur = cur + 8 * k
-                i += k - 1
-            elif op.kind in ('num', 'time', 'string', 'pseq'):
-                size = np.dtype(op.dtype).itemsize if op.kind == 'num' else 4
-                pad = -res % size
-                cur, res = cur + pad, (res + pad) % 8
-                width = 8 if op.kind == 'time' else size
-                if np.any(cur + width > stop):
-                    return False
-                if op.kind == 'num':
-                    r = int(cur[0]) % 8
-                    rows[:, index[op.name]] = aligned(r).view(op.dtype)[(cur - r) // size]
-                    cur, res = cur + size, (res + size) % 8
-                    continue
-                r = int(cur[0]) % 8
-                view = aligned(r).view('<u4')
-                at = (cur - r) // 4
-                if op.kind == 'time':
-                    sec = view[at].view('<i4').astype(np.float64)
-                    nsec = view[at + 1].astype(np.float64)
-                    rows[:, index[op.name]] = sec + nsec * 1e-9
-                    cur, res = cur + 8, (res + 8) % 8
-                    continue
-                count = view[at].astype(np.int64)
-                cur = cur + 4
-                res = (res + 4) % 8
-                if op.kind == 'pseq':
-                    esize = np.dtype(op.dtype).itemsize
-                    cur = cur + np.where(count > 0, -res % esize, 0) + count * esize
-                else:
-                    cur = cur + count
-                if np.any(cur > stop):
-                    return False
-                origin = offs[idx] + 4
-                key = (cur - origin) % 8 * 8 + cur % 8
-                first = int(key[0])
-                if np.all(key == first):
-                    res = first // 8
-                    continue
-                order = np.argsort(key, kind='stable')
-                perm[a:b] = idx[order]
-                out[a:b] = rows[order]  # the fields decoded so far follow their messages
-                key, cur = key[order], cur[order]
-                values = np.unique(key).tolist()
-                cuts = np.searchsorted(key, values + [key[-1] + 1]).tolist()
-                for value, lo, hi in zip(values, cuts, cuts[1:]):
-                    if not walk(i, a + lo, a + hi, cur[lo:hi], value // 8):
-                        return False
-                return True
-            else:
-                return False
+    def align(size: int) -> bool:
+        """Pad the cursor to ``size`` relative to the origin; a new segment starts where the
+        padding differs between messages. False if a message is short."""
+        nonlocal base, brel, off
+        if isinstance(brel, int):
+            off += -(brel + off) & (size - 1)  # sizes are powers of 2
+            return True
+        pad = -(brel + off) & (size - 1)
+        if np.all(pad == pad[0]):
+            off += int(pad[0])
+            return True
+        if flush() is None:
+            return False
+        base = base + off + pad
+        brel = _uniform((brel + off + pad) & 7)
+        off = 0
         return True
 
-    origin_sorted = offs[perm] + 4
-    residue = origin_sorted % 8
-    cuts = np.searchsorted(residue, np.arange(9)).tolist()
-    for lo, hi in zip(cuts, cuts[1:]):
-        if lo < hi and not walk(0, lo, hi, origin_sorted[lo:hi], 0):
-            return None
-    mat[perm] = out
-    return mat
+    fields.append(('encap', 0, 0, '', 0))
+    i = 0
+    while i < len(ops):
+        op = ops[i]
+        i += 1
+        if op.kind == 'num' and op.dtype == '<f8':
+            k = 1
+            while i < len(ops) and ops[i].kind == 'num' and ops[i].dtype == '<f8':
+                k += 1
+                i += 1
+            if not align(8):
+                return False
+            fields.append(('run', index[op.name], off, '', k))
+            off += 8 * k
+        elif op.kind == 'num':
+            size = np.dtype(op.dtype).itemsize
+            if not align(size):
+                return False
+            fields.append(('num', index[op.name], off, op.dtype, 1))
+            off += size
+        elif op.kind == 'time':
+            if not align(4):
+                return False
+            fields.append(('time', index[op.name], off, '', 1))
+            off += 8
+        elif op.kind in ('string', 'pseq'):
+            if not align(4):
+                return False
+            fields.append(('count', -1, off, '<u4', 1))
+            at = off
+            off += 4
+            rows = flush()
+            if rows is None:
+                return False
+            count = np.ndarray((n_msg,), '<u4', rows, at, (off,)).astype(np.int64)
+            if op.kind == 'pseq':
+                esize = np.dtype(op.dtype).itemsize
+                pad = -(brel + off) & (esize - 1)
+                count = np.where(count > 0, pad, 0) + count * esize
+            base = base + off + count
+            brel = _uniform((brel + off + count) & 7)
+            off = 0
+        else:
+            return False
+    return flush() is not None
+
+
+def _uniform(values: np.ndarray) -> int | np.ndarray:
+    """``values`` as one int when they are all equal, else as they are."""
+    first = int(values[0])
+    return first if np.all(values == first) else values
 
 
 def _decode_per_message(layout: _Layout, store: Typestore, msgtype: str, data: bytes,
@@ -1358,7 +1475,7 @@ def _decode_per_message(layout: _Layout, store: Typestore, msgtype: str, data: b
                         file: pathlib.Path | str) -> np.ndarray:
     """Columns by deserializing message by message with rosbags (the reference path).
 
-    Returns the same matrix as :func:`_decode_vectorised`.
+    Returns the columns :func:`_decode_vectorised` gives (messages x :func:`_out_names`).
     """
     names = _out_names(layout)
     index = {n: i for i, n in enumerate(names)}
@@ -1404,11 +1521,40 @@ class BagArrays(dict[str, np.ndarray]):
         return self.damage is not None
 
 
-class _TopicParts(NamedTuple):
-    msgtype: str
-    layout: _Layout
-    store: Typestore
-    parts: list[tuple[bytes, np.ndarray, np.ndarray, np.ndarray]]  # data, offs, lens, log ns
+class _TopicRows:
+    """The columns of one topic, decoded block by block as the bag is read (so that no
+    uncompressed chunk is kept), in a matrix that grows as messages come."""
+
+    def __init__(self, msgtype: str, layout: _Layout, store: Typestore, capacity: int) -> None:
+        self.msgtype = msgtype
+        self.layout = layout
+        self.store = store
+        self.mat = np.empty((capacity, len(_out_names(layout))))  # pages touched when filled
+        self.n = 0
+        self.logs: list[np.ndarray] = []  # log times (ns) of each block
+        self.error: BagError | None = None  # a message that does not decode
+
+    def add(self, data: bytes, offs: np.ndarray, lens: np.ndarray, log: np.ndarray,
+            topic: str, path: str | os.PathLike[str], fast: bool) -> None:
+        """Decode the messages at ``offs`` (``lens`` bytes each) of ``data`` into new rows."""
+        if self.error is not None or not len(offs):
+            return
+        k = len(offs)
+        if self.n + k > len(self.mat):
+            grown = np.empty((max(2 * len(self.mat), self.n + k, 1024), self.mat.shape[1]))
+            grown[:self.n] = self.mat[:self.n]
+            self.mat = grown
+        rows = self.mat[self.n:self.n + k]
+        if not (fast and self.layout.vectorisable
+                and _decode_vectorised(self.layout, data, offs, lens, rows)):
+            try:
+                rows[:] = _decode_per_message(self.layout, self.store, self.msgtype, data,
+                                              offs.tolist(), lens.tolist(), topic, path)
+            except BagError as exc:  # raised once the whole bag has been read
+                self.error = exc
+                return
+        self.n += k
+        self.logs.append(log)
 
 
 def read_arrays(
@@ -1419,6 +1565,7 @@ def read_arrays(
     check_order: bool = True,
     fast: bool = True,
     progress: ProgressCallback | None = None,
+    workers: int | None = None,
 ) -> BagArrays:
     """Read topics of a bag into numpy structured arrays, one per topic, without
     deserializing message by message.
@@ -1444,6 +1591,9 @@ def read_arrays(
         fast: use the vectorised decoder where it applies (False: rosbags for every message;
             the reference the benchmark compares against).
         progress: called as ``progress(bytes_read, bytes_total)``.
+        workers: threads that decompress and CRC-check chunks ahead of the decoding (default:
+            :func:`default_workers`; 1 does everything in the calling thread). The arrays
+            and the damage report do not depend on it.
 
     Raises:
         BagError: missing bag or topic; damage (unless ``allow_truncated``), with the number of
@@ -1451,19 +1601,22 @@ def read_arrays(
             message index named).
     """
     topics = list(dict.fromkeys(topics))
-    files = bag_files(path)
+    files, counts = _bag_contents(path)
     total = _total_size(files)
-    parts: dict[str, _TopicParts] = {}
+    parts: dict[str, _TopicRows] = {}
     present: dict[str, str] = {}
     damage: str | None = None
     whole = 0
     done_bytes = 0
+    # Rows to reserve per topic: the count metadata.yaml states, at most one message per 8
+    # bytes of the bag (a wrong count only costs a copy when rows are added or removed).
+    capacity = {t: max(0, min(n, total // 8)) for t, n in counts.items()}
     for file in files:
-        scanner = _Scanner(file, _offset_progress(progress, done_bytes, total))
+        scanner = _Scanner(file, _offset_progress(progress, done_bytes, total), workers)
         try:
             for block in scanner.blocks():
                 whole += len(block.channel)
-                _collect(block, scanner, topics, parts, present, file)
+                _collect(block, scanner, topics, parts, present, file, path, fast, capacity)
         except _Damage as dmg:
             damage = dmg.message(whole)
         for chan in scanner.channels.values():
@@ -1485,19 +1638,12 @@ def read_arrays(
             result[topic] = _assemble(layout, np.empty((0, len(_out_names(layout)))),
                                       np.empty(0, np.int64))
             continue
-        mats = []
-        logs = []
-        for data, offs, lens, log in tp.parts:
-            mat = None
-            if fast and tp.layout.vectorisable:
-                mat = _decode_vectorised(tp.layout, np.frombuffer(data, np.uint8), offs, lens)
-            if mat is None:
-                mat = _decode_per_message(tp.layout, tp.store, tp.msgtype, data,
-                                          offs.tolist(), lens.tolist(), topic, path)
-            mats.append(mat)
-            logs.append(log)
-        mat = mats[0] if len(mats) == 1 else np.concatenate(mats)
-        arr = _assemble(tp.layout, mat, logs[0] if len(logs) == 1 else np.concatenate(logs))
+        if tp.error is not None:
+            raise tp.error
+        mat = tp.mat[:tp.n] if 2 * tp.n >= len(tp.mat) else tp.mat[:tp.n].copy()
+        logs = tp.logs
+        log = logs[0] if len(logs) == 1 else np.concatenate(logs or [np.empty(0, np.int64)])
+        arr = _assemble(tp.layout, mat, log)
         if check_order and len(arr) > 1:
             back = np.flatnonzero(np.diff(arr['t']) < 0)
             if len(back):
@@ -1509,9 +1655,12 @@ def read_arrays(
 
 
 def _collect(block: _Block, scanner: _Scanner, topics: list[str],
-             parts: dict[str, _TopicParts], present: dict[str, str],
-             file: pathlib.Path) -> None:
-    """Split a block's messages by wanted topic (vectorised over the block)."""
+             parts: dict[str, _TopicRows], present: dict[str, str], file: pathlib.Path,
+             path: str | os.PathLike[str], fast: bool, capacity: dict[str, int]) -> None:
+    """Decode a block's messages of the wanted topics (vectorised over the block).
+
+    ``capacity``: rows to reserve for a topic when its first message comes (a hint).
+    """
     if not len(block.channel):
         return
     chans, offs, lens, logs = block.channel, block.offset, block.length, block.log_time
@@ -1528,16 +1677,17 @@ def _collect(block: _Block, scanner: _Scanner, topics: list[str],
         tp = parts.get(chan.topic)
         if tp is None:
             store = _bag_store(scanner.schemas)
-            tp = _TopicParts(msgtype, _layout(store, msgtype), store, [])
+            tp = _TopicRows(msgtype, _layout(store, msgtype), store,
+                            capacity.get(chan.topic, 0))
             parts[chan.topic] = tp
         elif tp.msgtype != msgtype:
             raise BagError(f'bag {file}: topic {chan.topic} changes type from {tp.msgtype} '
                            f'to {msgtype}')
         if single:
-            tp.parts.append((block.data, offs, lens, logs))
+            tp.add(block.data, offs, lens, logs, chan.topic, path, fast)
         else:
             idx = np.flatnonzero(chans == cid)
-            tp.parts.append((block.data, offs[idx], lens[idx], logs[idx]))
+            tp.add(block.data, offs[idx], lens[idx], logs[idx], chan.topic, path, fast)
 
 
 def _assemble(layout: _Layout, mat: np.ndarray, log_ns: np.ndarray) -> np.ndarray:
