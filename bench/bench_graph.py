@@ -3,9 +3,9 @@
 * ``lockstep``: 300 s of the 40 m -> 10 m manoeuvre in lockstep, as fast as the processes
   allow; real-time factor = simulated time / wall time between the first and the last state
   the recorder received (start-up excluded), and with start-up included. Target >= 20.
-* ``timer``: 30 s in real time (real-time factor 1, no lockstep): the pilot publishes from its
-  10 Hz timer; its publish period as received by the recorder (median, p99 of the deviation
-  from 0.1 s). Target: p99 jitter < 2 ms.
+* ``timer``: 30 s in real time on the wall clock (as on a vehicle: no /clock, no lockstep):
+  the pilot publishes from its 10 Hz timer; its publish period as received by the recorder
+  (DDS receive stamps; median, p99 of the deviation from 0.1 s). Target: p99 jitter < 2 ms.
 * ``latency``: 30 s in real time with lockstep: for each control instant, the time from the
   recorder's receipt of the state stamped t_k to its receipt of the pilot's BAR command
   stamped t_k (state -> pilot -> BAR, both legs over DDS, measured at one process clock).
@@ -28,18 +28,19 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
 def _fly(tmp: pathlib.Path, name: str, lockstep: bool, rtf: float, stop_time: float,
-         env: dict[str, str]) -> tuple[dict[str, np.ndarray], float]:
+         env: dict[str, str], sim_clock: bool = True) -> tuple[dict[str, np.ndarray], float]:
     from auv_bringup.launch import GraphConfig, run_graph
     from auv_ident.bag import read_arrays
 
     bag = tmp / name
     cfg = GraphConfig(vehicle=str(ROOT / 'config' / 'a18m.yaml'), lockstep=lockstep,
                       real_time_factor=rtf, initial_depth=40.0, stop_time=stop_time,
-                      record=str(bag), log_dir=str(tmp / f'{name}_logs'), depth_command=10.0)
+                      record=str(bag), log_dir=str(tmp / f'{name}_logs'), depth_command=10.0,
+                      sim_clock=sim_clock)
     wall = time.monotonic()
     codes = run_graph(cfg, duration=stop_time / max(rtf, 1.0) + 300.0, env=env)
     wall = time.monotonic() - wall
-    if codes.get('simulator') != 0:
+    if codes.get('simulator') not in (0, -2, 130):
         raise RuntimeError(f'graph run {name} failed: {codes}')
     return read_arrays(bag, ['/auv/state', '/auv/bar_command']), wall
 
@@ -63,7 +64,7 @@ def run(lockstep_time: float = 300.0, real_time: float = 30.0) -> dict[str, Any]
                            'wall_s_with_startup': wall,
                            'real_time_factor_with_startup': float(sim_span / wall)}
 
-        arrays, _ = _fly(tmp, 'timer', False, 1.0, real_time, env)
+        arrays, _ = _fly(tmp, 'timer', False, 1.0, real_time, env, sim_clock=False)
         bar = arrays['/auv/bar_command']
         period = np.diff(bar['t_log'])[10:]  # after start-up
         dev = np.abs(period - 0.1)

@@ -87,6 +87,7 @@ class GraphConfig:
     log_dir: str | None = None
     depth_command: float | None = None  # published (and delivered) before the simulator starts
     mission: str | None = None  # an open-loop mission (auv mission) instead of the pilot
+    sim_clock: bool = True  # simulated time and /clock; False: every node on the wall clock
 
 
 def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
@@ -112,9 +113,10 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
     elif cfg.pilot:
         nodes.append(NodeProcess('pilot', [py, '-m', 'auv_depth_lqr.node', *ros_params(
             vehicle_file=cfg.vehicle, lockstep=cfg.lockstep, rate=cfg.pilot_rate,
-            weights=cfg.weights, use_sim_time=True)], log('pilot')))
+            weights=cfg.weights, use_sim_time=cfg.sim_clock)], log('pilot')))
     nodes.append(NodeProcess('simulator', [py, '-m', 'auv_sim.node', *ros_params(
         vehicle_file=cfg.vehicle, effects_file=cfg.effects or '""', lockstep=cfg.lockstep,
+        use_sim_clock=cfg.sim_clock,
         real_time_factor=cfg.real_time_factor, initial_depth=cfg.initial_depth,
         initial_speed=cfg.initial_speed, stop_time=cfg.stop_time,
         start_subscribers=float(int(cfg.pilot or bool(cfg.mission)) + int(bool(cfg.record))),
@@ -218,6 +220,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--no-pilot', action='store_true', help='do not start the depth pilot')
     parser.add_argument('--record', default=None, help='record the topics to this bag directory')
     parser.add_argument('--log-dir', default=None, help='write each node\'s output here')
+    parser.add_argument('--wall-clock', action='store_true',
+                        help='every node on the wall clock (real time, no /clock), as on a '
+                             'vehicle; not with --lockstep')
     parser.add_argument('--mission', default=None,
                         help='fly an open-loop mission (surge, pitch, yaw or a file) instead of '
                              'the pilot; start depth, speed and stop time come from it')
@@ -252,6 +257,7 @@ def run(args: argparse.Namespace) -> int:
                       real_time_factor=args.real_time_factor, initial_depth=args.initial_depth,
                       initial_speed=args.initial_speed, stop_time=args.stop_time,
                       pilot=not args.no_pilot, record=args.record, log_dir=args.log_dir,
+                      sim_clock=not args.wall_clock,
                       depth_command=args.depth)
     codes = run_graph(cfg, duration=args.duration)
     bad = {k: v for k, v in codes.items() if v not in (0, None, -2, 130)}
