@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import pathlib
 import sys
 
@@ -53,6 +54,8 @@ def run(args: argparse.Namespace) -> int:
         summary = {'bag': args.out, 'messages': n, 'mission': args.mission,
                    'duration_s': float(rec.t[-1] - rec.t[0])}
     else:
+        if not math.isfinite(args.depth):
+            raise RunError(f'--depth {args.depth} is not a finite depth in metres')
         if not params.depth_min <= args.depth <= params.depth_max:
             raise RunError(f'--depth {args.depth} m is outside the vehicle envelope '
                            f'[{params.depth_min}, {params.depth_max}] m')
