@@ -241,27 +241,22 @@ def mission_config(mission: str, **kwargs: object) -> GraphConfig:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.lockstep and (args.mission or args.wall_clock):
+        raise LaunchError('--lockstep needs the pilot on simulated time (no --mission, no '
+                          '--wall-clock)')
     if args.mission:
-        if args.lockstep:
-            raise LaunchError('--lockstep needs the pilot; a mission follows simulated time')
         cfg = mission_config(args.mission, vehicle=args.vehicle, effects=args.effects,
                              real_time_factor=args.real_time_factor, record=args.record,
                              log_dir=args.log_dir)
-        codes = run_graph(cfg, duration=args.duration)
-        bad = {k: v for k, v in codes.items() if v not in (0, None, -2, 130)}
-        if bad:
-            print(f'error: nodes exited with failures: {bad}', file=sys.stderr)
-            return 1
-        return 0
-    cfg = GraphConfig(vehicle=args.vehicle, effects=args.effects, lockstep=args.lockstep,
-                      real_time_factor=args.real_time_factor, initial_depth=args.initial_depth,
-                      initial_speed=args.initial_speed, stop_time=args.stop_time,
-                      pilot=not args.no_pilot, record=args.record, log_dir=args.log_dir,
-                      sim_clock=not args.wall_clock,
-                      depth_command=args.depth)
+    else:
+        cfg = GraphConfig(vehicle=args.vehicle, effects=args.effects, lockstep=args.lockstep,
+                          real_time_factor=args.real_time_factor,
+                          initial_depth=args.initial_depth, initial_speed=args.initial_speed,
+                          stop_time=args.stop_time, pilot=not args.no_pilot,
+                          record=args.record, log_dir=args.log_dir,
+                          sim_clock=not args.wall_clock, depth_command=args.depth)
     codes = run_graph(cfg, duration=args.duration)
     bad = {k: v for k, v in codes.items() if v not in (0, None, -2, 130)}
     if bad:
-        print(f'error: nodes exited with failures: {bad}', file=sys.stderr)
-        return 1
+        raise LaunchError(f'nodes exited with failures: {bad}')
     return 0
