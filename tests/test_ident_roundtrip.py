@@ -3,19 +3,28 @@ with ``auv ident`` and get the file's coefficients back; and the command's bad-i
 
 From the force topic every coefficient is within 0.5 %. From motion alone, with the sensor
 noise of a navigation-grade vehicle (depth 0.02 m, angles 0.1 deg, velocities 0.01 m/s, rates
-0.1 deg/s; seeded), every 95 % interval covers the file's value and the well-excited
-coefficients are within 3 %: Ksh (the whole surge mission), CZuw, CZuq, CMuw, CMuq (pitch
-doublets; the trim w changing with speed keeps w and q apart, correlation about -0.3) and
-CNur. CYuv, CYur and CNuv are not: in a turn v and r keep a nearly fixed ratio (regressor
-correlation 0.999 even with the pseudo-random helm), so only the short transients separate
-them, and the sway force is small beside the (m - Yvdot) v_dot noise; their intervals (about
-+-20 %, +-6 % and +-6 %) still cover the true values. A 40-seed Monte Carlo of the same runs
-gives coverage of the 95 % intervals of 100 % (Ksh, CZuw, CZuq, CYuv, CYur), 95 % (CMuw),
-92.5 % (CMuq) and 90 % (CNuv, CNur); the noise seeds here are 0, 1, 2 (surge, pitch, yaw).
+0.1 deg/s; seeded), the well-excited coefficients are within 3 %: Ksh (the whole surge
+mission), CZuw, CZuq, CMuw, CMuq (pitch doublets; the trim w changing with speed keeps w and q
+apart, correlation about -0.3) and CNur. CYuv, CYur and CNuv are not: in a turn v and r keep a
+nearly fixed ratio (regressor correlation 0.999 even with the pseudo-random helm), so only the
+short transients separate them, and the sway force is small beside the (m - Yvdot) v_dot
+noise; their intervals are about +-12 %, +-4 % and +-5 %.
+
+The 95 % intervals are calibrated, not conservative: a 200-replication Monte Carlo
+(``python tools/ident_coverage.py --runs 200``) gives coverage between 93 % and 95.5 % for
+every coefficient. So a single noise realisation misses a given coefficient's interval about
+5 % of the time by design: at the noise seeds used here (100, 101, 102, fixed before the
+intervals were calibrated and not chosen for passing) CMuq's interval misses, its error
+being 2.04 standard errors. Coverage is therefore asserted over 20 replications with seeds
+fixed the same way (100 + 3k + (0, 1, 2), k = 0..19, the first being the bags' seeds): at
+most 4 misses per coefficient (for a calibrated interval the chance of 5 or more is 1.6 %
+per coefficient) and an rms of error / standard error of at least 0.6 (an interval too wide
+by 1.7x or more; a calibrated one falls below 0.6 with a chance under 1 %) and at most 1.6.
 """
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import pathlib
@@ -37,6 +46,8 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 A18M = ROOT / 'config' / 'a18m.yaml'
 MISSIONS = ('surge', 'pitch', 'yaw')
 WELL_EXCITED = ('Ksh', 'CZuw', 'CZuq', 'CMuw', 'CMuq', 'CNur')
+#: Noise seeds of the surge, pitch and yaw logs: fixed once, not chosen for passing.
+NOISE_SEEDS = (100, 101, 102)
 
 
 @pytest.fixture(scope='module')
@@ -49,7 +60,7 @@ def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, pathlib.Path]:
         rec = run_mission(params, load_mission(name))
         write_record(root / name, rec, forces=True)
         write_record(root / f'{name}_real', rec, forces=False, noise=SensorNoise.realistic(),
-                     seed=i)
+                     seed=NOISE_SEEDS[i])
         out[name] = root / name
         out[f'{name}_real'] = root / f'{name}_real'
     return out
@@ -96,18 +107,51 @@ def test_fitted_offsets_and_sign_bounds_from_the_force_topic(
         assert not report['coefficients'][name]['at_bound']
 
 
-def test_from_motion_with_sensor_noise_intervals_cover_and_well_excited_within_3_percent(
+def test_from_motion_with_sensor_noise_well_excited_within_3_percent(
         bags: dict[str, pathlib.Path], tmp_path: pathlib.Path) -> None:
     report = ident([bags[f'{m}_real'] for m in MISSIONS], tmp_path)
     base = load_vehicle(A18M)
     assert report['source'] == 'motion'
     assert 'reconstructed from the logged motion' in (tmp_path / 'report.md').read_text()
-    for name, c in report['coefficients'].items():
-        lo, hi = c['ci95']
-        assert lo <= base.values[name] <= hi, (name, c)
     for name in WELL_EXCITED:
         assert report['coefficients'][name]['value'] == pytest.approx(base.values[name],
                                                                       rel=0.03), name
+    for name, eq in report['equations'].items():
+        # the white sensor-noise model accounts for the residual, so it gives the covariance
+        assert eq['covariance'].startswith('sensor-noise propagation'), (name, eq)
+        assert 0.9 < eq['noise_ratio'] < 1.1, (name, eq)
+    for name, c in report['coefficients'].items():
+        lo, hi = c['ci95']
+        assert lo < c['value'] < hi and c['std_error'] > 0, name
+
+
+def _coverage_tool() -> Any:
+    spec = importlib.util.spec_from_file_location('ident_coverage',
+                                                  ROOT / 'tools' / 'ident_coverage.py')
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_from_motion_95_percent_intervals_cover_over_20_noise_realisations() -> None:
+    tool = _coverage_tool()
+    base = load_vehicle(A18M)
+    recs = {m: run_mission(base, load_mission(m)) for m in MISSIONS}
+    z: dict[str, list[float]] = {}
+    missed: dict[str, list[int]] = {}
+    for k in range(20):
+        seeds = tuple(NOISE_SEEDS[0] + 3 * k + i for i in range(len(MISSIONS)))
+        result = tool.identify_replication(base, recs, SensorNoise.realistic(), seeds)
+        for name, c in result.coefficients.items():
+            true = base.values[name]
+            z.setdefault(name, []).append((c.value - true) / c.std_error)
+            if not c.ci95[0] <= true <= c.ci95[1]:
+                missed.setdefault(name, []).append(k)
+    for name, zs in z.items():
+        rms = float(np.sqrt(np.mean(np.square(zs))))
+        assert len(missed.get(name, [])) <= 4, (name, missed[name], rms)
+        assert 0.6 <= rms <= 1.6, (name, rms)
 
 
 # --- bad input: one line "error: ...", exit status 1, as a real command -------------------

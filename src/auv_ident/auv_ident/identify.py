@@ -18,13 +18,47 @@ local minima for a Nelder-Mead search (the report's ``fminsearchbnd``) to avoid.
 :func:`nelder_mead` runs that search on the same data so the two can be compared. ``CZ0`` and
 ``CM0`` are moved to ``b`` with their base values (as the report does) unless fitted.
 
-Statistics per equation: standard errors from ``sigma^2 (A'A)^-1`` (``errors='iid'``), from
-the Newey-West (Bartlett) heteroscedasticity- and autocorrelation-consistent sandwich
-(``'hac'``, the default: residuals of reconstructed forces are coloured) or from an effective
-sample size ``n / tau`` with the integrated residual autocorrelation time ``tau`` (``'ess'``);
-95 % intervals from Student's t; R^2; NRMSE = rms(residual) / (max - min of the measured
-force); the condition number of the column-scaled regressor and the coefficients'
-correlation matrix. Data that cannot identify a coefficient raise
+Statistics per equation. The estimate is ``theta = (D'A)^-1 D'b`` (``D = A`` for least
+squares; for forces from motion ``D`` is the projection of ``A`` on lead/lag instruments,
+two-stage least squares), so ``theta - theta_0 = (D'A)^-1 D'e`` with the equation error ``e``
+and the sandwich covariance ``(D'A)^-1 S (D'A)^-T``, ``S = Var(D'e)``. ``errors='hac'`` (the
+default) estimates ``S`` so that it holds for the coloured, filtered errors of this problem:
+
+* forces from motion whose records carry a :class:`NoisePropagation` (see
+  :mod:`auv_ident.motion`): ``e`` is, to first order, a known linear filter of the white
+  sensor noise on the logged state (the Savitzky-Golay derivative in ``M nu_dot``, the
+  consistent low-pass on the other wrenches and on the regressors, all through their local
+  sensitivities), so ``S = sum_c sigma_c^2 w_c' w_c`` exactly, with ``w_c`` the design pushed
+  back through that filter (its adjoint) and ``sigma_c`` estimated from each logged channel.
+  This first-order (delta-method) covariance holds at the noise-free design; the design's
+  own noise, amplified by the derivative's adjoint, would overstate it (by up to 1.7x for
+  the weakly excited sway pair), so the design is first low-passed by the record's kernel
+  (:data:`DESIGN_SMOOTHING_PASSES` times: -3 dB near 0.4 Hz for the 1 s window, above the
+  manoeuvres' dynamics) and the bread uses the same design.
+  A lag-window estimate cannot do this: the derivative noise is a difference, its spectrum
+  vanishes at frequency zero, and the sum of its autocovariances (large, of both signs over
+  the filter window) cancels to a small ``S`` that a truncated sum estimates with an error
+  far larger than itself. It is used only when this noise model accounts for the residual
+  (observed / predicted residual variance at most :data:`NOISE_RATIO_MAX`), else:
+* a flat-top (trapezoidal) lag window (Politis and Romano): full weight up to the lag ``m``
+  beyond which the autocorrelations of ``D_t e_t`` are insignificant (Politis' empirical
+  rule, ``m`` at least the filter length, the known dependence of filtered errors), tapered
+  to zero at ``2 m``; it has no bias for errors of finite memory, unlike the Newey-West
+  (Bartlett) weights that shrink the negative lobes of the filtered errors and so
+  overstate ``S``. If the flat-top matrix is not positive semi-definite, the Bartlett window
+  of the same length is used instead.
+
+The columns of a record with a noise model are corrected for the mean shift the noise
+gives a nonlinear column (``E[(u + n)|u + n|] = u|u| + sigma_u^2`` away from u = 0; see
+:func:`_unbiased_columns`), and :mod:`auv_ident.motion` does the same for the other
+wrenches: without it, the errors-in-variables bias of Ksh is a third of its (small) standard
+error at the realistic noise level and grows linearly with the noise.
+
+Other methods: ``'iid'`` ``sigma^2 (A'A)^-1``; ``'ess'`` that times ``n / n_eff`` with the
+integrated residual autocorrelation time; ``'jackknife'`` a delete-a-block jackknife.
+95 % intervals from Student's t with the effective sample size; R^2; NRMSE = rms(residual) /
+(max - min of the measured force); the condition number of the column-scaled regressor and
+the coefficients' correlation matrix. Data that cannot identify a coefficient raise
 :class:`~auv_ident.errors.NotIdentifiableError` naming it and the manoeuvre that would
 excite it.
 
@@ -54,6 +88,12 @@ ERROR_METHODS = ('hac', 'jackknife', 'ess', 'iid')
 JACKKNIFE_BLOCKS = 40
 #: Column-scaled condition number above which an equation is declared not identifiable.
 COND_MAX = 1.0e3
+#: Largest ratio of the observed to the sensor-noise-predicted residual variance for which
+#: the sensor-noise propagation gives the covariance (above it, part of the residual is not
+#: white sensor noise: model error, coloured noise; the lag window is used instead).
+NOISE_RATIO_MAX = 1.5
+#: Politis' rule: autocorrelations below ``POLITIS_C sqrt(log10(n) / n)`` are insignificant.
+POLITIS_C = 2.0
 
 
 class Equation(NamedTuple):
@@ -118,6 +158,31 @@ SIGN_BOUNDS: dict[str, tuple[float, float]] = {
 
 
 @dataclasses.dataclass(frozen=True)
+class NoisePropagation:
+    """How white sensor noise on the logged state enters a wrench reconstructed from motion.
+
+    The reconstruction is ``tau = M (h * nu) - kappa * tau_other(x)`` (``*``: convolution)
+    with the Savitzky-Golay derivative weights ``h`` and the consistent low-pass ``kappa``
+    (:attr:`ForceRecord.kernel`); noise ``n`` on the state ``x`` changes it, to first order,
+    by ``M (h * n_nu) - kappa * (J n)`` with ``J`` the Jacobian of ``tau_other``.
+
+    Attributes:
+        sigma: (12,) standard deviation of the white noise on each logged state channel
+            ``x, y, z [m], phi, theta, psi [rad], u, v, w [m/s], p, q, r [rad/s]``.
+        other_jacobian: (N, 6, 12) ``d tau_other / d x`` at every sample (body FRD wrench
+            [N, N m] per unit of each state channel), ``tau_other`` = Coriolis + restoring +
+            actuator wrench.
+        mass: (6, 6) mass matrix ``M`` (rigid body plus added mass) [kg, kg m, kg m^2].
+        derivative_kernel: (window,) convolution weights ``h`` of the derivative [1/s].
+    """
+
+    sigma: np.ndarray
+    other_jacobian: np.ndarray
+    mass: np.ndarray
+    derivative_kernel: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
 class ForceRecord:
     """One continuous, uniformly sampled stretch of a log, ready for the regressions.
 
@@ -132,6 +197,8 @@ class ForceRecord:
         kernel: FIR weights (odd length, sum 1) already applied to ``tau``; the regressors are
             filtered with the same weights so the filtered equation stays exact. None: no
             filtering.
+        noise: how sensor noise propagates into ``tau`` (forces from motion), for the
+            standard errors; None: unknown.
     """
 
     name: str
@@ -140,6 +207,7 @@ class ForceRecord:
     tau: np.ndarray
     source: str = 'forces'
     kernel: np.ndarray | None = None
+    noise: NoisePropagation | None = None
 
 
 @dataclasses.dataclass
@@ -159,6 +227,8 @@ class LinearSystem:
     record_names: tuple[str, ...]
     excitation: np.ndarray           # (n, 6) nu as filtered like A, for excitation checks
     instrumented: bool = False       # A is the instrument projection (two-stage LS)
+    rows: np.ndarray | None = None   # (n,) sample index of each row in its record
+    records: tuple[ForceRecord, ...] = ()
 
     def sum_of_squares(self, theta: np.ndarray) -> float:
         """The report's objective ``J(theta) = sum (b - A theta)^2`` [N^2 or (N m)^2]."""
@@ -199,6 +269,8 @@ class EquationFit:
     fitted: np.ndarray
     record_index: np.ndarray
     record_names: tuple[str, ...]
+    covariance: str = ''        # how S of the 'hac' sandwich was estimated
+    noise_ratio: float = math.nan  # observed / sensor-noise-predicted residual variance
 
     def value(self, name: str) -> float:
         """Identified value of a coefficient of this equation."""
@@ -275,6 +347,30 @@ def _filtered(columns: np.ndarray, kernel: np.ndarray | None) -> np.ndarray:
     return out
 
 
+def _unbiased_columns(equation: Equation, rec: ForceRecord, base: VehicleParams
+                      ) -> dict[str, np.ndarray]:
+    """Regressor columns of ``rec``; for a record with a noise model (velocities with white
+    noise of std ``sigma_c``), less their second-order mean shift from that noise,
+    ``1/2 sum_c sigma_c^2 d^2 col / d nu_c^2`` (``(f(nu + s) + f(nu - s) - 2 f(nu)) / 2`` with
+    ``s = sigma_c``), the errors-in-variables bias of a nonlinear column such as ``u|u|``."""
+    cols = regressor_columns(equation, rec.nu, base)
+    if rec.noise is None:
+        return cols
+    out = {k: v.copy() for k, v in cols.items()}
+    for c in range(6):
+        s = float(rec.noise.sigma[6 + c])
+        if s <= 0.0:
+            continue
+        up, dn = rec.nu.copy(), rec.nu.copy()
+        up[:, c] += s
+        dn[:, c] -= s
+        cu = regressor_columns(equation, up, base)
+        cd = regressor_columns(equation, dn, base)
+        for k in out:
+            out[k] -= 0.5 * (cu[k] + cd[k] - 2.0 * cols[k])
+    return out
+
+
 def check_record(rec: ForceRecord) -> None:
     """Shapes, finiteness and increasing stamps of a record; IdentificationError if not."""
     n = len(rec.t)
@@ -306,9 +402,10 @@ def build_system(records: Sequence[ForceRecord], equation: Equation, base: Vehic
         equation.offset: base.values[equation.offset]}
     parts_a, parts_b, parts_m, parts_t, parts_i, parts_x = [], [], [], [], [], []
     parts_z: list[np.ndarray] = []
+    parts_r: list[np.ndarray] = []
     for i, rec in enumerate(records):
         check_record(rec)
-        cols = regressor_columns(equation, rec.nu, base)
+        cols = _unbiased_columns(equation, rec, base)
         stacked = _filtered(np.column_stack([cols[k] for k in (*names, *fixed)]), rec.kernel)
         meas = rec.tau[:, equation.axis]
         ok = np.isfinite(meas)
@@ -334,6 +431,7 @@ def build_system(records: Sequence[ForceRecord], equation: Equation, base: Vehic
         parts_m.append(meas[ok])
         parts_t.append(rec.t[ok])
         parts_i.append(np.full(int(ok.sum()), i))
+        parts_r.append(np.flatnonzero(ok))
         parts_x.append(_filtered(rec.nu, rec.kernel)[ok])
     if not parts_a:
         raise IdentificationError('no data: give at least one record')
@@ -351,7 +449,7 @@ def build_system(records: Sequence[ForceRecord], equation: Equation, base: Vehic
         b=np.concatenate(parts_b), measured=np.concatenate(parts_m), fixed=fixed,
         t=np.concatenate(parts_t), record_index=np.concatenate(parts_i),
         record_names=tuple(r.name for r in records), excitation=np.concatenate(parts_x),
-        instrumented=bool(parts_z))
+        instrumented=bool(parts_z), rows=np.concatenate(parts_r), records=tuple(records))
 
 
 # ------------------------------------------------------------------------------------------
@@ -496,12 +594,13 @@ def correlation_time(e: np.ndarray) -> float:
     return max(1.0, 1.0 + 2.0 * float(np.sum(rho[1:k + 1])))
 
 
-def _hac_meat(g: np.ndarray, lags: int) -> np.ndarray:
-    """Newey-West ``S = sum_{|k|<=L} (1 - |k|/(L+1)) sum_t g_t g_{t-k}'`` (FFT cross-covs)."""
+def _lag_window_meat(g: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """``S = sum_{|k|<=L} weights[|k|] sum_t g_t g_{t+k}'`` for ``g`` (n, p) and lag weights
+    (L+1,) (FFT cross-covariances)."""
     n, p = g.shape
+    lags = len(weights) - 1
     nfft = 1 << (n + lags).bit_length()
     G = np.fft.rfft(g, nfft, axis=0)
-    weights = 1.0 - np.arange(lags + 1) / (lags + 1.0)
     S = np.empty((p, p))
     for i in range(p):
         for j in range(i, p):
@@ -511,6 +610,111 @@ def _hac_meat(g: np.ndarray, lags: int) -> np.ndarray:
             s = weights[0] * pos[0] + np.dot(weights[1:], pos[1:]) + np.dot(weights[1:], neg)
             S[i, j] = S[j, i] = s
     return S
+
+
+def _hac_meat(g: np.ndarray, lags: int) -> np.ndarray:
+    """Newey-West ``S = sum_{|k|<=L} (1 - |k|/(L+1)) sum_t g_t g_{t-k}'``."""
+    return _lag_window_meat(g, 1.0 - np.arange(lags + 1) / (lags + 1.0))
+
+
+def flat_top_lag(g: np.ndarray, minimum: int = 1) -> int:
+    """Politis' empirical bandwidth for the flat-top window on ``g`` (n, p) [samples]: the
+    smallest ``m >= minimum`` after which ``K = max(5, sqrt(log10 n))`` consecutive
+    autocorrelations of every column are below ``POLITIS_C sqrt(log10(n) / n)``; at most
+    ``n / 8``."""
+    n = len(g)
+    cap = max(1, n // 8)
+    if n < 16:
+        return min(max(minimum, 1), cap)
+    K = max(5, int(math.sqrt(math.log10(n))))
+    thr = POLITIS_C * math.sqrt(math.log10(n) / n)
+    m_hat = min(max(minimum, 1), cap)
+    for j in range(g.shape[1]):
+        rho = _autocorrelation(g[:, j], min(n - 1, cap + K))
+        big = np.abs(rho) >= thr
+        big[0] = True
+        # first m with K insignificant autocorrelations after it
+        run = np.convolve(big[1:].astype(float), np.ones(K), mode='valid')  # lags m+1..m+K
+        ok = np.flatnonzero(run[m_hat:] == 0)
+        m_j = m_hat + int(ok[0]) if len(ok) else cap
+        m_hat = max(m_hat, min(m_j, cap))
+    return m_hat
+
+
+def _flat_top_meat(g: np.ndarray, m: int) -> np.ndarray:
+    """Flat-top (trapezoid) lag window: weight 1 up to lag ``m``, ``2 - k/m`` to ``2 m``."""
+    k = np.arange(2 * m + 1)
+    return _lag_window_meat(g, np.clip(2.0 - k / m, 0.0, 1.0))
+
+
+def _regressor_gradient(rec: ForceRecord, system: LinearSystem, theta: np.ndarray,
+                        base: VehicleParams) -> np.ndarray:
+    """``d/d nu`` of ``sum_k theta_k col_k + fixed`` (the model's hydrodynamic component)
+    at every sample of ``rec`` (N, 6) [N or N m per m/s or rad/s], central differences."""
+    coef = dict(zip(system.names, theta))
+    coef.update(system.fixed)
+    out = np.zeros((len(rec.t), 6))
+    for c in range(6):
+        h = 1e-6 * (1.0 + float(np.max(np.abs(rec.nu[:, c]))))
+        up, dn = rec.nu.copy(), rec.nu.copy()
+        up[:, c] += h
+        dn[:, c] -= h
+        cu = regressor_columns(system.equation, up, base)
+        cd = regressor_columns(system.equation, dn, base)
+        out[:, c] = sum(v * (cu[k] - cd[k]) for k, v in coef.items()) / (2.0 * h)
+    return out
+
+
+def sensor_noise_meat(system: LinearSystem, design: np.ndarray, resid: np.ndarray,
+                      theta: np.ndarray, base: VehicleParams) -> tuple[np.ndarray, float] | None:
+    """``S = Var(D'e)`` propagated from the white sensor noise (see :class:`NoisePropagation`)
+    and the ratio of the observed to the predicted residual variance; None when a record
+    has no noise model.
+
+    With the equation's wrench component ``a``, noise ``n_c`` on state channel ``c`` gives
+    ``e = M_ac (h * n_c) - kappa * (G_c n_c)``, ``G_c`` the sensitivity of the other wrenches
+    plus the fitted hydrodynamic model; so ``D'e = sum_c sum_j n_c,j w_c,j`` with
+    ``w_c = M_ac (h~ * d) - G_c (kappa * d)`` (``h~`` reversed, ``d`` the design rows, zero
+    where unused) and ``S = sum_c sigma_c^2 w_c' w_c``.
+    """
+    p = design.shape[1]
+    S = np.zeros((p, p))
+    predicted = 0.0
+    axis = system.equation.axis
+    for i, rec in enumerate(system.records):
+        sel = system.record_index == i
+        if not np.any(sel):
+            continue
+        nm = rec.noise
+        if nm is None or rec.kernel is None or system.rows is None:
+            return None
+        N = len(rec.t)
+        rows = system.rows[sel]
+        d = np.zeros((N, p))
+        d[rows] = design[sel]
+        kappa = rec.kernel
+        h = nm.derivative_kernel
+        kd = np.column_stack([np.convolve(d[:, j], kappa, mode='same') for j in range(p)])
+        hd = np.column_stack([np.convolve(d[:, j], h[::-1], mode='same') for j in range(p)])
+        G = nm.other_jacobian[:, axis, :].copy()
+        G[:, 6:12] += _regressor_gradient(rec, system, theta, base)
+        var_t = np.zeros(N)
+        for c in range(12):
+            sig = float(nm.sigma[c])
+            if sig <= 0.0:
+                continue
+            m_ac = float(nm.mass[axis, c - 6]) if c >= 6 else 0.0
+            w = m_ac * hd - G[:, c:c + 1] * kd
+            S += sig ** 2 * (w.T @ w)
+            # residual variance the noise predicts at each sample
+            v = (np.convolve(G[:, c] ** 2, kappa ** 2, mode='same')
+                 - 2.0 * m_ac * np.convolve(G[:, c], h * kappa, mode='same')
+                 + m_ac ** 2 * float(h @ h))
+            var_t += sig ** 2 * v
+        predicted += float(np.sum(var_t[rows]))
+    observed = float(resid @ resid)
+    ratio = observed / predicted if predicted > 0 else math.inf
+    return S, ratio
 
 
 def _block_jackknife(design: np.ndarray, regressors: np.ndarray, b: np.ndarray,
@@ -531,6 +735,80 @@ def _block_jackknife(design: np.ndarray, regressors: np.ndarray, b: np.ndarray,
         thetas[k] = np.linalg.solve(Gb, hb)
     dev = thetas - thetas.mean(axis=0)
     return (blocks - 1.0) / blocks * (dev.T @ dev), blocks
+
+
+#: Passes of a record's kernel that smooth the design before the noise propagation.
+DESIGN_SMOOTHING_PASSES = 2
+
+
+def _smoothed_design(system: LinearSystem, design: np.ndarray) -> np.ndarray | None:
+    """The design with its noise filtered out, for the first-order (delta-method) covariance,
+    which holds at the noise-free design: each record's rows low-passed by its kernel
+    (normalised at the ends of the used rows); None if a record has no kernel."""
+    out = np.empty_like(design)
+    for i, rec in enumerate(system.records):
+        sel = system.record_index == i
+        if not np.any(sel):
+            continue
+        if rec.kernel is None or system.rows is None:
+            return None
+        rows = system.rows[sel]
+        N = len(rec.t)
+        mask = np.zeros(N)
+        mask[rows] = 1.0
+        d = np.zeros((N, design.shape[1]))
+        d[rows] = design[sel]
+        for _ in range(DESIGN_SMOOTHING_PASSES):
+            norm = np.convolve(mask, rec.kernel, mode='same')
+            d = np.column_stack([np.convolve(d[:, j], rec.kernel, mode='same')
+                                 for j in range(d.shape[1])])
+            d[rows] /= norm[rows, None]
+            d[mask == 0] = 0.0
+        out[sel] = d[rows]
+    return out if system.records else None
+
+
+def _hac_covariance(system: LinearSystem, As: np.ndarray, resid: np.ndarray,
+                    theta: np.ndarray, base: VehicleParams, xtx_inv: np.ndarray,
+                    taus: Sequence[tuple[int, int, float]]
+                    ) -> tuple[np.ndarray, int, str, float]:
+    """The ``'hac'`` sandwich ``(D'A)^-1 S (D'A)^-T`` of the column-scaled design ``As``
+    (see the module docstring): ``S`` from the sensor-noise propagation when every record has
+    a noise model that accounts for the residual, else from the flat-top lag window.
+
+    Returns the covariance (scaled coefficients), the largest lag window used [samples] (0
+    for the propagation), a description and the observed / predicted residual variance.
+    """
+    n, p = As.shape
+    smooth = _smoothed_design(system, As)
+    propagated = None if smooth is None else sensor_noise_meat(system, smooth, resid, theta,
+                                                                base)
+    ratio = math.nan
+    if propagated is not None and smooth is not None:
+        meat, ratio = propagated
+        if ratio <= NOISE_RATIO_MAX:
+            bread = np.linalg.inv(smooth.T @ (system.regressors / _column_scale(system.A)))
+            return (bread @ meat @ bread.T, 0,
+                    f'sensor-noise propagation (residual variance {ratio:.2f} x predicted)',
+                    ratio)
+    meat = np.zeros((p, p))
+    lags = 0
+    g = As * resid[:, None]
+    for i, m, _ in taus:
+        sel = system.record_index == i
+        rec = system.records[i] if system.records else None
+        memory = len(rec.kernel) - 1 if rec is not None and rec.kernel is not None else 1
+        m_i = flat_top_lag(g[sel], memory)
+        part = _flat_top_meat(g[sel], m_i)
+        if np.min(np.linalg.eigvalsh(part)) < 0.0:
+            part = _hac_meat(g[sel], 2 * m_i)
+        lags = max(lags, 2 * m_i)
+        meat += part
+    dof = max(n - p, 1)
+    why = '' if math.isnan(ratio) else (
+        f'; residual variance {ratio:.3g} x the sensor-noise prediction')
+    return (xtx_inv @ meat @ xtx_inv * (n / dof), lags,
+            f'flat-top lag window, {lags} lags{why}', ratio)
 
 
 def fit_equation(system: LinearSystem, base: VehicleParams,
@@ -562,6 +840,8 @@ def fit_equation(system: LinearSystem, base: VehicleParams,
             taus.append((i, np.count_nonzero(sel), tau_i))
     n_eff = sum(m / t for _, m, t in taus) if taus else float(n)
     tdof = n_eff - p
+    covariance = errors
+    noise_ratio = math.nan
     if errors == 'iid':
         cov_s = sigma2 * xtx_inv
         n_eff = float(n)
@@ -571,17 +851,8 @@ def fit_equation(system: LinearSystem, base: VehicleParams,
         cov_s, blocks = _block_jackknife(As, system.regressors / scale, b)
         tdof = blocks - 1.0
     else:
-        meat = np.zeros((p, p))
-        g = As * resid[:, None]
-        for i, m, tau_i in taus:
-            sel = system.record_index == i
-            tau_g = max([tau_i] + [correlation_time(g[sel, j]) for j in range(p)])
-            lag_i = int(min(m // 4, math.ceil(3.0 * tau_g)))
-            lags = max(lags, lag_i)
-            meat += _hac_meat(g[sel], lag_i)
-        cov_s = xtx_inv @ meat @ xtx_inv * (n / dof)
-        # never report less uncertainty than the white-residual formula
-        cov_s = np.where(np.eye(p, dtype=bool), np.maximum(cov_s, sigma2 * xtx_inv), cov_s)
+        cov_s, lags, covariance, noise_ratio = _hac_covariance(system, As, resid, theta,
+                                                              base, xtx_inv, taus)
     cov = cov_s / np.outer(scale, scale)
     se = np.sqrt(np.maximum(np.diag(cov), 0.0))
     tq = float(stats.t.ppf(0.975, max(tdof, 1.0)))
@@ -605,7 +876,8 @@ def fit_equation(system: LinearSystem, base: VehicleParams,
         nrmse=rmse / rng if rng > 0 else math.nan, rmse=rmse, condition_number=cond,
         correlation=corr, n_samples=n, n_effective=float(n_eff), hac_lags=lags,
         errors=errors, t=system.t, measured=system.measured, fitted=fitted,
-        record_index=system.record_index, record_names=system.record_names)
+        record_index=system.record_index, record_names=system.record_names,
+        covariance=covariance, noise_ratio=noise_ratio)
 
 
 def _exciting_records(system: LinearSystem) -> dict[str, tuple[str, ...]]:
@@ -679,7 +951,9 @@ def summary(result: Identification) -> dict[str, Any]:
             'correlation': {'names': [c.name for c in fit.coefficients],
                             'matrix': fit.correlation.tolist()},
             'samples': fit.n_samples, 'effective_samples': fit.n_effective,
-            'hac_lags': fit.hac_lags, 'fixed': fit.fixed, 'figure': fit.equation.figure,
+            'hac_lags': fit.hac_lags, 'covariance': fit.covariance,
+            'noise_ratio': fit.noise_ratio if math.isfinite(fit.noise_ratio) else None,
+            'fixed': fit.fixed, 'figure': fit.equation.figure,
         }
     coefs = {
         c.name: {'value': c.value, 'std_error': c.std_error, 'ci95': list(c.ci95),

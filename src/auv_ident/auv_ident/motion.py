@@ -24,8 +24,19 @@ regressor) is passed through the *same* low-pass (:func:`consistent_kernel`: tho
 trapezoidal increments). The filtered equation then holds exactly, up to the trapezoid rule at
 50 Hz, so the window trades only noise for bandwidth, without bias at the plane steps: 1 s
 keeps the heave/pitch and sway/yaw dynamics (poles below 0.3 Hz, doublets of 2-10 s; the
-kernel's -3 dB point is about 0.9 Hz) and cuts the derivative noise of 0.01 m/s velocity noise
+kernel's -3 dB point is about 0.57 Hz) and cuts the derivative noise of 0.01 m/s velocity noise
 to about 5 mm/s^2 (the least-squares slope over 51 samples).
+
+Noise propagation (for the standard errors, :class:`auv_ident.identify.NoisePropagation`).
+To first order, white noise on the logged state reaches the reconstructed wrench through the
+derivative weights (``M`` times the velocity noise) and through the low-passed sensitivities
+of the other wrenches (their Jacobian, by central differences of
+:func:`auv_sim.model.wrench_series`). The noise level of each channel is estimated from the
+log itself (:func:`noise_sigma`: robust scale of third differences, which cancel the smooth
+motion and leave ``20 sigma^2`` of white noise). Whether this model explains the residual is
+checked in the fit (see :mod:`auv_ident.identify`). The same central differences, with steps
+of one noise standard deviation, give the second-order mean shift of the other wrenches of a
+noisy state, which the reconstruction removes.
 
 Assumed: no water current (velocities over ground = through the water); actuators settled at
 the first logged command when the log starts with no earlier command.
@@ -37,10 +48,10 @@ from collections.abc import Mapping
 
 import numpy as np
 from numba import njit
-from scipy.signal import savgol_filter
+from scipy.signal import savgol_coeffs, savgol_filter
 
 from auv_ident.errors import IdentificationError
-from auv_ident.identify import ForceRecord
+from auv_ident.identify import ForceRecord, NoisePropagation
 from auv_sim.environment import Environment
 from auv_sim.model import NX, actuator_rates, wrench_series
 from auv_sim.params import VehicleParams, mass_matrix
@@ -55,6 +66,8 @@ FORCE_FIELDS = tuple(f'hydrodynamic_{k}_{a}' for k in ('force', 'torque') for a 
 WINDOW_S = 1.0
 POLYORDER = 2
 SOURCES = ('auto', 'forces', 'motion')
+#: State channels that are angles (unwrapped before differencing).
+ANGLE_CHANNELS = (3, 4, 5)
 
 
 def window_samples(dt: float, window_s: float = WINDOW_S) -> int:
@@ -76,6 +89,57 @@ def consistent_kernel(window: int) -> np.ndarray:
     c[-1] = 0.0  # c_m
     w = (c[:-1] + c[1:]) / 2.0
     return w / w.sum()
+
+
+def noise_sigma(state: np.ndarray) -> np.ndarray:
+    """Standard deviation of white noise on each column of ``state`` (N, k), in its units.
+
+    Third differences remove a smooth signal (to ``dt^3`` times its third derivative, far
+    below the noise at tens of Hz) and leave ``20 sigma^2`` of white noise; the scale is the
+    median absolute deviation (times 1.4826), robust to the few samples around actuator
+    steps. Angle columns (:data:`ANGLE_CHANNELS` of a 12-column state) are unwrapped first.
+    """
+    x = np.array(state, float)
+    if x.shape[1] == 12:
+        for c in ANGLE_CHANNELS:
+            x[:, c] = np.unwrap(x[:, c])
+    if len(x) < 8:
+        return np.zeros(x.shape[1])
+    d3 = np.diff(x, n=3, axis=0)
+    mad = np.median(np.abs(d3 - np.median(d3, axis=0)), axis=0)
+    return 1.4826 * mad / math.sqrt(20.0)
+
+
+def other_jacobian(t: np.ndarray, X: np.ndarray, params: VehicleParams, env: Environment,
+                   sigma: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Sensitivity of ``tau_other`` = Coriolis + restoring + actuator wrench to state noise.
+
+    Central differences of :func:`auv_sim.model.wrench_series` with steps ``+-sigma_c`` on
+    each of the 12 state channels (``1e-6 (1 + max|x_c|)`` where ``sigma_c`` is smaller):
+    ``(f(x + s) - f(x - s)) / 2 s`` is the Jacobian (N, 6, 12) [N or N m per unit of each
+    channel] and, summed over the channels, ``(f(x + s) + f(x - s) - 2 f(x)) / 2`` (scaled by
+    ``(sigma_c / s)^2``) is ``1/2 sum_c sigma_c^2 d^2 f / d x_c^2``, the mean shift white noise
+    gives the wrench of a noisy state to second order (N, 6) [N, N m].
+    """
+    n = len(t)
+    sig = np.zeros(12) if sigma is None else np.asarray(sigma, float)
+    jac = np.zeros((n, 6, 12))
+    shift = np.zeros((n, 6))
+    P, ev, prof = params.as_array(), env.env_vector(), env.profile()
+    w0 = wrench_series(t, X, P, ev, prof)
+    f0 = w0[:, 1] + w0[:, 2] + w0[:, 3]
+    for c in range(12):
+        h = max(float(sig[c]), 1e-6 * (1.0 + float(np.max(np.abs(X[:, c])))))
+        up, dn = X.copy(), X.copy()
+        up[:, c] += h
+        dn[:, c] -= h
+        wu = wrench_series(t, up, P, ev, prof)
+        wd = wrench_series(t, dn, P, ev, prof)
+        fu = wu[:, 1] + wu[:, 2] + wu[:, 3]
+        fd = wd[:, 1] + wd[:, 2] + wd[:, 3]
+        jac[:, :, c] = (fu - fd) / (2.0 * h)
+        shift += 0.5 * (fu + fd - 2.0 * f0) * (sig[c] / h) ** 2
+    return jac, shift
 
 
 def segments(t: np.ndarray, tolerance: float = 0.25) -> list[slice]:
@@ -183,8 +247,9 @@ def reconstruct(t: np.ndarray, state: np.ndarray,
         window_s: Savitzky-Golay window [s].
 
     Returns:
-        A ForceRecord with the filtered wrench (NaN over the first and last half window) and
-        its kernel, so the regressors get the same filter.
+        A ForceRecord with the filtered wrench (NaN over the first and last half window), its
+        kernel (so the regressors get the same filter) and how sensor noise propagates into
+        it (noise levels estimated from ``state``).
     """
     n = len(t)
     dt = float(np.median(np.diff(t))) if n > 1 else math.nan
@@ -199,18 +264,25 @@ def reconstruct(t: np.ndarray, state: np.ndarray,
     X[:, :12] = state
     X[:, 12:15] = actuator_positions(t, commands, params)
     env = Environment()
-    W = wrench_series(np.ascontiguousarray(t, dtype=np.float64), X, params.as_array(),
-                      env.env_vector(), env.profile())
-    other = W[:, 1] + W[:, 2] + W[:, 3]
+    tc = np.ascontiguousarray(t, dtype=np.float64)
+    W = wrench_series(tc, X, params.as_array(), env.env_vector(), env.profile())
+    sigma = noise_sigma(state)
+    jac, shift = other_jacobian(tc, X, params, env, sigma)
+    # the other wrenches of the noisy state, less their second-order mean shift from the noise
+    other = W[:, 1] + W[:, 2] + W[:, 3] - shift
     kernel = consistent_kernel(window)
     other_f = np.empty_like(other)
     for j in range(6):
         other_f[:, j] = np.convolve(other[:, j], kernel, mode='same')
-    tau = nu_dot @ mass_matrix(params).T - other_f
+    M = mass_matrix(params)
+    tau = nu_dot @ M.T - other_f
     tau[:m] = np.nan
     tau[n - m:] = np.nan
+    noise = NoisePropagation(sigma=sigma, other_jacobian=jac, mass=M,
+                             derivative_kernel=savgol_coeffs(window, POLYORDER, deriv=1,
+                                                             delta=dt))
     return ForceRecord(name=name, t=np.asarray(t, float), nu=np.asarray(nu, float), tau=tau,
-                       source='motion', kernel=kernel)
+                       source='motion', kernel=kernel, noise=noise)
 
 
 def _columns(arr: np.ndarray, fields: tuple[str, ...], topic: str) -> np.ndarray:

@@ -1,5 +1,6 @@
 """Identification core on arrays: exact recovery, identifiability errors, Nelder-Mead
-equivalence, the consistent derivative filter and the actuator reconstruction."""
+equivalence, the consistent derivative filter, the actuator reconstruction and the standard
+errors of forces from motion (sensor-noise propagation, flat-top lag window)."""
 from __future__ import annotations
 
 import math
@@ -10,9 +11,9 @@ import pytest
 from scipy.signal import savgol_filter
 
 from auv_ident.errors import IdentificationError, NotIdentifiableError
-from auv_ident.identify import (EQUATIONS, ForceRecord, build_system, fit_equation, identify,
-                                nelder_mead, solve)
-from auv_ident.motion import actuator_positions, consistent_kernel, reconstruct
+from auv_ident.identify import (EQUATIONS, ForceRecord, build_system, fit_equation,
+                                flat_top_lag, identify, nelder_mead, sensor_noise_meat, solve)
+from auv_ident.motion import actuator_positions, consistent_kernel, noise_sigma, reconstruct
 from auv_sim.environment import Environment
 from auv_sim.missions import load_mission, run_mission
 from auv_sim.model import wrench_series
@@ -154,3 +155,69 @@ def test_forces_from_motion_match_the_filtered_true_forces(base: VehicleParams) 
         err = np.max(np.abs(fr.tau[ok, axis] - true[ok, axis]))
         assert err < 0.01 * scale, (axis, err)
     assert not math.isfinite(fr.tau[0, 0])
+
+
+def _pitch_log(base: VehicleParams, noise: np.ndarray | None, seed: int = 0
+               ) -> tuple[np.ndarray, np.ndarray, dict[str, tuple[np.ndarray, np.ndarray]]]:
+    rec = run_mission(base, load_mission('pitch'))
+    cmds = {}
+    for j, ch in enumerate(('bar', 'helm', 'thrust')):
+        change = np.flatnonzero(np.diff(rec.cmd[:, j], prepend=np.nan) != 0)
+        cmds[ch] = (rec.t[change], rec.cmd[change, j])
+    state = rec.x[:, :12].copy()
+    if noise is not None:
+        state += np.random.default_rng(seed).standard_normal(state.shape) * noise
+    return rec.t, state, cmds
+
+
+SIGMAS = np.array([0.02] * 3 + [math.radians(0.1)] * 3 + [0.01] * 3 + [math.radians(0.1)] * 3)
+
+
+def test_sensor_noise_levels_are_estimated_from_the_log(base: VehicleParams) -> None:
+    t, state, _ = _pitch_log(base, SIGMAS, seed=4)
+    np.testing.assert_allclose(noise_sigma(state), SIGMAS, rtol=0.05)
+
+
+def test_sensor_noise_propagation_gives_the_variance_of_the_moments(base: VehicleParams) -> None:
+    """Var(D'e) over fresh noise draws (D fixed) matches the propagated S, and the noise model
+    predicts the residual variance."""
+    t, clean, cmds = _pitch_log(base, None)
+    t, clean = t[:6000], clean[:6000]
+    rng = np.random.default_rng(7)
+    eq = EQUATIONS['pitch']
+    theta = np.array([base.values[n] for n in eq.coefficients])
+    rec = reconstruct(t, clean + rng.standard_normal(clean.shape) * SIGMAS, cmds, base)
+    system = build_system([rec], eq, base)
+    design = system.A / np.sqrt(np.sum(system.A ** 2, axis=0))
+    S, ratio = sensor_noise_meat(system, design, system.b - system.regressors @ theta, theta,
+                                 base)
+    assert 0.85 < ratio < 1.15
+    moments = []
+    for _ in range(40):
+        noisy = build_system([reconstruct(t, clean + rng.standard_normal(clean.shape) * SIGMAS,
+                                          cmds, base)], eq, base)
+        assert np.array_equal(noisy.rows, system.rows)
+        moments.append(design.T @ (noisy.b - noisy.regressors @ theta))
+    empirical = np.cov(np.array(moments).T)
+    np.testing.assert_allclose(np.sqrt(np.diag(empirical)), np.sqrt(np.diag(S)), rtol=0.25)
+
+
+def test_motion_standard_errors_use_the_noise_model_only_when_it_explains_the_residual(
+        base: VehicleParams) -> None:
+    t, noisy, cmds = _pitch_log(base, SIGMAS, seed=2)
+    fit = identify([reconstruct(t, noisy, cmds, base)], base, equations=['pitch']).fits['pitch']
+    assert fit.covariance.startswith('sensor-noise propagation') and fit.hac_lags == 0
+    # no sensor noise: the residual is the filter's discretisation error, not white noise
+    _, clean, _ = _pitch_log(base, None)
+    fit = identify([reconstruct(t, clean, cmds, base)], base, equations=['pitch']).fits['pitch']
+    assert fit.covariance.startswith('flat-top lag window') and fit.hac_lags >= 100
+    assert all(c.std_error > 0 for c in fit.coefficients)
+
+
+def test_flat_top_lag_covers_the_memory_of_a_moving_average() -> None:
+    rng = np.random.default_rng(3)
+    white = rng.standard_normal(40000)
+    ma = np.convolve(white, np.ones(30), mode='same')  # memory 29 samples
+    lag = flat_top_lag(ma[:, None])
+    assert 29 <= lag <= 45
+    assert flat_top_lag(white[:, None], minimum=50) == 50
