@@ -186,10 +186,13 @@ def write_outputs(result: Identification, out_dir: str | pathlib.Path, bags: Seq
     out.mkdir(parents=True, exist_ok=True)
     files: dict[str, str] = {}
     errors_text = {
-        'hac': 'Newey-West (Bartlett) autocorrelation-consistent, lags from the residual '
-               'correlation time',
+        'hac': 'from motion: sensor noise propagated through the filtered equation of motion '
+               '(noise levels estimated from the log), or, where the residual is not that '
+               'noise, a flat-top lag window (Politis bandwidth); from the force topic: the '
+               'flat-top lag window',
+        'jackknife': 'delete-a-block jackknife over contiguous blocks of the record',
         'ess': 'sigma^2 (A\'A)^-1 inflated by n / n_eff (residual correlation time)',
-        'iid': 'sigma^2 (A\'A)^-1 (white residuals assumed)'}[result.errors]
+        'iid': 'sigma^2 (A\'A)^-1 (white residuals assumed)'}.get(result.errors, result.errors)
     stamp = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds')
     provenance = {'identification': {
         'tool': 'auv ident', 'time_utc': stamp, 'bags': list(bags),
