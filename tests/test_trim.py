@@ -1,4 +1,4 @@
-"""Trim at several forward speeds with the correct depth kinematics (issue: trim at 1, 2, 3 m/s)."""
+"""Trim at several forward speeds (1, 2, 3 m/s) with the correct depth kinematics."""
 from __future__ import annotations
 
 import math
