@@ -1,4 +1,5 @@
-"""Closed-loop depth changes of the LQR pilot on the nonlinear A18M model (settling, overshoot, pitch, pitch rate).
+"""Closed-loop depth changes of the LQR pilot on the nonlinear A18M model: settling, overshoot,
+pitch, pitch rate.
 
 Each case flies the offline closed loop (:func:`auv_depth_lqr.closed_loop.run_closed_loop`:
 the 6-DOF simulator at its RK4 step, the pilot at 10 Hz, lockstep) for 150 s from a trim at
