@@ -20,27 +20,16 @@ import json
 import os
 import pathlib
 import platform
-import statistics
 import tempfile
-import time
-from collections.abc import Callable
 from typing import Any
+
+from timing import median_time
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 TARGET_S = 60.0
 DURATION_S = 1200.0
 EFFECTS = {'current': {'north': 0.3, 'east': 0.15, 'down': 0.02},
            'actuator_delay': {'bar': 0.5}}
-
-
-def _median_time(fn: Callable[[], Any], repeats: int) -> tuple[float, Any]:
-    times = []
-    out = None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times), out
 
 
 def run(repeats: int = 3) -> dict[str, Any]:
@@ -62,9 +51,9 @@ def run(repeats: int = 3) -> dict[str, Any]:
         # warm-up on a 5-minute log: kernels compiled or loaded from cache, imports done
         short = dataclasses.replace(scenario, duration=300.0)
         diagnose(params, synth.simulate(params, None, short, seed=1).gap_logs())
-        read_s, logs = _median_time(lambda: load_bag(bag), repeats)
-        diag_s, diag = _median_time(lambda: diagnose(params, logs), repeats)
-        rep_s, _ = _median_time(lambda: write_report(diag, pathlib.Path(tmp) / 'out'), 1)
+        read_s, logs = median_time(lambda: load_bag(bag), repeats)
+        diag_s, diag = median_time(lambda: diagnose(params, logs), repeats)
+        rep_s, _ = median_time(lambda: write_report(diag, pathlib.Path(tmp) / 'out'), 1)
     r = diag.report
     return {
         'benchmark': 'gap diagnosis of a 20-minute 50 Hz log',

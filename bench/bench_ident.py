@@ -18,25 +18,14 @@ from __future__ import annotations
 import json
 import pathlib
 import platform
-import statistics
 import tempfile
-import time
-from collections.abc import Callable
 from typing import Any
+
+from timing import median_time
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SEQUENCE = ('surge', 'pitch', 'yaw', 'surge', 'pitch', 'yaw', 'pitch')
 TARGET_S = 10.0
-
-
-def _median_time(fn: Callable[[], Any], repeats: int) -> tuple[float, Any]:
-    times = []
-    out = None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times), out
 
 
 def run(repeats: int = 3) -> dict[str, Any]:
@@ -77,11 +66,11 @@ def run(repeats: int = 3) -> dict[str, Any]:
         # warm-up: numba kernels compiled or loaded from cache, imports done
         fit(read(forces_bags[:3], 'forces'), 'forces')
         fit(read(motion_bags[:3], 'motion'), 'motion')
-        read_f, arr_f = _median_time(lambda: read(forces_bags, 'forces'), repeats)
-        read_m, arr_m = _median_time(lambda: read(motion_bags, 'motion'), repeats)
-        fit_f, (records_f, result_f) = _median_time(lambda: fit(arr_f, 'forces'), repeats)
-        fit_m, (_, result_m) = _median_time(lambda: fit(arr_m, 'motion'), repeats)
-        nm_s, _ = _median_time(lambda: compare_nelder_mead(records_f, result_f), 1)
+        read_f, arr_f = median_time(lambda: read(forces_bags, 'forces'), repeats)
+        read_m, arr_m = median_time(lambda: read(motion_bags, 'motion'), repeats)
+        fit_f, (records_f, result_f) = median_time(lambda: fit(arr_f, 'forces'), repeats)
+        fit_m, (_, result_m) = median_time(lambda: fit(arr_m, 'motion'), repeats)
+        nm_s, _ = median_time(lambda: compare_nelder_mead(records_f, result_f), 1)
         messages_f = sum(len(a) for arrs in arr_f for a in arrs.values())
     return {
         'benchmark': 'identification from one hour of 50 Hz data',

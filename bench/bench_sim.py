@@ -21,25 +21,15 @@ import json
 import os
 import pathlib
 import platform
-import statistics
-import time
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+from timing import median_time
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 TARGET_US_PER_STEP = 7.0
 TARGET_BATCH_STEPS_PER_S = 1.0e6
-
-
-def _median_time(fn: Callable[[], Any], repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
 
 
 def run(steps: int = 100_000, repeats: int = 7, batch_sizes: tuple[int, ...] = (1000, 10_000),
@@ -69,7 +59,7 @@ def run(steps: int = 100_000, repeats: int = 7, batch_sizes: tuple[int, ...] = (
         x = x0.copy()
         if rk4_steps(0.0, x, cmd, P, E, prof, dt, steps) != -1:
             raise RuntimeError('benchmark run diverged')
-    t_single = _median_time(single, repeats)
+    t_single = median_time(single, repeats)[0]
     us_per_step = t_single / steps * 1e6
 
     sim_steps = 50
@@ -79,7 +69,7 @@ def run(steps: int = 100_000, repeats: int = 7, batch_sizes: tuple[int, ...] = (
         sim.command('bar', cmd[0])
         for _ in range(steps // sim_steps):
             sim.step(sim_steps)
-    sim_us = _median_time(wrapped, max(3, repeats // 2)) / steps * 1e6
+    sim_us = median_time(wrapped, max(3, repeats // 2))[0] / steps * 1e6
 
     # batch
     rng = np.random.default_rng(0)
@@ -97,7 +87,7 @@ def run(steps: int = 100_000, repeats: int = 7, batch_sizes: tuple[int, ...] = (
 
             def go() -> None:
                 kernel(0.0, X, CMD, P, E, prof, dt, batch_steps)  # noqa: B023
-            t = _median_time(go, repeats)
+            t = median_time(go, repeats)[0]
             figures[f'{name}_vehicle_steps_per_s'] = round(n * batch_steps / t)
         batch[str(n)] = figures
 

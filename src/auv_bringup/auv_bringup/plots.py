@@ -54,32 +54,23 @@ def plot_depth_run(state: Mapping[str, np.ndarray], bar_t: np.ndarray, bar: np.n
     ax.grid(True)
     save(fig, 'fig11_xy.png')
 
-    fig, axes = plt.subplots(3, 1, figsize=(8, 6), sharex=True)
-    for ax, key, label in zip(axes, ('phi', 'theta', 'psi'), ('roll', 'pitch', 'yaw')):
-        ax.plot(t, np.degrees(state[key]))
-        ax.set(ylabel=f'{label} [deg]')
-        ax.grid(True)
-    axes[-1].set(xlabel='time [s]')
-    axes[0].set(title='Euler angles (ZYX)')
-    save(fig, 'fig12_euler.png')
+    def three_panels(keys: tuple[str, str, str], labels: tuple[str, str, str], unit: str,
+                     degrees: bool, title: str, name: str) -> None:
+        fig, axes = plt.subplots(3, 1, figsize=(8, 6), sharex=True)
+        for ax, key, label in zip(axes, keys, labels):
+            ax.plot(t, np.degrees(state[key]) if degrees else state[key])
+            ax.set(ylabel=f'{label} [{unit}]')
+            ax.grid(True)
+        axes[-1].set(xlabel='time [s]')
+        axes[0].set(title=title)
+        save(fig, name)
 
-    fig, axes = plt.subplots(3, 1, figsize=(8, 6), sharex=True)
-    for ax, key in zip(axes, ('u', 'v', 'w')):
-        ax.plot(t, state[key])
-        ax.set(ylabel=f'{key} [m/s]')
-        ax.grid(True)
-    axes[-1].set(xlabel='time [s]')
-    axes[0].set(title='Linear speeds (body FRD)')
-    save(fig, 'fig13_linear_speed.png')
-
-    fig, axes = plt.subplots(3, 1, figsize=(8, 6), sharex=True)
-    for ax, key in zip(axes, ('p', 'q', 'r')):
-        ax.plot(t, np.degrees(state[key]))
-        ax.set(ylabel=f'{key} [deg/s]')
-        ax.grid(True)
-    axes[-1].set(xlabel='time [s]')
-    axes[0].set(title='Angular speeds (body FRD)')
-    save(fig, 'fig14_angular_speed.png')
+    three_panels(('phi', 'theta', 'psi'), ('roll', 'pitch', 'yaw'), 'deg', True,
+                 'Euler angles (ZYX)', 'fig12_euler.png')
+    three_panels(('u', 'v', 'w'), ('u', 'v', 'w'), 'm/s', False, 'Linear speeds (body FRD)',
+                 'fig13_linear_speed.png')
+    three_panels(('p', 'q', 'r'), ('p', 'q', 'r'), 'deg/s', True, 'Angular speeds (body FRD)',
+                 'fig14_angular_speed.png')
 
     fig, ax = plt.subplots(figsize=(8, 3.5))
     ax.step(bar_t - t0, np.degrees(bar), where='post')
