@@ -63,6 +63,11 @@ site=$("$VENV/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["pur
 {
   for pkg in auv_sim auv_depth_lqr auv_ident auv_bringup; do echo "$ROOT/src/$pkg"; done
   echo "$ROOT/install/auv_msgs/lib/python3.11/site-packages"
+  # after the sources: the installed packages' metadata, for the ros2-run executables in
+  # install/<pkg>/lib/<pkg>/ (their modules resolve to the sources above)
+  for pkg in auv_sim auv_depth_lqr auv_ident auv_bringup; do
+    echo "$ROOT/install/$pkg/lib/python3.11/site-packages"
+  done
 } > "$site/auv_workspace.pth"
 cat > "$VENV/bin/auv-env" <<SH
 # Environment of the workspace: source it, or prefix a command with it (auv-env CMD...).

@@ -24,6 +24,7 @@ import sys
 from typing import Any
 
 import rclpy
+import rclpy.exceptions
 import rclpy.executors
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
@@ -175,7 +176,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         node = DepthPilotNode()
         rclpy.spin(node)
-    except (AuvLqrError, AuvSimError) as exc:
+    except (AuvLqrError, AuvSimError, rclpy.exceptions.ParameterException) as exc:
         print(f'error: {exc}', file=sys.stderr)
         return 1
     except KeyboardInterrupt:
