@@ -93,7 +93,12 @@ def run(args: argparse.Namespace) -> int:
     bar_on_state = np.interp(st['t'], bar['t'], bar['value'])
     m = step_metrics(st['t'], st['z'], st['theta'], st['q'], bar_on_state, z1,
                      t_command=float(st['t'][0]), bar_max=params.bar_max)
+    expected = int(round(args.duration * 50.0)) + 1
+    if len(st) != expected:
+        say(f'warning: the bag holds {len(st)} of the {expected} states the simulator '
+            f'published')
     summary['graph'] = {**m.as_dict(), 'states_recorded': int(len(st)),
+                        'states_published': expected,
                         'bar_commands_recorded': int(len(bar)),
                         'wall_time_s': float(g['wall'])}
 

@@ -63,7 +63,8 @@ class DepthPilotNode(Node):
         self.declare_parameter('lockstep', False)
         self.pilot = self._build(self._values({}))
         self.add_on_set_parameters_callback(self._on_set)
-        self.pub = self.create_publisher(ActuatorSetpoint, '/auv/bar_command', 10)
+        # reliable, last 100 (10 s at 10 Hz): a lost sample is resent from this history
+        self.pub = self.create_publisher(ActuatorSetpoint, '/auv/bar_command', 100)
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.create_subscription(Float64, '/auv/depth_command', self._on_depth, latched)

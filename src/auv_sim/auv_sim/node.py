@@ -110,8 +110,10 @@ STATE_FRAME = 'ned'
 BODY_FRAME_FRD = 'base_link_frd'
 ODOM_FRAME = 'odom'
 ODOM_CHILD_FRAME = 'base_link'
-#: Reliable, last 10, volatile: every state reaches a recorder that keeps up.
-STREAM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+#: Reliable, volatile, last 1000 (20 s of states at 50 Hz): a sample lost on the way (bursts
+#: of a faster-than-real-time run overflow the transport) is resent from this history, so a
+#: recorder that falls behind for a while still gets every message.
+STREAM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
                         reliability=ReliabilityPolicy.RELIABLE,
                         durability=DurabilityPolicy.VOLATILE)
 _MAX_LAG = 0.25  # wall s behind schedule after which pacing re-anchors instead of bursting
