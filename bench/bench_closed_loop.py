@@ -10,6 +10,10 @@ the start depth, and reports, from :func:`auv_depth_lqr.metrics.step_metrics`:
   (35.5 s for 30 m at 2 m/s and theta_max = 25 deg; it scales with 1 / u0);
 * ``overshoot`` [m], ``peak_pitch_deg`` (largest ``|theta|``), ``rms_q_settled_deg_s`` (RMS
   pitch rate over the whole remainder after the settling instant);
+* ``time_optimal_bound_s``: the shortest settling time any pilot can reach on the vehicle's
+  nonlinear vertical-plane model within the same BAR angle/rate and pitch limits
+  (:func:`auv_depth_lqr.bound.settling_bound`; a horizontal current does not change it), and
+  ``settling_over_time_optimal_bound``;
 * ``null`` settling figures when the depth never stays within the band before the end;
 * ``pass`` against the targets: settling <= 1.5 T_kin, overshoot < 0.2 m, RMS q after
   settling < 0.05 deg/s, peak pitch <= 25 deg (BAR limit 25 deg, theta_max 25 deg).
@@ -30,6 +34,7 @@ import platform
 import time
 from typing import Any
 
+from auv_depth_lqr.bound import settling_bound
 from auv_depth_lqr.closed_loop import run_closed_loop
 from auv_depth_lqr.errors import AuvLqrError
 from auv_depth_lqr.metrics import step_metrics
@@ -60,6 +65,17 @@ def _finite(value: float, digits: int) -> float | None:
     return round(value, digits) if math.isfinite(value) else None
 
 
+_BOUNDS: dict[tuple[float, float, float], float] = {}
+
+
+def optimal_bound(params: Any, z0: float, z1: float, u0: float) -> float:
+    """Time-optimal settling bound [s] of a change, computed once per (z0, z1, u0)."""
+    key = (z0, z1, u0)
+    if key not in _BOUNDS:
+        _BOUNDS[key] = settling_bound(params, z0, z1, u0, THETA_MAX).settling_time
+    return _BOUNDS[key]
+
+
 def fly(params: Any, z0: float, z1: float, u0: float, current: dict[str, float] | None,
         weights: str) -> dict[str, Any]:
     """One closed-loop run; its figures and pass/fail against :data:`TARGETS`."""
@@ -76,11 +92,14 @@ def fly(params: Any, z0: float, z1: float, u0: float, current: dict[str, float] 
     m = step_metrics(rec.t, rec.x[:, 2], rec.x[:, 4], rec.x[:, 10], rec.x[:, 12], z1,
                      bar_max=params.bar_max, u0=u0, theta_max=THETA_MAX)
     ratio = m.settling_time / m.kinematic_bound
+    bound = optimal_bound(params, z0, z1, u0)
     figures = {
         'z0_m': z0, 'z1_m': z1, 'u0_m_s': u0, 'current_ned_m_s': current,
         'settling_time_s': _finite(m.settling_time, 2),
         'kinematic_bound_s': round(m.kinematic_bound, 2),
         'settling_over_kinematic_bound': _finite(ratio, 3),
+        'time_optimal_bound_s': round(bound, 2),
+        'settling_over_time_optimal_bound': _finite(m.settling_time / bound, 3),
         'overshoot_m': round(m.overshoot, 4),
         'peak_pitch_deg': round(math.degrees(m.peak_pitch), 2),
         'rms_q_settled_deg_s': _finite(math.degrees(m.rms_q_settled), 4),

@@ -1,0 +1,83 @@
+"""The time-optimal settling bound (auv_depth_lqr.bound) on the nonlinear A18M vertical plane.
+
+The bound's plan is checked on its own: simulated again, it must keep every limit and stay in
+the band from the claimed time on; one grid step earlier must be infeasible; and the pilot
+flying the same change on the same model can only be slower.
+"""
+from __future__ import annotations
+
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+from auv_depth_lqr.bound import _feasible, _Model, settling_bound
+from auv_depth_lqr.closed_loop import run_closed_loop
+from auv_depth_lqr.errors import DesignError
+from auv_depth_lqr.metrics import step_metrics
+from auv_depth_lqr.pilot import PilotSettings
+from auv_sim.params import load_vehicle
+
+VEHICLE = pathlib.Path(__file__).resolve().parents[1] / 'config' / 'a18m.yaml'
+THETA_MAX = math.radians(25.0)  # rad
+STEP, HOLD = 0.5, 10.0          # s
+Z0, Z1, U0 = 20.0, 25.0, 2.0    # m, m, m/s
+
+
+@pytest.fixture(scope='module')
+def params():  # type: ignore[no-untyped-def]
+    return load_vehicle(VEHICLE)
+
+
+@pytest.fixture(scope='module')
+def bound(params):  # type: ignore[no-untyped-def]
+    return settling_bound(params, Z0, Z1, U0, THETA_MAX, step=STEP, hold=HOLD)
+
+
+def test_the_plan_keeps_every_limit_and_settles_when_claimed(params, bound) -> None:  # type: ignore[no-untyped-def]
+    model = _Model(params, U0, STEP)
+    states = model.simulate(bound.states[0], bound.bar)
+    np.testing.assert_allclose(states, bound.states, atol=1e-12)
+    assert np.max(np.abs(bound.bar)) <= params.bar_max + 1e-12
+    trim_bar = model.plane.trim(U0).bar
+    steps = np.diff(np.r_[trim_bar, bound.bar])
+    assert np.max(np.abs(steps)) <= params.bar_rate * STEP + 1e-9
+    assert np.max(np.abs(states[:, 3])) <= THETA_MAX + 1e-3
+    settled = bound.t >= bound.settling_time - 1e-9
+    assert np.max(np.abs(states[settled, 2] - Z1)) <= 0.1 + 1e-3
+    assert bound.settling_time > bound.kinematic_bound  # 5 m at 2 m/s: 5.9 s kinematic
+
+
+def test_one_step_earlier_is_infeasible(params, bound) -> None:  # type: ignore[no-untyped-def]
+    model = _Model(params, U0, STEP)
+    trim = model.plane.trim(U0)
+    n = int(round(bound.settling_time / STEP)) - 1
+    n_hold = int(math.ceil(HOLD / STEP))
+    start = np.r_[bound.bar[:n], np.full(n_hold, trim.bar)]
+    ok, _ = _feasible(model, bound.states[0], np.array([trim.w, 0.0, Z1, trim.theta]),
+                      trim.bar, Z1, n, start,
+                      (params.bar_max, params.bar_rate * STEP, THETA_MAX, 0.1))
+    assert not ok
+
+
+def test_the_pilot_cannot_beat_the_bound(params, bound) -> None:  # type: ignore[no-untyped-def]
+    run = run_closed_loop(params, [(0.0, Z1)], 60.0, z0=Z0, u0=U0,
+                          settings=PilotSettings(theta_max=THETA_MAX))
+    rec = run.record
+    m = step_metrics(rec.t, rec.x[:, 2], rec.x[:, 4], rec.x[:, 10], rec.x[:, 12], Z1,
+                     bar_max=params.bar_max, u0=U0, theta_max=THETA_MAX)
+    assert math.isfinite(m.settling_time)
+    assert m.settling_time >= bound.settling_time - STEP
+
+
+@pytest.mark.parametrize(('kwargs', 'match'), [
+    ({'u0': 0.0}, 'u0 > 0'),
+    ({'theta_max': 2.0}, 'theta_max'),
+    ({'z1': 20.05}, 'already within the band'),
+    ({'band': math.nan}, 'band must be finite'),
+])
+def test_bad_arguments_are_named(params, kwargs, match) -> None:  # type: ignore[no-untyped-def]
+    args = {'z0': Z0, 'z1': Z1, 'u0': U0, 'theta_max': THETA_MAX} | kwargs
+    with pytest.raises(DesignError, match=match):
+        settling_bound(params, **args)
