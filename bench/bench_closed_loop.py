@@ -19,8 +19,10 @@ the start depth, and reports, from :func:`auv_depth_lqr.metrics.step_metrics`:
   settling < 0.05 deg/s, peak pitch <= 25 deg (BAR limit 25 deg, theta_max 25 deg).
 
 Cases: 40 -> 10 m at 2 m/s; the same with a 0.3 m/s current (following: north, the vehicle
-heads north; head: south; cross: east); at u0 = 1.5 and 2.5 m/s (gain scheduling); 10 -> 40 m
-at 2 m/s. Every case runs with the pilot's default weights and with the report's section-5
+heads north; head: south; cross: east), the vehicle starting trimmed in the water and the pilot
+told its speed through the water (``PilotSettings.water_speed``, as from its propeller
+setting), and once more in the head current with the pilot on its speed over ground; at
+u0 = 1.5 and 2.5 m/s (gain scheduling); 10 -> 40 m at 2 m/s. Every case runs with the pilot's default weights and with the report's section-5
 tuning (``report_5``), same governor. Simulated time is exact, so the figures are
 deterministic; the wall time per run is reported for information. Run as a script to write
 ``bench/results/closed_loop.json``.
@@ -48,15 +50,16 @@ THETA_MAX = math.radians(25.0)      # rad
 TARGETS = {'settling_over_kinematic_bound': 1.5, 'overshoot_m': 0.2,
            'rms_q_settled_deg_s': 0.05, 'peak_pitch_deg': 25.0}
 
-# name -> (z0 [m], z1 [m], u0 [m/s], current NED [m/s] or None)
-CASES: dict[str, tuple[float, float, float, dict[str, float] | None]] = {
-    'climb_40_10_u2': (40.0, 10.0, 2.0, None),
-    'climb_40_10_u2_current_following_0.3': (40.0, 10.0, 2.0, {'north': 0.3}),
-    'climb_40_10_u2_current_head_0.3': (40.0, 10.0, 2.0, {'north': -0.3}),
-    'climb_40_10_u2_current_cross_0.3': (40.0, 10.0, 2.0, {'east': 0.3}),
-    'climb_40_10_u1.5': (40.0, 10.0, 1.5, None),
-    'climb_40_10_u2.5': (40.0, 10.0, 2.5, None),
-    'dive_10_40_u2': (10.0, 40.0, 2.0, None),
+# name -> (z0 [m], z1 [m], u0 [m/s], current NED [m/s] or None, pilot told its water speed)
+CASES: dict[str, tuple[float, float, float, dict[str, float] | None, bool]] = {
+    'climb_40_10_u2': (40.0, 10.0, 2.0, None, False),
+    'climb_40_10_u2_current_following_0.3': (40.0, 10.0, 2.0, {'north': 0.3}, True),
+    'climb_40_10_u2_current_head_0.3': (40.0, 10.0, 2.0, {'north': -0.3}, True),
+    'climb_40_10_u2_current_cross_0.3': (40.0, 10.0, 2.0, {'east': 0.3}, True),
+    'climb_40_10_u2_current_head_0.3_ground_speed': (40.0, 10.0, 2.0, {'north': -0.3}, False),
+    'climb_40_10_u1.5': (40.0, 10.0, 1.5, None, False),
+    'climb_40_10_u2.5': (40.0, 10.0, 2.5, None, False),
+    'dive_10_40_u2': (10.0, 40.0, 2.0, None, False),
 }
 
 
@@ -77,14 +80,15 @@ def optimal_bound(params: Any, z0: float, z1: float, u0: float) -> float:
 
 
 def fly(params: Any, z0: float, z1: float, u0: float, current: dict[str, float] | None,
-        weights: str) -> dict[str, Any]:
+        water: bool, weights: str) -> dict[str, Any]:
     """One closed-loop run; its figures and pass/fail against :data:`TARGETS`."""
     environment = None if current is None else Environment(effects={'current': current})
     t0 = time.perf_counter()
     try:
         run = run_closed_loop(params, [(0.0, z1)], DURATION, z0=z0, u0=u0,
                               environment=environment,
-                              settings=PilotSettings(weights=weights, theta_max=THETA_MAX))
+                              settings=PilotSettings(weights=weights, theta_max=THETA_MAX,
+                                                     water_speed=u0 if water else None))
     except AuvLqrError as exc:
         return {'error': str(exc), 'pass': False}
     wall = time.perf_counter() - t0
@@ -95,6 +99,7 @@ def fly(params: Any, z0: float, z1: float, u0: float, current: dict[str, float] 
     bound = optimal_bound(params, z0, z1, u0)
     figures = {
         'z0_m': z0, 'z1_m': z1, 'u0_m_s': u0, 'current_ned_m_s': current,
+        'pilot_water_speed_m_s': u0 if water else None,
         'settling_time_s': _finite(m.settling_time, 2),
         'kinematic_bound_s': round(m.kinematic_bound, 2),
         'settling_over_kinematic_bound': _finite(ratio, 3),

@@ -308,3 +308,18 @@ def test_parallel_batch_equals_serial_batch(a18m: VehicleParams) -> None:
     s2 = rk4_batch_parallel(0.0, Xp, CMD, P, E, prof, a18m.dt, 300)
     np.testing.assert_array_equal(s1, s2)
     np.testing.assert_array_equal(Xs, Xp)
+
+
+def test_a_trimmed_start_in_a_current_has_no_surge_transient(a18m: VehicleParams) -> None:
+    """Trim.state(environment): the trim's velocities through the water plus the current;
+    with the trim's BAR and thrust held, the velocities over ground stay put."""
+    env = Environment(effects={'current': {'north': -0.3, 'east': 0.1}})
+    psi = 0.4
+    trim = VerticalPlane(a18m).trim(2.0, z=30.0)
+    x0 = trim.state(env, psi=psi)
+    # the current along the heading, seen along the body x axis of a vehicle pitched theta
+    c_body_u = (-0.3 * math.cos(psi) + 0.1 * math.sin(psi)) * math.cos(trim.theta)
+    assert x0[6] == pytest.approx(2.0 + c_body_u, abs=1e-12)
+    sim = Simulator(a18m, env, x0=x0)
+    sim.step(int(round(20.0 / sim.dt)))
+    assert np.max(np.abs(sim.x[6:12] - x0[6:12])) < 1e-6

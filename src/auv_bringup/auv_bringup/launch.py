@@ -84,6 +84,7 @@ class GraphConfig:
     topics: Sequence[str] = ()
     pilot_rate: float = 10.0
     weights: str = 'default'
+    water_speed: float = 0.0  # speed through the water told to the pilot [m/s]; 0: ground
     log_dir: str | None = None
     depth_command: float | None = None  # published (and delivered) before the simulator starts
     mission: str | None = None  # an open-loop mission (auv mission) instead of the pilot
@@ -113,7 +114,8 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
     elif cfg.pilot:
         nodes.append(NodeProcess('pilot', [py, '-m', 'auv_depth_lqr.node', *ros_params(
             vehicle_file=cfg.vehicle, lockstep=cfg.lockstep, rate=cfg.pilot_rate,
-            weights=cfg.weights, use_sim_time=cfg.sim_clock)], log('pilot')))
+            weights=cfg.weights, water_speed=float(cfg.water_speed),
+            use_sim_time=cfg.sim_clock)], log('pilot')))
     nodes.append(NodeProcess('simulator', [py, '-m', 'auv_sim.node', *ros_params(
         vehicle_file=cfg.vehicle, effects_file=cfg.effects or '""', lockstep=cfg.lockstep,
         use_sim_clock=cfg.sim_clock,
@@ -218,6 +220,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='simulated time at which the graph stops [s]; 0 = never')
     parser.add_argument('--duration', type=float, default=None, help='wall-time limit [s]')
     parser.add_argument('--no-pilot', action='store_true', help='do not start the depth pilot')
+    parser.add_argument('--water-speed', type=float, default=0.0,
+                        help='[m/s] speed through the water told to the pilot (0: it '
+                             'schedules on the measured surge over ground)')
     parser.add_argument('--record', default=None, help='record the topics to this bag directory')
     parser.add_argument('--log-dir', default=None, help='write each node\'s output here')
     parser.add_argument('--wall-clock', action='store_true',
@@ -254,7 +259,8 @@ def run(args: argparse.Namespace) -> int:
                           initial_depth=args.initial_depth, initial_speed=args.initial_speed,
                           stop_time=args.stop_time, pilot=not args.no_pilot,
                           record=args.record, log_dir=args.log_dir,
-                          sim_clock=not args.wall_clock, depth_command=args.depth)
+                          sim_clock=not args.wall_clock, depth_command=args.depth,
+                          water_speed=args.water_speed)
     codes = run_graph(cfg, duration=args.duration)
     bad = {k: v for k, v in codes.items() if v not in (0, None, -2, 130)}
     if bad:

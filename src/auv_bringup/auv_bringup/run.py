@@ -36,6 +36,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--speed', type=float, default=2.0, help='[m/s] (closed loop)')
     parser.add_argument('--duration', type=float, default=150.0, help='[s] (closed loop)')
     parser.add_argument('--weights', default='default', help='LQR weight preset')
+    parser.add_argument('--water-speed', type=float, default=None,
+                        help='[m/s] speed through the water the pilot is told (closed loop; '
+                             'default: it schedules on the measured surge over ground)')
     parser.add_argument('--noise', action='store_true',
                         help='add realistic sensor noise to the logged state')
     parser.add_argument('--seed', type=int, default=0)
@@ -59,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
         if not params.depth_min <= args.depth <= params.depth_max:
             raise RunError(f'--depth {args.depth} m is outside the vehicle envelope '
                            f'[{params.depth_min}, {params.depth_max}] m')
-        settings = PilotSettings(weights=args.weights)
+        settings = PilotSettings(weights=args.weights, water_speed=args.water_speed)
         cl = run_closed_loop(params, [(0.0, args.depth)], args.duration,
                              z0=args.initial_depth, u0=args.speed, environment=env,
                              settings=settings)

@@ -41,13 +41,15 @@ def run_closed_loop(params: VehicleParams, depth_commands: Sequence[tuple[float,
                     pilot: DepthPilot | None = None) -> ClosedLoopRun:
     """Fly depth commands ``[(t [s], z [m]), ...]`` from a trim at ``z0`` [m], ``u0`` [m/s].
 
-    The vehicle starts trimmed for the nominal model (thrust held at its trim value, the
-    speed loop being outside this toolkit); ``environment`` makes the "real" vehicle differ.
+    The vehicle starts trimmed for the nominal model in the water it is in (its trim
+    velocities through the water plus the current, see :meth:`auv_sim.trim.Trim.state`;
+    thrust held at its trim value, the speed loop being outside this toolkit);
+    ``environment`` makes the "real" vehicle differ.
     """
     settings = settings or PilotSettings()
     pilot = pilot or DepthPilot.for_vehicle(params, settings)
     trim = VerticalPlane(params).trim(u0, z=z0)
-    sim = Simulator(params, environment, x0=trim.state())
+    sim = Simulator(params, environment, x0=trim.state(environment))
     ts = settings.Ts
     steps_per_control = int(round(ts / sim.dt))
     steps_per_sample = int(round(sample_period / sim.dt))

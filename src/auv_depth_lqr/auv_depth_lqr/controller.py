@@ -39,6 +39,7 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.linalg import expm
 
 from auv_depth_lqr.errors import DesignError, InvalidInputError
 from auv_depth_lqr.lqr import _matrix, check_controllable, lqrd
@@ -204,24 +205,31 @@ class Limits:
 class GovernorSettings:
     """Reference governor: how a depth step becomes a flyable vertical-speed profile.
 
-    The governed reference ``(z_r, v_r, a_r, j_r)`` (depth [m], vertical speed [m/s],
-    acceleration [m/s^2], jerk [m/s^3], NED down) is a jerk-limited, time-optimal motion to
-    the commanded depth, re-planned every sample (:meth:`DepthController._govern`), that
-    ends on a short exponential landing. Its limits come from the vehicle's linear model:
+    The governed reference ``(z_r, v_r, a_r, j_r, s_r)`` (depth [m], vertical speed [m/s],
+    acceleration [m/s^2], jerk [m/s^3], snap [m/s^4], NED down) is a near time-optimal
+    motion to the commanded depth, re-planned every sample (:meth:`DepthController._govern`),
+    that ends on a short exponential landing. Its feed-forward BAR is the vehicle's linear
+    model series ``bar_e + b_0 v + b_1 a + b_2 j + b_3 s`` (:class:`OperatingPoint`), and
+    the reference is built so that this BAR is one the plane can fly:
 
     * ``|v_r|``: steady climbs/dives whose pitch stays within ``margin * theta_max`` and BAR
       within ``margin * bar_max`` (:meth:`GainSchedule.vertical_speed_bounds`);
-    * the feed-forward BAR ``bar_e + b_0 v + b_1 a + b_2 j`` (:class:`OperatingPoint`)
-      within ``bar_margin * bar_max``: it bounds the acceleration (the pitch rate, which the
-      restoring moment of a steep climb makes expensive), and, with ``jerk_bar_share`` and
-      ``brake_bar_share``, the jerk and the deceleration a stop is planned with;
-    * ``|a_r| <= accel_max``, ``|j_r| <= accel_max / jerk_time``.
+    * the feed-forward BAR within ``bar_margin * bar_max`` and moving at most at
+      ``bar_rate_margin`` times the plane's rate: it bounds the pitch-up (the restoring
+      moment of a steep climb eats the plane's authority) and shapes the stop;
+    * a stop holds the feed-forward BAR at ``brake_bar_share`` of that budget on the
+      braking side (the vehicle pitches back at the rate the plane allows), then releases
+      it towards the landing's BAR (plus ``release_bar_share`` of the room beyond) so that
+      the landing starts with the attitude at rest (see :func:`_stop_distance`);
+    * the speed-up: ``|a_r| <= accel_max``, ``|j_r| <= accel_max / jerk_time``.
 
     The reference never overshoots the commanded depth; it waits for a vehicle that falls
-    more than ``max_lag`` behind it.
+    more than ``max_lag`` behind it. The defaults were chosen on the A18M model at 1.5-3 m/s
+    (``bench/bench_closed_loop.py``) against the settling, overshoot and quiet-attitude
+    targets; the time-optimal bound of :mod:`auv_depth_lqr.bound` is about 10 % faster.
     """
 
-    margin: float = 0.96
+    margin: float = 0.97
     """Fraction of ``theta_max`` and ``u sin(theta_max)`` that the steady climb or dive of the
     reference may use; the rest is left to the feedback [-]."""
     bar_margin: float = 0.98
@@ -232,13 +240,17 @@ class GovernorSettings:
     jerk_time: float = 1.0
     """Shortest time for the reference acceleration to go from 0 to ``accel_max`` [s]
     (jerk limit ``accel_max / jerk_time``); it bounds the pitch acceleration."""
-    approach_time: float = 2.5
-    """Time constant of the final exponential approach (the landing) [s]. The pitch rate
-    left when the vehicle enters a +-0.1 m band scales as ``1 / approach_time^2``: this is
-    what keeps the attitude quiet once the depth has settled."""
-    landing_distance: float = 0.1
+    approach_length: float = 8.0
+    """Distance run through the water during one time constant of the final exponential
+    approach (the landing) [m]: the time constant is ``approach_length / u`` [s] (4 s at
+    2 m/s), so it follows the vehicle's attitude dynamics, which scale with ``1 / u``. The
+    pitch left to take out once the vehicle is within a +-0.1 m band, and the pitch rate
+    that takes it out, shrink with it: this keeps the attitude quiet once the depth has
+    settled."""
+    landing_distance: float = 0.12
     """Length of the landing [m]: the stop ends on it at the speed
-    ``landing_distance / approach_time`` [m/s]."""
+    ``landing_distance / approach time`` [m/s], i.e. with the same pitch above the trim
+    at any speed."""
     integrate_within: float = 0.2
     """The depth integrator runs only while ``|z - z_r|`` is at most this [m]."""
     integrate_below_speed: float = 0.005
@@ -249,9 +261,15 @@ class GovernorSettings:
     """Fraction of the feed-forward BAR budget (``bar_margin * bar_max``) that a planned stop
     may use; the rest is left to the feedback, which must absorb the tracking errors of the
     braking, where they become overshoot [-]."""
+    release_bar_share: float = 0.1
+    """How far beyond the landing's BAR (about the trim) the release of a stop moves the
+    feed-forward BAR, as a fraction of the room to the other end of the budget [-]."""
+    bar_rate_margin: float = 0.8
+    """Fraction of the BAR rate limit that the feed-forward BAR of the reference may use
+    [-]; the stop is planned with the BAR moving at that rate."""
     jerk_bar_share: float = 0.25
-    """Fraction of ``bar_margin * bar_max`` that the jerk term ``b_2 j`` of the feed-forward
-    may use; it bounds the jerk (the pitch acceleration of the manoeuvre) [-]."""
+    """Fraction of ``bar_margin * bar_max`` that the jerk term ``b_2 j`` of the speed-up may
+    use; it bounds the jerk (the pitch acceleration) of the speed-up [-]."""
     max_lag: float = 0.5
     """Largest distance [m] by which the governed reference may lead the vehicle in the
     direction of travel; when the vehicle falls further behind (a current, a speed lower
@@ -263,11 +281,15 @@ class GovernorSettings:
 
     def __post_init__(self) -> None:
         for name in ('margin', 'bar_margin', 'brake_bar_share', 'pitch_guard',
-                     'jerk_bar_share'):
+                     'jerk_bar_share', 'bar_rate_margin'):
             value = _finite(f'GovernorSettings.{name}', getattr(self, name), positive=True)
             if value > 1.0:
                 raise DesignError(f'GovernorSettings.{name} must be in (0, 1], got {value!r}')
-        for name in ('accel_max', 'approach_time', 'jerk_time', 'landing_distance',
+        share = _finite('GovernorSettings.release_bar_share', self.release_bar_share)
+        if not 0.0 <= share < 1.0:
+            raise DesignError(f'GovernorSettings.release_bar_share must be in [0, 1), got '
+                              f'{share!r}')
+        for name in ('accel_max', 'approach_length', 'jerk_time', 'landing_distance',
                      'integrate_within',
                      'integrate_below_speed', 'max_lag'):
             _finite(f'GovernorSettings.{name}', getattr(self, name), positive=True)
@@ -616,7 +638,9 @@ class DepthController:
         self._v_r = 0.0
         self._a_r = 0.0
         self._j_r = 0.0
-        self._stop: tuple[tuple[float, float], float] | None = None
+        self._s_r = 0.0
+        self._command: float | None = None
+        self._landing: tuple[float | None, float] | None = None
         self._bar_prev = None if bar_previous is None else _finite('bar_previous', bar_previous)
 
     @property
@@ -630,19 +654,21 @@ class DepthController:
         return None if self._z_r is None else (self._z_r, self._v_r)
 
     # -- one sample ------------------------------------------------------------------------
-    def _limits_toward(self, op: OperatingPoint, u: float, travel: float, v_now: float
-                       ) -> tuple[float, float, float]:
+    def _limits_toward(self, op: OperatingPoint, u: float, travel: float
+                       ) -> tuple[float, float, _Brake]:
         """Limits of the reference for a motion in ``travel`` (+1 down, -1 up).
 
-        Returns ``(v_cap, a_brake, jerk)``: the steady vertical speed it may reach [m/s,
-        > 0, along ``travel``], the deceleration it may plan a stop with that starts at the
-        speed ``v_now`` [m/s, along ``travel``] and the jerk limit [m/s^3]. The feed-forward
-        BAR ``bar_e + b_0 v_lin + b_1 a + b_2 j`` (see :class:`OperatingPoint`) of the stop
-        must stay within ``bar_margin * bar_max``: at the end of the jerk ramp that builds
-        the deceleration (at ``v_now``, with ``b_2 jerk``) and while holding it down to rest
-        (at ``v = 0``); the final release ramp moves the BAR away from that limit. The jerk
-        is at most ``accel_max / jerk_time`` and ``b_2 jerk`` at most ``jerk_bar_share`` of
-        the budget.
+        Returns ``(v_cap, jerk, brake)``: the steady vertical speed it may reach [m/s, > 0,
+        along ``travel``], the jerk limit of its speed-up [m/s^3] and the model of its stop
+        (:class:`_Brake`, :func:`_stop_distance`). In the travel frame (speed ``V``,
+        acceleration ``A``, jerk ``J``, snap ``S``, all along ``travel``) the feed-forward
+        input ``U = travel (BAR - bar_e)`` of the series is ``b_0 V + b_1 A + b_2 J + b_3 S``
+        (linear kinematics). A stop moves that input at ``bar_rate_margin`` times the plane's
+        rate to the braking end of ``brake_bar_share * bar_margin * bar_max`` and holds it,
+        then releases it at the same rate towards ``release_bar_share`` of the way to the
+        other end, until the deceleration is down to that of the landing. The speed-up jerk is
+        at most ``accel_max / jerk_time`` and ``b_2 jerk`` at most ``jerk_bar_share`` of the
+        budget.
         """
         settings, lim = self.governor, self.limits
         b = op.F[:, 3]
@@ -652,91 +678,112 @@ class DepthController:
             jerk = min(jerk, settings.jerk_bar_share * budget / abs(float(b[2])))
         v_lo, v_hi = GainSchedule.vertical_speed_bounds(op, u, lim, settings.margin)
         v_cap = v_hi if travel > 0.0 else -v_lo
-        a_brake = settings.accel_max
-        if b[1] != 0.0:
-            slope = -travel * float(b[1])  # BAR per unit of braking deceleration
-            sign = math.copysign(1.0, slope)
-            for v, reserve in ((max(v_now, 0.0), abs(float(b[2])) * jerk), (0.0, 0.0)):
-                centre = op.bar_e + float(b[0]) * GainSchedule.linear_speed(op, u, travel * v)
-                room = settings.brake_bar_share * budget - reserve - sign * centre
-                a_brake = min(a_brake, room / abs(slope))
-        return v_cap, max(a_brake, 0.05 * settings.accel_max), jerk
+        # The landing's time constant is fixed per command (at the speed of its first sample):
+        # a landing that changed with every wobble of the measured speed would re-plan itself.
+        if self._landing is None or self._landing[0] != self._command:
+            self._landing = (self._command, settings.approach_length / max(u, 0.1))
+        landing = self._landing[1]
+        v_land = settings.landing_distance / landing
+        share = settings.brake_bar_share * budget
+        sign = 1.0 if float(b[1]) >= 0.0 else -1.0
+        u_brake = -sign * share - travel * op.bar_e
+        u_other = sign * share - travel * op.bar_e
+        b0, b1 = float(b[0]), float(b[1])
+        u_land = b0 * v_land - b1 * v_land / landing  # the landing's input at its start
+        u_release = u_land + settings.release_bar_share * (u_other - u_land)
+        du = settings.bar_rate_margin * lim.bar_rate_max * self.Ts
+        brake = _Brake.build(tuple(float(x) for x in b), u_brake, u_release, du, landing,
+                             v_land, self.Ts)
+        return v_cap, jerk, brake
 
     def _govern(self, op: OperatingPoint, u: float, z_cmd: float
-                ) -> tuple[float, float, float, float]:
-        """Advance the governed reference one sample: new ``(z_r, v_r, a_r, j_r)``.
+                ) -> tuple[float, float, float, float, float]:
+        """Advance the governed reference one sample: new ``(z_r, v_r, a_r, j_r, s_r)``.
 
-        A jerk-limited, time-optimal point-to-point motion, re-planned at every sample (so
-        it follows a new command, a new speed or a reference held back by the vehicle).
-        The jerk ``j_r``, constant over the sample, drives the acceleration towards
-        ``sqrt(2 jerk dv + (jerk c)^2) - jerk c`` (``dv`` the speed still to gain up to
-        ``v_cap``, ``c = jerk_time / 2``: full speed with no overshoot of ``v_cap``), within
-        ``+-jerk`` and within what keeps the feed-forward BAR ``bar_e + b_0 v_lin + b_1 a +
-        b_2 j`` inside ``bar_margin * bar_max`` (so the acceleration of a climb fades as the
-        pitch restoring moment eats the plane's authority). If the jerk-limited stop from
-        the state after the sample (:func:`_stopping_distance` with the deceleration of
-        :meth:`_limits_toward`, fixed once the stop has begun) would pass the target, the
-        jerk is instead the largest one whose stop ends on the target (bisection): the
-        reference brakes as late as its planned deceleration allows and never overshoots.
+        A time-optimal point-to-point motion, re-planned at every sample (so it follows a
+        new command, a new speed or a reference held back by the vehicle). The snap ``s_r``
+        [m/s^4], constant over the sample, moves the jerk towards the speed-up profile: the
+        acceleration goes towards ``sqrt(2 jerk dv + (jerk c)^2) - jerk c`` (``dv`` the speed
+        still to gain up to ``v_cap``, ``c = jerk_time / 2``) at most at the jerk limit. The
+        feed-forward BAR ``bar_e + b_0 v_lin + b_1 a + b_2 j + b_3 s`` stays inside
+        ``bar_margin * bar_max`` and moves at most at ``bar_rate_margin`` times the plane's
+        rate, so the reference is one the plane can fly. If the stop from the state after the
+        sample (:func:`_stop_distance`) would pass the target, the snap is instead the largest
+        one whose stop ends on the target (bisection; the rate limit gives way before the
+        target does): the reference brakes as late as the plane allows and never overshoots.
         """
         settings, lim, ts = self.governor, self.limits, self.Ts
         assert self._z_r is not None
+        self._command = z_cmd
         error = z_cmd - self._z_r
         travel = 1.0 if error > 0.0 or (error == 0.0 and self._v_r > 0.0) else -1.0
-        E, V, A = travel * error, travel * self._v_r, travel * self._a_r
-        if E < 1e-3 and abs(V) < 1e-3 and abs(A) < 2e-3:
-            self._stop = None
-            return z_cmd, 0.0, 0.0, 0.0
-        v_cap, a_brake, jerk = self._limits_toward(op, u, travel, V)
-        if self._stop is not None and self._stop[0] == (z_cmd, travel):
-            a_brake = self._stop[1]
-        else:
-            self._stop = None
-        landing = settings.approach_time
-        v_land = min(settings.landing_distance / landing, 0.5 * a_brake * landing)
+        E, V = travel * error, travel * self._v_r
+        A, J = travel * self._a_r, travel * self._j_r
+        if E < 1e-3 and abs(V) < 1e-3 and abs(A) < 2e-3 and abs(J) < 2e-3:
+            return z_cmd, 0.0, 0.0, 0.0, 0.0
+        v_cap, jerk, brake = self._limits_toward(op, u, travel)
+        landing, v_land = brake.landing, brake.v_land
         if 0.0 < V <= v_land * (1.0 + 1e-6) and E <= V * landing * (1.0 + 1e-6):
             # Final approach: the exponential e(t) = E exp(-t / landing).
             e1 = E * math.exp(-ts / landing)
             v1 = e1 / landing
             return (z_cmd - travel * e1, travel * v1, -travel * v1 / landing,
-                    travel * v1 / landing**2)
-        dv = v_cap - V
+                    travel * v1 / landing**2, -travel * v1 / landing**3)
+        b = [float(x) for x in op.F[:, 3]]
+        # Feed-forward input U = b0 V + b1 A + b2 J + b3 S at the end of the sample, linear
+        # in the snap S held over it; BAR = bar_e + travel U (exact kinematics in b0's term).
+        _, v0, a0, j0 = _constant_snap(V, A, J, 0.0, ts)
+        lin0 = travel * GainSchedule.linear_speed(op, u, travel * v0)
+        centre = b[0] * lin0 + b[1] * a0 + b[2] * j0
+        slope = b[3] + b[2] * ts + b[1] * ts * ts / 2.0 + b[0] * ts ** 3 / 6.0
+        budget = settings.bar_margin * lim.bar_max
+        u_hi, u_lo = budget - travel * op.bar_e, -budget - travel * op.bar_e
+        s_cap = settings.accel_max / ts ** 2
+        if slope != 0.0:
+            ends = sorted(((u_lo - centre) / slope, (u_hi - centre) / slope))
+            s_lo, s_hi = ends
+            s_floor = s_lo
+            lin_prev = travel * GainSchedule.linear_speed(op, u, self._v_r)
+            u_prev = b[0] * lin_prev + b[1] * A + b[2] * J + b[3] * travel * self._s_r
+            rate = sorted(((u_prev - brake.du - centre) / slope,
+                           (u_prev + brake.du - centre) / slope))
+            if rate[0] <= s_hi and rate[1] >= s_lo:
+                s_lo, s_hi = max(s_lo, rate[0]), min(s_hi, rate[1])
+        else:
+            s_lo = s_floor = -s_cap
+            s_hi = s_cap
+        # Speed-up: the jerk goes towards what brings the acceleration to a_goal.
+        dv = v_cap - V - 0.5 * A * settings.jerk_time  # the jerk lags jerk_time behind
         lag = 0.5 * settings.jerk_time * jerk
         a_goal = math.copysign(math.sqrt(2.0 * jerk * abs(dv) + lag * lag) - lag, dv)
-        a_goal = min(max(a_goal, -a_brake), settings.accel_max)
-        j_lo, j_hi = -jerk, jerk
-        b = op.F[:, 3]
-        if b[2] != 0.0:
-            budget = settings.bar_margin * lim.bar_max
-            # BAR at the end of the sample, linear in the jerk j applied over it.
-            v_next = self._v_r + self._a_r * ts
-            centre = op.bar_e + float(b[0]) * GainSchedule.linear_speed(op, u, v_next) \
-                + float(b[1]) * self._a_r
-            slope = travel * (float(b[2]) + float(b[1]) * ts + 0.5 * float(b[0]) * ts * ts)
-            ends = sorted(((budget - centre) / slope, (-budget - centre) / slope))
-            j_lo = min(max(j_lo, ends[0]), jerk)
-            j_hi = max(min(j_hi, ends[1]), j_lo)
-        j = min(max((a_goal - A) / ts, j_lo), j_hi)
+        a_goal = min(a_goal, settings.accel_max)
+        j_goal = (a_goal - A) / settings.jerk_time
+        j_goal = max(j_goal, -jerk) if A < 0.0 else min(max(j_goal, -jerk), jerk)
+        s = min(max((j_goal - J) / ts, s_lo), s_hi)
 
-        def overshoot(j_try: float) -> float:
-            dz, v1, a1 = _constant_jerk(V, A, j_try, ts)
-            return dz + _stopping_distance(v1, a1, a_brake, jerk, landing, v_land) - E
+        def overshoot(s_try: float) -> float:
+            dz, v1, a1, j1 = _constant_snap(V, A, J, s_try, ts)
+            u1 = b[0] * v1 + b[1] * a1 + b[2] * j1 + b[3] * s_try
+            return dz + _stop_distance(v1, a1, j1, u1, brake) - E
 
-        if overshoot(j) > 0.0:
-            self._stop = ((z_cmd, travel), a_brake)
-            lo, hi = -jerk, j
+        if overshoot(s) > 0.0:
+            lo, hi = s_lo, s
+            if overshoot(lo) >= 0.0 and s_floor < s_lo:
+                lo, hi = s_floor, s_lo  # the rate limit gives way before the target does
             if overshoot(lo) >= 0.0:
-                j = lo
+                s = lo
             else:
-                for _ in range(30):
+                for _ in range(24):
                     mid = 0.5 * (lo + hi)
                     if overshoot(mid) > 0.0:
                         hi = mid
                     else:
                         lo = mid
-                j = lo
-        dz, v1, a1 = _constant_jerk(V, A, j, ts)
-        return self._z_r + travel * dz, travel * v1, travel * a1, travel * j
+                s = lo
+        dz, v1, a1, j1 = _constant_snap(V, A, J, s, ts)
+        if v1 > v_cap:  # the speed-up's momentum: never beyond the climb/dive bound
+            v1, a1, j1 = v_cap, min(a1, 0.0), min(j1, 0.0)
+        return (self._z_r + travel * dz, travel * v1, travel * a1, travel * j1, travel * s)
 
     def feedforward(self, op: OperatingPoint, u: float, v: float, a: float, j: float,
                     snap: float = 0.0) -> tuple[Matrix, float]:
@@ -785,8 +832,8 @@ class DepthController:
         op = self.design.at(u)
 
         if self._z_r is None:
-            self._z_r, self._v_r, self._a_r, self._j_r = z, 0.0, 0.0, 0.0
-        z_r, v_r, a_r, j_r = self._govern(op, u, z_cmd)
+            self._z_r, self._v_r, self._a_r, self._j_r, self._s_r = z, 0.0, 0.0, 0.0, 0.0
+        z_r, v_r, a_r, j_r, s_r = self._govern(op, u, z_cmd)
         # The reference waits for a vehicle that falls behind it by more than max_lag.
         if v_r != 0.0:
             travel = math.copysign(1.0, v_r)
@@ -794,7 +841,7 @@ class DepthController:
                 z_r = z + travel * settings.max_lag
 
         # Feed-forward of the reference manoeuvre and the LQR correction around it.
-        wqt, bar_ff = self.feedforward(op, u, v_r, a_r, j_r)
+        wqt, bar_ff = self.feedforward(op, u, v_r, a_r, j_r, s_r)
         x = np.array([w, q, z, theta, self._xi])
         x_ref = np.array([wqt[0], wqt[1], z_r, wqt[2], 0.0])
         error = x - x_ref
@@ -834,51 +881,162 @@ class DepthController:
             xi_max = lim.integral_bar_max / abs(k_xi)
             self._xi = min(max(self._xi, -xi_max), xi_max)
 
-        self._z_r, self._v_r, self._a_r, self._j_r = z_r, v_r, a_r, j_r
+        self._z_r, self._v_r, self._a_r, self._j_r, self._s_r = z_r, v_r, a_r, j_r, s_r
         self._bar_prev = bar_cmd
         return bar_cmd
 
 
-def _constant_jerk(v: float, a: float, j: float, t: float) -> tuple[float, float, float]:
-    """Distance [m], speed [m/s] and acceleration [m/s^2] after ``t`` [s] at constant jerk."""
-    return (v * t + 0.5 * a * t * t + j * t * t * t / 6.0, v + a * t + 0.5 * j * t * t,
-            a + j * t)
+def _constant_snap(v: float, a: float, j: float, s: float, t: float
+                   ) -> tuple[float, float, float, float]:
+    """Distance [m], speed [m/s], acceleration [m/s^2] and jerk [m/s^3] after ``t`` [s] at
+    constant snap ``s`` [m/s^4]."""
+    t2 = t * t
+    return (v * t + a * t2 / 2.0 + j * t2 * t / 6.0 + s * t2 * t2 / 24.0,
+            v + a * t + j * t2 / 2.0 + s * t2 * t / 6.0, a + j * t + s * t2 / 2.0, j + s * t)
 
 
-def _stopping_distance(v: float, a: float, a_brake: float, jerk: float,
-                       landing: float = 0.0, v_land: float = 0.0) -> float:
-    """Distance [m] to the target of the jerk-limited stop, optionally with a landing.
+def _hurwitz(coefficients: Sequence[float]) -> bool:
+    """Whether ``c_0 + c_1 s + ... + c_n s^n`` (``c_n != 0``) has all roots in Re < 0."""
+    return bool(np.all(np.real(np.roots(list(coefficients)[::-1])) < 0.0))
 
-    From speed ``v`` [m/s] and acceleration ``a`` [m/s^2] along the travel, the
-    acceleration ramps at ``-jerk`` [m/s^3] to ``-A_p`` (at most ``a_brake`` [m/s^2] unless
-    already beyond it), holds, and ramps back at ``+jerk``. Without a landing
-    (``landing = 0``) it ramps back to 0 and ends at rest. With one, it ramps back to
-    ``-v_land / landing`` and ends at the speed ``v_land`` [m/s] on the exponential
-    ``e(t) = e_0 exp(-t / landing)`` (``landing`` [s]), whose length is
-    ``v_land * landing``; a motion already slower than ``v_land`` lands at once. Negative
-    for a motion away from the target (a plain stop, mirrored).
+
+class _Brake(NamedTuple):
+    """Travel-frame stop of the reference (see :meth:`DepthController._limits_toward`).
+
+    Over one sample, ``(P, V, A, J)`` (distance [m], speed [m/s], acceleration [m/s^2], jerk
+    [m/s^3] along the travel) maps exactly to ``phi (P, V, A, J) + gam U`` under the series
+    model ``b_0 V + b_1 A + b_2 J + b_3 J' = U`` with the input ``U = travel (BAR - bar_e)``
+    [rad] held; ``phi`` row-major 4 x 4, ``gam`` 4. When the third-order model is not
+    stable, the highest stable truncation is used (the lower orders follow the input
+    faster).
+    """
+
+    phi: tuple[float, ...]
+    gam: tuple[float, ...]
+    u_brake: float
+    """Input of the braking end of the BAR budget [rad]."""
+    u_release: float
+    """Input the release moves towards [rad]."""
+    du: float
+    """Largest change of the input over one sample [rad] (the BAR rate limit)."""
+    landing: float
+    """Time constant of the landing [s]."""
+    v_land: float
+    """Speed at which the landing starts [m/s]."""
+
+    @classmethod
+    def build(cls, b: Sequence[float], u_brake: float, u_release: float, du: float,
+              landing: float, v_land: float, ts: float) -> _Brake:
+        """The stop model of the series coefficients ``b = (b_0, b_1, b_2, b_3)``."""
+        M = np.zeros((5, 5))
+        M[0, 1] = M[1, 2] = M[2, 3] = 1.0
+        tau = 0.1 * ts  # fast lag that stands for a dropped order [s]
+        if b[3] != 0.0 and _hurwitz(b[:4]):
+            M[3, 1:4] = [-b[0] / b[3], -b[1] / b[3], -b[2] / b[3]]
+            M[3, 4] = 1.0 / b[3]
+        elif b[2] != 0.0 and _hurwitz(b[:3]):  # J follows (U - b0 V - b1 A) / b2
+            M[3, 1:4] = [-b[0] / (b[2] * tau), -b[1] / (b[2] * tau), -1.0 / tau]
+            M[3, 4] = 1.0 / (b[2] * tau)
+        elif b[1] != 0.0:  # A follows (U - b0 V) / b1
+            M[2, 3] = 0.0
+            M[2, 1:3] = [-b[0] / (b[1] * tau), -1.0 / tau]
+            M[2, 4] = 1.0 / (b[1] * tau)
+        E = expm(M * ts)
+        return cls(tuple(float(x) for x in E[:4, :4].ravel()),
+                   tuple(float(x) for x in E[:4, 4]), u_brake, u_release, max(du, 1e-9),
+                   landing, v_land)
+
+    def advance(self, state: tuple[float, float, float, float], u: float
+                ) -> tuple[float, float, float, float]:
+        """``(P, V, A, J)`` one sample later with the input ``u`` held [rad]."""
+        m, g = self.phi, self.gam
+        p, v, a, j = state
+        return (m[0] * p + m[1] * v + m[2] * a + m[3] * j + g[0] * u,
+                m[4] * p + m[5] * v + m[6] * a + m[7] * j + g[1] * u,
+                m[8] * p + m[9] * v + m[10] * a + m[11] * j + g[2] * u,
+                m[12] * p + m[13] * v + m[14] * a + m[15] * j + g[3] * u)
+
+
+_MAX_BRAKE_STEPS = 2000
+"""Longest stop the planner follows, in samples; a stop that is not over by then is taken
+to be infinitely long (the reference then brakes at once)."""
+
+
+def _toward(u: float, target: float, du: float) -> float:
+    """``u`` moved by at most ``du`` towards ``target``."""
+    return min(target, u + du) if u < target else max(target, u - du)
+
+
+def _release(state: tuple[float, float, float, float], u: float, brake: _Brake
+             ) -> tuple[float, float]:
+    """Distance [m] and speed [m/s] at the end of the release from ``(P, V, A, J)`` with
+    input ``u`` [rad]: the input moves at its rate limit towards ``brake.u_release`` until
+    the acceleration reaches ``-v_land / landing`` (interpolated within the sample), or
+    until the motion stops (speed 0: the release came too late to land)."""
+    a_end = -brake.v_land / brake.landing
+    for _ in range(_MAX_BRAKE_STEPS):
+        if state[2] >= a_end:
+            return state[0], state[1]
+        u = _toward(u, brake.u_release, brake.du)
+        nxt = brake.advance(state, u)
+        if nxt[1] <= 0.0:  # released too late: the motion stops (and would turn) here
+            f = state[1] / (state[1] - nxt[1])
+            return state[0] + f * (nxt[0] - state[0]), 0.0
+        if nxt[2] >= a_end:
+            f = (a_end - state[2]) / (nxt[2] - state[2])
+            return state[0] + f * (nxt[0] - state[0]), state[1] + f * (nxt[1] - state[1])
+        state = nxt
+    return math.inf, state[1]
+
+
+def _stop_distance(v: float, a: float, j: float, u_now: float, brake: _Brake) -> float:
+    """Distance [m] to the target of the stop from speed ``v`` [m/s], acceleration ``a``
+    [m/s^2], jerk ``j`` [m/s^3] (along the travel) and feed-forward input ``u_now`` [rad].
+
+    The stop moves the BAR at its rate limit to the braking end of the budget and holds it
+    there (:meth:`_Brake.advance`, sample by sample), then releases (:func:`_release`);
+    the release ends at the speed ``v_land`` (the switch is found by bisection over the
+    samples and interpolated): the start of the exponential landing ``e(t) = e_0
+    exp(-t / landing)`` of length ``v_land * landing``. A motion already slower than
+    ``v_land`` lands at once; one that brakes harder than it needs releases at once.
+    Negative for a motion away from the target (the same stop, mirrored, without a landing).
     """
     if v < 0.0 or (v == 0.0 and a < 0.0):
-        return -_stopping_distance(-v, -a, a_brake, jerk)
-    if landing > 0.0 and v <= v_land:
+        mirrored = brake._replace(v_land=0.0, u_brake=-brake.u_release,
+                                  u_release=-brake.u_brake)
+        return -_stop_distance(-v, -a, -j, -u_now, mirrored)
+    landing, v_land = brake.landing, brake.v_land
+    if v <= v_land:
         return v * landing
-    a_end = v_land / landing if landing > 0.0 else 0.0
-    v_end = v_land if landing > 0.0 else 0.0
-    # Speed lost over the two ramps and the hold: v - v_end = A^2 / jerk + A t_hold
-    # - (a^2 + a_end^2) / (2 jerk).
-    need = v - v_end + (a * a + a_end * a_end) / (2.0 * jerk)
-    if need <= 0.0 or -a > math.sqrt(jerk * need):
-        # Braking harder than the stop needs: release first, the rest is a plain stop.
-        t_release = max(0.0, (-a - a_end) / jerk)
-        dz, v1, a1 = _constant_jerk(v, a, jerk, t_release)
-        return dz + (v1 * landing if landing > 0.0 and v1 >= 0.0
-                     else _stopping_distance(v1, a1, a_brake, jerk))
-    peak = max(min(a_brake, math.sqrt(jerk * need)), a_end, -a)
-    hold = max(0.0, (need - peak * peak / jerk) / peak)
-    dz1, v1, a1 = _constant_jerk(v, a, -jerk, (a + peak) / jerk)
-    dz2, v2, a2 = _constant_jerk(v1, a1, 0.0, hold)
-    dz3, v3, _ = _constant_jerk(v2, a2, jerk, (peak - a_end) / jerk)
-    return dz1 + dz2 + dz3 + (max(v3, 0.0) * landing if landing > 0.0 else 0.0)
+    states = [((0.0, v, a, j), u_now)]
+    state, u = states[0]
+    while state[1] > v_land:
+        if len(states) > _MAX_BRAKE_STEPS:
+            return math.inf
+        u = _toward(u, brake.u_brake, brake.du)
+        state = brake.advance(state, u)
+        states.append((state, u))
+
+    def outcome(k: int) -> tuple[float, float]:
+        p_r, v_r = _release(*states[k], brake)
+        return p_r + max(min(v_r, v_land), 0.0) * landing, v_r
+
+    lo_out = outcome(0)
+    if lo_out[1] <= v_land:
+        return lo_out[0]
+    lo, hi = 0, len(states) - 1
+    hi_out = outcome(hi)
+    if hi_out[1] > v_land:
+        return hi_out[0]
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        out = outcome(mid)
+        if out[1] > v_land:
+            lo, lo_out = mid, out
+        else:
+            hi, hi_out = mid, out
+    f = (lo_out[1] - v_land) / (lo_out[1] - hi_out[1])
+    return lo_out[0] + f * (hi_out[0] - lo_out[0])
 
 
 def _input(name: str, value: object) -> float:
@@ -890,3 +1048,5 @@ def _input(name: str, value: object) -> float:
     if not math.isfinite(number):
         raise InvalidInputError(f'{name} must be finite, got {value!r}')
     return number
+
+

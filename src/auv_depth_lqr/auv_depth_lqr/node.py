@@ -12,7 +12,9 @@ instant, so the simulator can wait for it (see :mod:`auv_sim.node`).
 
 Parameters (validated at start and on change): ``vehicle_file``, ``rate`` [Hz], ``weights``
 (preset name), ``theta_max_deg`` [deg], ``bar_max`` / ``bar_rate`` [rad, rad/s; 0 = vehicle
-file], ``state_timeout`` [s], ``safe_bar`` [rad], ``lockstep`` (bool).
+file], ``state_timeout`` [s], ``safe_bar`` [rad], ``lockstep`` (bool), ``water_speed``
+[m/s; 0 = schedule on the measured surge over ground, else the known speed through the water,
+see :func:`auv_depth_lqr.pilot.water_relative`].
 """
 from __future__ import annotations
 
@@ -61,6 +63,7 @@ class DepthPilotNode(Node):
         self.declare_parameter('state_timeout', 0.5)
         self.declare_parameter('safe_bar', SAFE_BAR_DEFAULT)
         self.declare_parameter('lockstep', False)
+        self.declare_parameter('water_speed', 0.0)
         self.pilot = self._build(self._values({}))
         self.add_on_set_parameters_callback(self._on_set)
         # reliable, last 100 (10 s at 10 Hz): a lost sample is resent from this history
@@ -76,7 +79,7 @@ class DepthPilotNode(Node):
     # -- parameters --------------------------------------------------------------------------
     def _values(self, changes: dict[str, Any]) -> dict[str, Any]:
         names = ('vehicle_file', 'rate', 'weights', 'theta_max_deg', 'bar_max', 'bar_rate',
-                 'state_timeout', 'safe_bar', 'lockstep')
+                 'state_timeout', 'safe_bar', 'lockstep', 'water_speed')
         values = {n: self.get_parameter(n).value for n in names}
         values.update(changes)
         return values
@@ -87,7 +90,8 @@ class DepthPilotNode(Node):
             rate_hz=float(v['rate']), weights=str(v['weights']),
             theta_max=math.radians(float(v['theta_max_deg'])),
             bar_max=float(v['bar_max']) or None, bar_rate=float(v['bar_rate']) or None,
-            state_timeout=float(v['state_timeout']), safe_bar=float(v['safe_bar']))
+            state_timeout=float(v['state_timeout']), safe_bar=float(v['safe_bar']),
+            water_speed=float(v['water_speed']) or None)
         return DepthPilot.for_vehicle(params, settings)
 
     def _on_set(self, params: list[Any]) -> SetParametersResult:

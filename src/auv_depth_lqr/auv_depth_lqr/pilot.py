@@ -37,7 +37,10 @@ class PilotSettings:
 
     ``weights``: a preset name (``default``, ``report_4_4``, ``report_5``) or a
     :class:`Weights`; ``bar_max`` / ``bar_rate`` default to the vehicle file's actuator limits;
-    ``speeds`` is the gain-scheduling grid [m/s].
+    ``speeds`` is the gain-scheduling grid [m/s]; ``water_speed`` [m/s], when given, is the
+    surge speed through the water (from the propeller setting or a water-track log) that the
+    pilot schedules on and flies its model at, instead of the measured surge over ground
+    (see :func:`water_relative`).
     """
 
     rate_hz: float = 10.0
@@ -48,6 +51,7 @@ class PilotSettings:
     speeds: Sequence[float] = (1.0, 1.5, 2.0, 2.5, 3.0)
     state_timeout: float = 0.5
     safe_bar: float = SAFE_BAR_DEFAULT
+    water_speed: float | None = None
 
     def __post_init__(self) -> None:
         for name in ('rate_hz', 'theta_max', 'state_timeout'):
@@ -56,11 +60,29 @@ class PilotSettings:
                 raise DesignError(f'pilot setting {name} = {value!r} must be finite and > 0')
         if not math.isfinite(self.safe_bar):
             raise DesignError(f'pilot setting safe_bar = {self.safe_bar!r} must be finite')
+        if self.water_speed is not None and not (
+                isinstance(self.water_speed, (int, float)) and math.isfinite(self.water_speed)
+                and self.water_speed > 0):
+            raise DesignError(f'pilot setting water_speed = {self.water_speed!r} must be '
+                              'finite and > 0 [m/s] (or None: use the measured surge)')
 
     @property
     def Ts(self) -> float:
         """Sample period [s]."""
         return 1.0 / self.rate_hz
+
+
+def water_relative(u: float, w: float, theta: float, water_speed: float) -> tuple[float, float]:
+    """Body surge and heave through the water ``(u_r, w_r)`` [m/s] from the measured ones.
+
+    ``u``, ``w`` [m/s] are the body FRD velocities over ground (a DVL's bottom track),
+    ``theta`` [rad] the pitch and ``water_speed`` [m/s] the known surge through the water.
+    In a horizontal current ``c`` along the heading the body current is
+    ``(c cos theta, c sin theta)``, so ``c = (u - u_r) / cos theta`` and
+    ``w_r = w - (u - u_r) tan theta``; a current across the heading leaves both unchanged.
+    The vertical speed over ground is then the vertical speed through the water.
+    """
+    return water_speed, w - (u - water_speed) * math.tan(theta)
 
 
 def vehicle_linearization(params: VehicleParams):  # type: ignore[no-untyped-def]
@@ -135,6 +157,8 @@ class DepthPilot:
         values = (z, theta, w, q, u)
         if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in values):
             raise InvalidInputError(f'state with non-finite fields {values} ignored')
+        if self.settings.water_speed is not None:
+            u, w = water_relative(u, w, theta, self.settings.water_speed)
         self._state = PlaneState(z=z, theta=theta, w=w, q=q, u=u)
         self._t_state = float(t)
         if self.z_ref is None:

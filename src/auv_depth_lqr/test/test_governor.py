@@ -13,8 +13,8 @@ from auv_depth_lqr.controller import (
     GovernorSettings,
     Limits,
     PlaneState,
-    _constant_jerk,
-    _stopping_distance,
+    _Brake,
+    _stop_distance,
 )
 from auv_depth_lqr.errors import DesignError
 
@@ -26,46 +26,80 @@ def schedule() -> GainSchedule:
     return GainSchedule.design(linearize, (1.0, 1.5, 2.0, 2.5, 3.0), Ts=TS)
 
 
-def simulate_stop(v: float, a: float, a_brake: float, jerk: float, landing: float,
-                  v_land: float, dt: float = 1e-4) -> float:
-    """The stop of :func:`_stopping_distance` integrated in small steps [m] (the oracle)."""
-    z, a_end = 0.0, v_land / landing
-    phase = 'ramp'
+def _fine_sample(state: np.ndarray, u: float, b: np.ndarray, n: int = 200) -> np.ndarray:
+    """One sample of the third-order series model b0 V + b1 A + b2 J + b3 J' = U, RK4 in n
+    steps; state (P, V, A, J)."""
+    def f(x: np.ndarray) -> np.ndarray:
+        return np.array([x[1], x[2], x[3], (u - b[0] * x[1] - b[1] * x[2] - b[2] * x[3]) / b[3]])
+    h = TS / n
+    for _ in range(n):
+        k1 = f(state)
+        k2 = f(state + 0.5 * h * k1)
+        k3 = f(state + 0.5 * h * k2)
+        k4 = f(state + h * k3)
+        state = state + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return state
+
+
+def oracle_stop(v: float, a: float, j: float, u: float, brake: _Brake, b: np.ndarray) -> float:
+    """The stop of :func:`_stop_distance` by brute force: every switch sample tried, each
+    sample integrated finely; the switch interpolated the same way."""
+    a_end = -brake.v_land / brake.landing
+
+    def toward(x: float, target: float) -> float:
+        return min(target, x + brake.du) if x < target else max(target, x - brake.du)
+
+    def release(state: np.ndarray, uu: float) -> tuple[float, float]:
+        while state[2] < a_end:
+            uu = toward(uu, brake.u_release)
+            nxt = _fine_sample(state, uu, b)
+            if nxt[1] <= 0.0:
+                f = state[1] / (state[1] - nxt[1])
+                return state[0] + f * (nxt[0] - state[0]), 0.0
+            if nxt[2] >= a_end:
+                f = (a_end - state[2]) / (nxt[2] - state[2])
+                return state[0] + f * (nxt[0] - state[0]), state[1] + f * (nxt[1] - state[1])
+            state = nxt
+        return state[0], state[1]
+
+    state, outcomes = np.array([0.0, v, a, j]), []
     while True:
-        if phase == 'ramp':
-            j = -jerk
-            if a <= -a_brake:
-                a, phase = -a_brake, 'hold'
-                continue
-            if v - (a * a - a_end * a_end) / (2.0 * jerk) <= v_land and a < -a_end:
-                phase = 'release'
-                continue
-        elif phase == 'hold':
-            j = 0.0
-            if v - (a * a - a_end * a_end) / (2.0 * jerk) <= v_land:
-                phase = 'release'
-                continue
-        else:
-            j = jerk if a < -a_end else 0.0
-            if v <= v_land:
-                return z + v * landing
-        dz, v, a = _constant_jerk(v, a, j, dt)
-        z += dz
+        p_r, v_r = release(state.copy(), u)
+        outcomes.append((p_r + max(min(v_r, brake.v_land), 0.0) * brake.landing, v_r))
+        if v_r <= brake.v_land:
+            break
+        u = toward(u, brake.u_brake)
+        state = _fine_sample(state, u, b)
+    if len(outcomes) == 1:
+        return outcomes[0][0]
+    (d0, v0), (d1, v1) = outcomes[-2], outcomes[-1]
+    return d0 + (v0 - brake.v_land) / (v0 - v1) * (d1 - d0)
 
 
-@pytest.mark.parametrize(('v', 'a'), [(0.78, 0.0), (0.5, -0.05), (0.37, -0.07), (0.2, 0.0),
-                                      (0.6, 0.03)])
-def test_stopping_distance_matches_the_integrated_stop(v: float, a: float) -> None:
-    expected = simulate_stop(v, a, 0.0766, 0.0265, 3.0, 0.05)
-    assert _stopping_distance(v, a, 0.0766, 0.0265, 3.0, 0.05) == pytest.approx(expected,
-                                                                                abs=2e-4)
+@pytest.mark.parametrize(('v', 'a', 'j'), [(0.78, 0.0, 0.0), (0.5, -0.05, -0.01),
+                                           (0.37, -0.07, 0.02), (0.2, 0.0, 0.0),
+                                           (0.6, 0.03, 0.01)])
+def test_stop_distance_matches_the_finely_integrated_stop(
+    schedule: GainSchedule, v: float, a: float, j: float
+) -> None:
+    """Climb at 2 m/s: the sampled stop (exact one-sample maps, bisection over the switch)
+    equals the brute-force stop integrated in 200 steps per sample."""
+    ctrl = DepthController(schedule, Limits(), TS)
+    op = schedule.at(2.0)
+    _, _, brake = ctrl._limits_toward(op, 2.0, -1.0)
+    b = op.F[:, 3]
+    u = b[0] * v + b[1] * a + b[2] * j
+    expected = oracle_stop(v, a, j, u, brake, b)
+    assert _stop_distance(v, a, j, u, brake) == pytest.approx(expected, abs=1e-6)
 
 
-def test_stopping_distance_rest_to_rest_oracle() -> None:
-    """Trapezoidal stop from (v, 0): v^2 / (2 A) + v A / (2 J) (classic S-curve)."""
-    v, A, J = 0.8, 0.08, 0.02
-    assert _stopping_distance(v, 0.0, A, J) == pytest.approx(v * v / (2 * A) + v * A / (2 * J))
-    assert _stopping_distance(-v, 0.0, A, J) == pytest.approx(-_stopping_distance(v, 0.0, A, J))
+def test_stop_distance_is_longer_from_faster_and_mirrored_away() -> None:
+    """More speed, longer stop; a motion away from the target gives a negative distance."""
+    b = np.array([0.134, 5.28, 8.07, 5.87])  # A18M series at 2 m/s [rad per m s^(k-1)]
+    brake = _Brake.build(b, -0.47, 0.0, 0.028, 3.5, 0.043, TS)
+    d = [_stop_distance(v, 0.0, 0.0, b[0] * v, brake) for v in (0.2, 0.4, 0.6, 0.8)]
+    assert all(x < y for x, y in zip(d, d[1:]))
+    assert _stop_distance(-0.4, 0.0, 0.0, -b[0] * 0.4, brake) < 0.0
 
 
 @pytest.mark.parametrize('u0', [1.0, 2.0, 3.0])
@@ -116,7 +150,7 @@ def reference(schedule: GainSchedule, z0: float, z1: float, u0: float, seconds: 
 def test_reference_never_overshoots_and_respects_the_climb_bound(
     schedule: GainSchedule, z0: float, z1: float, u0: float
 ) -> None:
-    ref = reference(schedule, z0, z1, u0, 150.0)
+    ref = reference(schedule, z0, z1, u0, 200.0)  # the landing takes 8 s per e-fold at 1 m/s
     direction = math.copysign(1.0, z1 - z0)
     assert np.max(direction * (ref[:, 1] - z1)) <= 1e-9
     assert ref[-1, 1] == z1 and ref[-1, 2] == 0.0
@@ -132,7 +166,7 @@ def test_reference_feedforward_stays_within_the_bar_budget(schedule: GainSchedul
     z, worst = 40.0, 0.0
     for _ in range(1200):
         ctrl.step(PlaneState(z=z, theta=0.0, w=0.0, q=0.0, u=2.0), 10.0)
-        _, bar_ff = ctrl.feedforward(op, 2.0, ctrl._v_r, ctrl._a_r, ctrl._j_r)
+        _, bar_ff = ctrl.feedforward(op, 2.0, ctrl._v_r, ctrl._a_r, ctrl._j_r, ctrl._s_r)
         worst = max(worst, abs(bar_ff))
         z = ctrl.governed_reference[0]  # type: ignore[index]
     assert worst <= governor.bar_margin * limits.bar_max + 1e-5  # rad; exact to O(Ts^2)
@@ -162,7 +196,7 @@ def test_pitch_protection_caps_the_depth_feedback(schedule: GainSchedule) -> Non
     assert bar == pytest.approx(op.bar_e, abs=1e-9)
 
 
-@pytest.mark.parametrize('kwargs', [{'bar_margin': 1.2}, {'landing_distance': 0.0},
+@pytest.mark.parametrize('kwargs', [{'bar_margin': 1.2}, {'landing_distance': 0.0}, {'approach_length': -1.0},
                                     {'jerk_bar_share': -0.1}, {'max_lag': math.nan}])
 def test_new_governor_settings_are_validated(kwargs: dict[str, float]) -> None:
     with pytest.raises(DesignError, match='GovernorSettings.'):

@@ -203,8 +203,7 @@ def build_setup(s: SimSettings) -> SimSetup:
             trim = VerticalPlane(params).trim(s.initial_speed, z=s.initial_depth)
         except TrimError as exc:
             raise ParameterError(f'initial state: {exc}') from None
-        x0 = trim.state()
-        x0[5] = s.initial_heading
+        x0 = trim.state(environment, psi=s.initial_heading)
     else:
         x0 = initial_state(z=s.initial_depth, u=s.initial_speed, theta=s.initial_pitch,
                            psi=s.initial_heading)

@@ -24,7 +24,7 @@ from scipy import optimize
 
 from auv_sim.environment import Environment
 from auv_sim.errors import TrimError
-from auv_sim.model import NX, wrenches
+from auv_sim.model import NX, current_ned, rotation, wrenches
 from auv_sim.params import VehicleParams, mass_matrix
 
 Kinematics = Literal['full', 'w']
@@ -48,11 +48,24 @@ class Trim:
     thrust: float
     kinematics: str
 
-    def state(self) -> np.ndarray:
-        """The full 15-state vector of the simulator at this trim (x = y = psi = 0)."""
+    def state(self, environment: Environment | None = None, psi: float = 0.0) -> np.ndarray:
+        """The full 15-state vector of the simulator at this trim (x = y = 0, yaw ``psi``
+        [rad]).
+
+        The trim's velocities are through the water. With an ``environment``, the water's
+        current at the trim depth at t = 0 (NED [m/s], turned into the body frame) is added,
+        so that the state is over ground and the vehicle starts trimmed in the water it is
+        in, with no surge transient.
+        """
         x = np.zeros(NX)
-        x[2], x[4], x[6], x[8], x[12], x[14] = self.z, self.theta, self.u0, self.w, \
-            self.bar, self.thrust
+        x[2], x[4], x[5], x[6], x[8], x[12], x[14] = self.z, self.theta, psi, self.u0, \
+            self.w, self.bar, self.thrust
+        if environment is not None:
+            c = np.asarray(current_ned(0.0, float(self.z), environment.env_vector(),
+                                       environment.profile())[:3], dtype=float)
+            R = np.array(rotation(1.0, 0.0, np.cos(self.theta), np.sin(self.theta),
+                                  np.cos(psi), np.sin(psi))).reshape(3, 3)
+            x[6:9] += R.T @ c
         return x
 
 
