@@ -47,20 +47,23 @@ def oracle_stop(v: float, a: float, j: float, u: float, brake: _Brake, b: np.nda
     a_end = -brake.v_land / brake.landing
 
     def toward(x: float, target: float) -> float:
-        return min(target, x + brake.du) if x < target else max(target, x - brake.du)
+        return float(np.clip(target, x - brake.du, x + brake.du))
 
     def release(state: np.ndarray, uu: float) -> tuple[float, float]:
-        while state[2] < a_end:
+        """Sample by sample until the speed reaches 0 or the acceleration a_end; the end is
+        located within the sample by linear interpolation of (P, V) on V or on A."""
+        path = [state]
+        while path[-1][2] < a_end and path[-1][1] > 0.0:
             uu = toward(uu, brake.u_release)
-            nxt = _fine_sample(state, uu, b)
-            if nxt[1] <= 0.0:
-                f = state[1] / (state[1] - nxt[1])
-                return state[0] + f * (nxt[0] - state[0]), 0.0
-            if nxt[2] >= a_end:
-                f = (a_end - state[2]) / (nxt[2] - state[2])
-                return state[0] + f * (nxt[0] - state[0]), state[1] + f * (nxt[1] - state[1])
-            state = nxt
-        return state[0], state[1]
+            path.append(_fine_sample(path[-1], uu, b))
+        if len(path) == 1:
+            return float(state[0]), float(state[1])
+        x0, x1 = path[-2], path[-1]
+        if x1[1] <= 0.0:
+            f = x0[1] / (x0[1] - x1[1])
+            return float(x0[0] + f * (x1[0] - x0[0])), 0.0
+        f = (a_end - x0[2]) / (x1[2] - x0[2])
+        return float(x0[0] + f * (x1[0] - x0[0])), float(x0[1] + f * (x1[1] - x0[1]))
 
     state, outcomes = np.array([0.0, v, a, j]), []
     while True:
