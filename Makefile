@@ -17,7 +17,7 @@ bench: setup
 	@$(ENV) python bench/run_all.py --out bench/results/latest.json
 
 lint: setup
-	@$(ENV) python -m ruff check src tests bench 2>/dev/null || echo "ruff not installed in the venv"
+	@$(ENV) python -m ruff check src tests bench tools
 
 clean:
 	rm -rf build install log out

@@ -22,7 +22,8 @@ Cases: 40 -> 10 m at 2 m/s; the same with a 0.3 m/s current (following: north, t
 heads north; head: south; cross: east), the vehicle starting trimmed in the water and the pilot
 told its speed through the water (``PilotSettings.water_speed``, as from its propeller
 setting), and once more in the head current with the pilot on its speed over ground; at
-u0 = 1.5 and 2.5 m/s (gain scheduling); 10 -> 40 m at 2 m/s. Every case runs with the pilot's default weights and with the report's section-5
+u0 = 1.5 and 2.5 m/s (gain scheduling); 10 -> 40 m at 2 m/s. Every case runs with the pilot's
+default weights and with the report's section-5
 tuning (``report_5``), same governor. Simulated time is exact, so the figures are
 deterministic; the wall time per run is reported for information. Run as a script to write
 ``bench/results/closed_loop.json``.

@@ -24,7 +24,6 @@ import platform
 from typing import Any
 
 import numpy as np
-
 from timing import median_time
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]

@@ -84,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
         try:
             module = load(name, found[name])
             figures = module.run()
-        except Exception as exc:  # noqa: BLE001 - one failing benchmark must not hide the rest
+        except Exception as exc:
             traceback.print_exc()
             figures = {'error': f'{type(exc).__name__}: {exc}'}
             failed = True

@@ -1,6 +1,7 @@
 """Bag layer: write -> read round trips, interoperability, damage, topic and order errors."""
 from __future__ import annotations
 
+import itertools
 import math
 import pathlib
 
@@ -296,7 +297,7 @@ def test_progress_reports_bytes(full_bag: pathlib.Path) -> None:
     bag.read_arrays(full_bag, [STATE], progress=lambda n, total: seen.append((n, total)))
     size = (full_bag / 'full_0.mcap').stat().st_size
     assert seen and seen[-1] == (size, size)
-    assert all(a <= b for (a, _), (b, _) in zip(seen, seen[1:]))
+    assert all(a <= b for (a, _), (b, _) in itertools.pairwise(seen))
 
 
 def test_writer_errors(tmp_path: pathlib.Path) -> None:

@@ -8,7 +8,6 @@ from typing import Any
 
 import numpy as np
 import pytest
-
 from conftest import A18M
 
 TIMEOUT = 60.0  # s, deadline for one command

@@ -14,13 +14,12 @@ import sys
 import numpy as np
 import pytest
 import yaml
+from conftest import A18M, ROOT
 
 from auv_ident.gap import synth
 from auv_ident.gap.diagnose import Diagnosis, diagnose
 from auv_ident.gap.report import REPORT_KEYS, write_report
 from auv_sim.params import load_vehicle
-
-from conftest import A18M, ROOT
 
 EFFECT_FILES = {p.stem: yaml.safe_load(p.read_text())['effects']
                 for p in sorted((ROOT / 'config' / 'effects').glob('*.yaml'))}

@@ -4,17 +4,22 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import A18M
 
 from auv_ident.errors import GapError
 from auv_ident.gap import catalogue
-from auv_ident.gap.catalogue import (CATALOGUE, Effect, Parameter, Perturbation, register,
-                                     separating_manoeuvre)
+from auv_ident.gap.catalogue import (
+    CATALOGUE,
+    Effect,
+    Parameter,
+    Perturbation,
+    register,
+    separating_manoeuvre,
+)
 from auv_ident.gap.logs import from_arrays
 from auv_ident.gap.problem import CH_INDEX, EffectSet, Problem
 from auv_ident.gap.synth import Scenario, simulate
 from auv_sim.params import load_vehicle
-
-from conftest import A18M
 
 #: A short flight: a depth change, a speed change and BAR doublets (300 s).
 SHORT = Scenario(duration=300.0, z0=60.0, u0=2.0,

@@ -9,10 +9,10 @@ import subprocess
 import sys
 
 import pytest
+from conftest import A18M
 
 from auv_bringup.launch import mission_config, run_graph
 from auv_sim.params import load_vehicle
-from conftest import A18M
 
 IDENTIFIED = ('Ksh', 'CZuw', 'CZuq', 'CMuw', 'CMuq', 'CYuv', 'CYur', 'CNuv', 'CNur')
 

@@ -96,7 +96,7 @@ def test_node_and_offline_command_agree_on_a_replayed_bag(ros_env: dict[str, str
                 c['std_error'], rel=1e-9), name
     finally:
         node.send_signal(signal.SIGTERM)
-        out, err = node.communicate(timeout=60)
+        _out, err = node.communicate(timeout=60)
     assert node.returncode == 0, err
     on_shutdown = json.loads((tmp_path / 'node' / 'report.json').read_text())
     for name, c in expected.items():
@@ -108,7 +108,7 @@ def test_node_and_offline_command_agree_on_a_replayed_bag(ros_env: dict[str, str
 
 def test_node_rejects_a_bad_parameter(ros_env: dict[str, str], tmp_path: pathlib.Path) -> None:
     proc = auv('ident-node', '--out', str(tmp_path), '--window', '-1', env=ros_env)
-    out, err = proc.communicate(timeout=60)
+    _out, err = proc.communicate(timeout=60)
     assert proc.returncode == 1
     assert [line for line in err.splitlines() if line.startswith('error: ')] == [
         'error: parameter window must be > 0 s, got -1.0']

@@ -226,7 +226,7 @@ def test_malformed_yaml_names_file_and_line(tmp_path: pathlib.Path) -> None:
 
 
 def test_missing_file(tmp_path: pathlib.Path) -> None:
-    with pytest.raises(ParameterError, match='cannot read vehicle file .*nope.yaml'):
+    with pytest.raises(ParameterError, match=r'cannot read vehicle file .*nope\.yaml'):
         load_vehicle(tmp_path / 'nope.yaml')
 
 

@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import A18M
 
 from auv_depth_lqr.closed_loop import run_closed_loop
 from auv_depth_lqr.errors import InvalidInputError
@@ -12,7 +13,6 @@ from auv_depth_lqr.metrics import step_metrics
 from auv_depth_lqr.pilot import DepthPilot, PilotSettings
 from auv_sim.environment import Environment
 from auv_sim.params import load_vehicle
-from conftest import A18M
 
 
 @pytest.fixture(scope='module')
@@ -138,7 +138,7 @@ def test_told_its_water_speed_the_pilot_flies_a_current_as_still_water(
     water; told its speed through the water, the pilot settles as in still water (1.47 T_kin;
     on its speed over ground a head current gave 1.64 T_kin and 0.29 deg/s RMS q)."""
     _, still = closed_loop_metrics(params, 40.0, 10.0, 2.0, None, water_speed=2.0)
-    run, m = closed_loop_metrics(params, 40.0, 10.0, 2.0, current, water_speed=2.0)
+    _run, m = closed_loop_metrics(params, 40.0, 10.0, 2.0, current, water_speed=2.0)
     assert m.settling_time <= 1.5 * m.kinematic_bound, m
     assert abs(m.settling_time - still.settling_time) <= 0.2, (m, still)
     assert math.degrees(m.rms_q_settled) < 0.05, m

@@ -1,6 +1,7 @@
 """The depth-pilot node in its own process, over DDS: fixed rate, bad input, stale state."""
 from __future__ import annotations
 
+import itertools
 import math
 import subprocess
 import sys
@@ -11,8 +12,8 @@ import rclpy
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64
 
-from auv_msgs.msg import ActuatorSetpoint, VehicleState
 from auv_depth_lqr.pilot import SAFE_BAR_DEFAULT
+from auv_msgs.msg import ActuatorSetpoint, VehicleState
 
 
 @pytest.fixture
@@ -59,7 +60,7 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
         # fixed rate: ~10 Hz whether or not state arrives
         bars.clear()
         spin_for(2.0)
-        periods = [b - a for (a, _), (b, _) in zip(bars, bars[1:])]
+        periods = [b - a for (a, _), (b, _) in itertools.pairwise(bars)]
         assert 15 <= len(bars) <= 25
         assert abs(sorted(periods)[len(periods) // 2] - 0.1) < 0.02
         # a valid command, then NaN, inf and out-of-envelope commands: rejected, node alive

@@ -20,7 +20,6 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 import rclpy
-from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
 from nav_msgs.msg import Odometry
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
@@ -29,6 +28,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 
+from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
 from auv_sim import frames
 from auv_sim.node import stamp_from_ns, stamp_to_ns
 from auv_sim.sim_settings import SimSettings, build_setup

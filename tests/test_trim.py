@@ -5,11 +5,11 @@ import math
 
 import numpy as np
 import pytest
+from conftest import A18M
 
 from auv_sim.params import load_vehicle
 from auv_sim.simulator import Simulator
 from auv_sim.trim import VerticalPlane
-from conftest import A18M
 
 
 @pytest.mark.parametrize('u0', [1.0, 2.0, 3.0])

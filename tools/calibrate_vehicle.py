@@ -44,7 +44,8 @@ def main() -> int:
     ap.add_argument('--write', action='store_true')
     args = ap.parse_args()
     base = load_vehicle(args.vehicle)
-    targets = yaml.safe_load(open(args.targets))
+    with open(args.targets) as f:
+        targets = yaml.safe_load(f)
 
     def params_of(x: np.ndarray):  # type: ignore[no-untyped-def]
         return base.replace(**dict(zip(FREE, x)))

@@ -84,8 +84,8 @@ def _top_parser() -> argparse.ArgumentParser:
 
 def run_module(module: ModuleType, prog: str, argv: Sequence[str], description: str = '') -> int:
     """Parse ``argv`` with the module's arguments and run it, mapping errors to exit codes."""
-    parser = argparse.ArgumentParser(prog=prog, description=description or module.__doc__
-                                     and module.__doc__.strip().splitlines()[0])
+    parser = argparse.ArgumentParser(prog=prog, description=description or (module.__doc__
+                                     and module.__doc__.strip().splitlines()[0]))
     module.add_arguments(parser)
     args = parser.parse_args(list(argv))
     return _guarded(lambda: int(module.run(args) or 0))

@@ -10,6 +10,7 @@ killed and the fact reported.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import os
 import pathlib
@@ -35,7 +36,8 @@ class NodeProcess:
     proc: subprocess.Popen[bytes] | None = None
 
     def start(self, env: dict[str, str]) -> None:
-        out = open(self.log_path, 'wb') if self.log_path else subprocess.DEVNULL
+        # the log stays open for the life of the process it receives (closed in stop())
+        out = open(self.log_path, 'wb') if self.log_path else subprocess.DEVNULL  # noqa: SIM115
         self.proc = subprocess.Popen(self.argv, env=env, stdout=out, stderr=subprocess.STDOUT,
                                      start_new_session=True)
 
@@ -191,10 +193,9 @@ def run_graph(cfg: GraphConfig, duration: float | None = None,
     finally:
         for node in reversed(nodes):
             if node.name == 'mission' and node.proc is not None and not stop_requested:
-                try:  # a mission ends by itself with the simulator's last state
+                # a mission ends by itself with the simulator's last state
+                with contextlib.suppress(subprocess.TimeoutExpired):
                     node.proc.wait(5.0)
-                except subprocess.TimeoutExpired:
-                    pass
             if node.name != 'recorder':
                 codes[node.name] = node.stop(signal.SIGINT)
         time.sleep(0.3)  # let the last messages reach the recorder

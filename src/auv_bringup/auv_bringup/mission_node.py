@@ -51,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
         stamp_ns = msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec
         while state['next'] < len(events) and \
                 round(events[state['next'], 0] * NS_PER_S) <= stamp_ns:
-            t, channel, value = events[state['next']]
+            _t, channel, value = events[state['next']]
             out = ActuatorSetpoint()
             out.header.stamp = msg.header.stamp
             out.header.frame_id = CHANNELS[int(channel)]

@@ -6,13 +6,13 @@ Inputs are the arrays of a bag or an offline run: time [s], NED position [m], Eu
 from __future__ import annotations
 
 import pathlib
-from typing import Mapping
+from collections.abc import Mapping
 
 import matplotlib
 
 matplotlib.use('Agg')
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
 
 def plot_depth_run(state: Mapping[str, np.ndarray], bar_t: np.ndarray, bar: np.ndarray,

@@ -137,7 +137,7 @@ class Recorder:
         if self.pending:
             types = dict(self.node.get_topic_names_and_types())
             for topic in list(self.pending):
-                if topic in types and types[topic]:
+                if types.get(topic):
                     self._subscribe(topic, types[topic][0], reliable=True)
                     self.pending.remove(topic)
         for topic, (_, reliable) in list(self.subscriptions.items()):

@@ -90,6 +90,30 @@ class _Model:
         return A, B
 
 
+class _Rows:
+    """Inequality rows ``sum_j a_j x_j <= b`` of an LP, collected one by one (sparse)."""
+
+    def __init__(self) -> None:
+        self.rows: list[int] = []
+        self.cols: list[int] = []
+        self.vals: list[float] = []
+        self.bounds: list[float] = []
+
+    def add(self, entries: list[tuple[int, float]], bound: float) -> None:
+        """One row: ``entries`` are ``(column, coefficient)``."""
+        row = len(self.bounds)
+        for col, v in entries:
+            self.rows.append(row)
+            self.cols.append(col)
+            self.vals.append(v)
+        self.bounds.append(bound)
+
+    def matrix(self, n_columns: int) -> sp.csr_matrix:
+        """The rows as a sparse matrix with ``n_columns`` columns."""
+        return sp.csr_matrix((self.vals, (self.rows, self.cols)),
+                             shape=(len(self.bounds), n_columns))
+
+
 def _feasible(model: _Model, X0: np.ndarray, trim: np.ndarray, bar_trim: float, z1: float,
               n_settle: int, bars: np.ndarray, limits: tuple[float, float, float, float],
               iterations: int = 25) -> tuple[bool, np.ndarray]:
@@ -122,16 +146,8 @@ def _feasible(model: _Model, X0: np.ndarray, trim: np.ndarray, bar_trim: float, 
                 rows.append(r), cols.append(nx + k), vals.append(-B[i])
                 r += 1
         a_eq = sp.csr_matrix((vals, (rows, cols)), shape=(r, nv))
-        ur: list[int] = []
-        uc: list[int] = []
-        uv: list[float] = []
-        bub: list[float] = []
-
-        def add(entries: list[tuple[int, float]], bound: float) -> None:
-            row = len(bub)
-            for col, v in entries:
-                ur.append(row), uc.append(col), uv.append(v)
-            bub.append(bound)
+        rows_ub = _Rows()
+        add = rows_ub.add
 
         s = nv - 1
         for k in range(1, n + 1):
@@ -150,7 +166,8 @@ def _feasible(model: _Model, X0: np.ndarray, trim: np.ndarray, bar_trim: float, 
             add([(ix(n, i), -1.0), (s, -1.0)], -trim[i])
         add([(nx + n - 1, 1.0), (s, -1.0)], bar_trim)
         add([(nx + n - 1, -1.0), (s, -1.0)], -bar_trim)
-        a_ub = sp.csr_matrix((uv, (ur, uc)), shape=(len(bub), nv))
+        a_ub = rows_ub.matrix(nv)
+        bub = rows_ub.bounds
         bounds = [(None, None)] * nx + [
             (max(-bar_max, b - rho), min(bar_max, b + rho)) for b in bars] + [(0.0, None)]
         cost = np.zeros(nv)

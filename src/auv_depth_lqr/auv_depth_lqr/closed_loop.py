@@ -59,7 +59,7 @@ def run_closed_loop(params: VehicleParams, depth_commands: Sequence[tuple[float,
     n_control = int(math.floor(duration / ts + 1e-9))
     commands = sorted(depth_commands)
     samples, bar_t, bars, zr_t, zr = [], [], [], [], []
-    for k in range(n_control):
+    for _k in range(n_control):
         t = sim.t
         while commands and commands[0][0] <= t + 1e-9:
             _, z_cmd = commands.pop(0)

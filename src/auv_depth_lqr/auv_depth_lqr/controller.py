@@ -723,7 +723,7 @@ class DepthController:
             return z_cmd, 0.0, 0.0, 0.0, 0.0
         v_cap, jerk, brake = self._limits_toward(op, u, travel)
         landing, v_land = brake.landing, brake.v_land
-        if 0.0 < V <= v_land * (1.0 + 1e-6) and E <= V * landing * (1.0 + 1e-6):
+        if 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E:
             # Final approach: the exponential e(t) = E exp(-t / landing).
             e1 = E * math.exp(-ts / landing)
             v1 = e1 / landing

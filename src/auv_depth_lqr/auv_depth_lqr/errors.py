@@ -7,7 +7,7 @@ package family or the built-in type. Messages name the offending value; library 
 """
 from __future__ import annotations
 
-__all__ = ['AuvLqrError', 'DesignError', 'NotControllableError', 'InvalidInputError']
+__all__ = ['AuvLqrError', 'DesignError', 'InvalidInputError', 'NotControllableError']
 
 
 class AuvLqrError(Exception):

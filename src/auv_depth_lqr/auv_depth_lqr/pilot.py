@@ -21,8 +21,15 @@ import dataclasses
 import math
 from collections.abc import Sequence
 
-from auv_depth_lqr.controller import (DepthController, GainSchedule, GovernorSettings, Limits,
-                                      PlaneState, Weights, preset)
+from auv_depth_lqr.controller import (
+    DepthController,
+    GainSchedule,
+    GovernorSettings,
+    Limits,
+    PlaneState,
+    Weights,
+    preset,
+)
 from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
 from auv_sim.params import VehicleParams
 from auv_sim.trim import VerticalPlane
@@ -86,7 +93,8 @@ def water_relative(u: float, w: float, theta: float, water_speed: float) -> tupl
 
 
 def vehicle_linearization(params: VehicleParams):  # type: ignore[no-untyped-def]
-    """``linearize(u0) -> (x_e, BAR_e, A, B)`` of the vehicle's vertical plane (full kinematics)."""
+    """``linearize(u0) -> (x_e, BAR_e, A, B)`` of the vehicle's vertical plane (exact
+    kinematics)."""
     plane = VerticalPlane(params)
 
     def linearize(u0: float):  # type: ignore[no-untyped-def]
@@ -129,7 +137,7 @@ class DepthPilot:
 
     @classmethod
     def for_vehicle(cls, params: VehicleParams, settings: PilotSettings | None = None,
-                    ) -> 'DepthPilot':
+                    ) -> DepthPilot:
         """A pilot for a vehicle file's parameters and envelope."""
         settings = settings or PilotSettings()
         return cls(build_controller(params, settings), params.depth_min, params.depth_max,

@@ -71,7 +71,7 @@ def test_unknown_preset_is_named() -> None:
 
 
 def test_theta_max_default_is_25_deg() -> None:
-    assert THETA_MAX_DEFAULT == pytest.approx(0.436, abs=5e-4)
+    assert pytest.approx(0.436, abs=5e-4) == THETA_MAX_DEFAULT
     assert Limits().theta_max == THETA_MAX_DEFAULT
 
 
@@ -104,7 +104,7 @@ def test_schedule_interpolates_linearly_and_clamps(schedule: GainSchedule) -> No
 
 def test_steady_climb_feed_forward_is_consistent(schedule: GainSchedule) -> None:
     """The feed-forward climb at v satisfies w_dot = q_dot = 0 and z_dot = v on the model."""
-    x_e, bar_e, A, B = linearize(2.0)
+    _x_e, _bar_e, A, B = linearize(2.0)
     op = schedule.at(2.0)
     v = -0.5
     dx = np.array([op.dw_dv * v, 0.0, 0.0, op.dtheta_dv * v, 0.0])
@@ -163,14 +163,14 @@ def test_grid_speed_that_cannot_trim_within_limits_is_refused() -> None:
 @pytest.mark.parametrize('kwargs', [{'bar_max': 0.0}, {'bar_rate_max': -1.0},
                                     {'theta_max': math.nan}, {'theta_max': 2.0}])
 def test_limits_are_validated(kwargs: dict[str, float]) -> None:
-    with pytest.raises(DesignError, match='Limits.'):
+    with pytest.raises(DesignError, match=r'Limits\.'):
         Limits(**kwargs)
 
 
 @pytest.mark.parametrize('kwargs', [{'margin': 1.5}, {'accel_max': 0.0},
                                     {'approach_length': math.inf}])
 def test_governor_settings_are_validated(kwargs: dict[str, float]) -> None:
-    with pytest.raises(DesignError, match='GovernorSettings.'):
+    with pytest.raises(DesignError, match=r'GovernorSettings\.'):
         GovernorSettings(**kwargs)
 
 

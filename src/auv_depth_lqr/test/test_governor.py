@@ -1,6 +1,7 @@
 """Tests of the reference governor and the feed-forward series (pure, on the stand-in model)."""
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -101,7 +102,7 @@ def test_stop_distance_is_longer_from_faster_and_mirrored_away() -> None:
     b = np.array([0.134, 5.28, 8.07, 5.87])  # A18M series at 2 m/s [rad per m s^(k-1)]
     brake = _Brake.build(b, -0.47, 0.0, 0.028, 3.5, 0.043, TS)
     d = [_stop_distance(v, 0.0, 0.0, b[0] * v, brake) for v in (0.2, 0.4, 0.6, 0.8)]
-    assert all(x < y for x, y in zip(d, d[1:]))
+    assert all(x < y for x, y in itertools.pairwise(d))
     assert _stop_distance(-0.4, 0.0, 0.0, -b[0] * 0.4, brake) < 0.0
 
 
@@ -199,8 +200,9 @@ def test_pitch_protection_caps_the_depth_feedback(schedule: GainSchedule) -> Non
     assert bar == pytest.approx(op.bar_e, abs=1e-9)
 
 
-@pytest.mark.parametrize('kwargs', [{'bar_margin': 1.2}, {'landing_distance': 0.0}, {'approach_length': -1.0},
-                                    {'jerk_bar_share': -0.1}, {'max_lag': math.nan}])
+@pytest.mark.parametrize('kwargs', [{'bar_margin': 1.2}, {'landing_distance': 0.0},
+                                    {'approach_length': -1.0}, {'jerk_bar_share': -0.1},
+                                    {'max_lag': math.nan}])
 def test_new_governor_settings_are_validated(kwargs: dict[str, float]) -> None:
-    with pytest.raises(DesignError, match='GovernorSettings.'):
+    with pytest.raises(DesignError, match=r'GovernorSettings\.'):
         GovernorSettings(**kwargs)

@@ -1,1 +1,2 @@
-"""Bag I/O, hydrodynamic coefficient identification, sim-to-real gap diagnosis, and the identification node."""
+"""Bag I/O, hydrodynamic coefficient identification, sim-to-real gap diagnosis, and the
+identification node."""

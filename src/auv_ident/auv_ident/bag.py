@@ -31,7 +31,7 @@ from io import StringIO
 from typing import IO, Any, NamedTuple
 
 import numpy as np
-from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.base import Nodetype
 from rosbags.typesys.store import Typestore
 
@@ -124,7 +124,7 @@ def typestore() -> Typestore:
     return store
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _msg_text(msgtype: str) -> str | None:
     """The original ``.msg`` text of an auv_msgs type (comments kept), or None."""
     pkg, _, name = msgtype.split('/')
@@ -790,7 +790,7 @@ class _Scanner:
     def _partial_chunk(self, body: bytes) -> _Block | None:
         """Whole messages at the start of a chunk cut short by the end of the file."""
         try:
-            _, _, usize, _ = _CHUNK_HEAD.unpack_from(body, 0)
+            _, _, _usize, _ = _CHUNK_HEAD.unpack_from(body, 0)
             comp, p = _string(body, _CHUNK_HEAD.size)
             p += 8
             data = _decompress_prefix(body[p:], comp)
@@ -1255,7 +1255,7 @@ class _Layout(NamedTuple):
     vectorisable: bool
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _layout_cached(store_id: int, msgtype: str) -> _Layout:
     return _compile(_STORES[store_id], msgtype)
 
@@ -1339,7 +1339,7 @@ def _out_names(layout: _Layout) -> list[str]:
     return ['t', 't_log'] + [n for n in _column_names(layout) if n != 't']
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _out_index(layout: _Layout) -> dict[str, int]:
     return {n: i for i, n in enumerate(_out_names(layout))}
 

@@ -18,8 +18,15 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from auv_ident.errors import IdentError, IdentificationError
-from auv_ident.identify import (EQUATIONS, ERROR_METHODS, SIGN_BOUNDS, ForceRecord,
-                                Identification, compare_nelder_mead, identify)
+from auv_ident.identify import (
+    EQUATIONS,
+    ERROR_METHODS,
+    SIGN_BOUNDS,
+    ForceRecord,
+    Identification,
+    compare_nelder_mead,
+    identify,
+)
 from auv_ident.motion import SOURCES, WINDOW_S, choose_source, needed_topics, records_from_topics
 from auv_ident.report import write_outputs
 from auv_sim.params import VehicleParams, load_vehicle

@@ -397,7 +397,7 @@ def build_system(records: Sequence[ForceRecord], equation: Equation, base: Vehic
     times its column is subtracted from the measured component (report 2.2).
     """
     names = equation.coefficients if (equation.offset is None or not fit_offset) else (
-        (equation.offset,) + equation.coefficients)
+        (equation.offset, *equation.coefficients))
     fixed = {} if (equation.offset is None or fit_offset) else {
         equation.offset: base.values[equation.offset]}
     parts_a, parts_b, parts_m, parts_t, parts_i, parts_x = [], [], [], [], [], []
@@ -424,7 +424,7 @@ def build_system(records: Sequence[ForceRecord], equation: Equation, base: Vehic
             parts_z.append(inst[ok])
         a = stacked[ok, :len(names)]
         b = meas[ok].copy()
-        for j, (name, value) in enumerate(fixed.items()):
+        for j, (_name, value) in enumerate(fixed.items()):
             b -= value * stacked[ok, len(names) + j]
         parts_a.append(a)
         parts_b.append(b)
@@ -794,7 +794,7 @@ def _hac_covariance(system: LinearSystem, As: np.ndarray, resid: np.ndarray,
     meat = np.zeros((p, p))
     lags = 0
     g = As * resid[:, None]
-    for i, m, _ in taus:
+    for i, _m, _ in taus:
         sel = system.record_index == i
         rec = system.records[i] if system.records else None
         memory = len(rec.kernel) - 1 if rec is not None and rec.kernel is not None else 1

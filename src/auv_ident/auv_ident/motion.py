@@ -43,6 +43,7 @@ the first logged command when the log starts with no earlier command.
 """
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping
 
@@ -151,7 +152,7 @@ def segments(t: np.ndarray, tolerance: float = 0.25) -> list[slice]:
     dt = float(np.median(d))
     cut = np.flatnonzero(np.abs(d - dt) > tolerance * dt) + 1
     edges = [0, *cut.tolist(), len(t)]
-    return [slice(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+    return [slice(a, b) for a, b in itertools.pairwise(edges) if b > a]
 
 
 @njit(cache=True)

@@ -29,8 +29,16 @@ import numpy as np
 
 from auv_ident.errors import IdentError
 from auv_ident.identify import EQUATIONS, ERROR_METHODS
-from auv_ident.motion import (COMMAND_TOPICS, FORCE_FIELDS, FORCES_TOPIC, SOURCES, STATE_FIELDS,
-                              STATE_TOPIC, WINDOW_S, records_from_topics)
+from auv_ident.motion import (
+    COMMAND_TOPICS,
+    FORCE_FIELDS,
+    FORCES_TOPIC,
+    SOURCES,
+    STATE_FIELDS,
+    STATE_TOPIC,
+    WINDOW_S,
+    records_from_topics,
+)
 
 NODE_NAME = 'identifier'
 
@@ -88,8 +96,8 @@ def _make_node(overrides: dict[str, Any]) -> Any:
     from std_msgs.msg import String
     from std_srvs.srv import Trigger
 
-    from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
     from auv_ident.cli import DEFAULT_BASE, identify_and_report
+    from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
     from auv_sim.params import load_vehicle
 
     class IdentifierNode(Node):  # type: ignore[misc]

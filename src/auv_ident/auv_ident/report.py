@@ -193,7 +193,7 @@ def write_outputs(result: Identification, out_dir: str | pathlib.Path, bags: Seq
         'jackknife': 'delete-a-block jackknife over contiguous blocks of the record',
         'ess': 'sigma^2 (A\'A)^-1 inflated by n / n_eff (residual correlation time)',
         'iid': 'sigma^2 (A\'A)^-1 (white residuals assumed)'}.get(result.errors, result.errors)
-    stamp = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds')
+    stamp = datetime.datetime.now(datetime.UTC).isoformat(timespec='seconds')
     provenance = {'identification': {
         'tool': 'auv ident', 'time_utc': stamp, 'bags': list(bags),
         'base_vehicle': result.base.path, 'force_source': result.source,

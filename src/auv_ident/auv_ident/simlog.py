@@ -35,7 +35,7 @@ class SensorNoise:
     rate: float = 0.0
 
     @classmethod
-    def realistic(cls) -> 'SensorNoise':
+    def realistic(cls) -> SensorNoise:
         return cls(position=0.02, angle=math.radians(0.1), velocity=0.01,
                    rate=math.radians(0.1))
 

@@ -11,8 +11,17 @@ import pytest
 from scipy.signal import savgol_filter
 
 from auv_ident.errors import IdentificationError, NotIdentifiableError
-from auv_ident.identify import (EQUATIONS, ForceRecord, build_system, fit_equation,
-                                flat_top_lag, identify, nelder_mead, sensor_noise_meat, solve)
+from auv_ident.identify import (
+    EQUATIONS,
+    ForceRecord,
+    build_system,
+    fit_equation,
+    flat_top_lag,
+    identify,
+    nelder_mead,
+    sensor_noise_meat,
+    solve,
+)
 from auv_ident.motion import actuator_positions, consistent_kernel, noise_sigma, reconstruct
 from auv_sim.environment import Environment
 from auv_sim.missions import load_mission, run_mission
@@ -174,7 +183,7 @@ SIGMAS = np.array([0.02] * 3 + [math.radians(0.1)] * 3 + [0.01] * 3 + [math.radi
 
 
 def test_sensor_noise_levels_are_estimated_from_the_log(base: VehicleParams) -> None:
-    t, state, _ = _pitch_log(base, SIGMAS, seed=4)
+    _t, state, _ = _pitch_log(base, SIGMAS, seed=4)
     np.testing.assert_allclose(noise_sigma(state), SIGMAS, rtol=0.05)
 
 

@@ -10,6 +10,7 @@ whose effect a diagnosis is not told. Units: SI, radians; currents in NED [m/s].
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 import pathlib
 from typing import Any
@@ -18,8 +19,18 @@ import numpy as np
 import yaml
 
 from auv_sim.errors import ParameterError
-from auv_sim.model import (E_BARBIAS, E_BCOMP, E_MQQ, E_NRR, E_VAMP, E_VC, E_VPER, E_YVV,
-                           E_ZWW, ENV_SIZE)
+from auv_sim.model import (
+    E_BARBIAS,
+    E_BCOMP,
+    E_MQQ,
+    E_NRR,
+    E_VAMP,
+    E_VC,
+    E_VPER,
+    E_YVV,
+    E_ZWW,
+    ENV_SIZE,
+)
 from auv_sim.params import VehicleParams
 
 # effect name -> {field: (unit, default)}
@@ -55,7 +66,8 @@ class Environment:
         return self.effects.get(effect, {}).get(name, EFFECT_FIELDS[effect][name][1])
 
     def apply_to(self, params: VehicleParams) -> VehicleParams:
-        """The vehicle as it really is: parameters changed by buoyancy, lag, rate and CG effects."""
+        """The vehicle as it really is: parameters changed by buoyancy, lag, rate and CG
+        effects."""
         changes: dict[str, float] = {}
         if 'buoyancy_offset' in self.effects:
             changes['B'] = params.B + self.field('buoyancy_offset', 'dB')
@@ -109,7 +121,8 @@ class Environment:
 
 
 def parse_environment(doc: Any, where: str = '<memory>') -> Environment:
-    """Validate an environment document ``{effects: {...}, current_profile: [[z, vn, ve, vd]]}``."""
+    """Validate an environment document
+    ``{effects: {...}, current_profile: [[z, vn, ve, vd]]}``."""
     if doc is None:
         return Environment()
     if not isinstance(doc, dict):
@@ -145,7 +158,7 @@ def parse_environment(doc: Any, where: str = '<memory>') -> Environment:
                 isinstance(v, (int, float)) and math.isfinite(v) for v in row):
             raise ParameterError(f'{where}: current_profile row {i} must be [z, v_n, v_e, v_d]')
         table.append(tuple(float(v) for v in row))
-    if any(b[0] <= a[0] for a, b in zip(table, table[1:])):
+    if any(b[0] <= a[0] for a, b in itertools.pairwise(table)):
         raise ParameterError(f'{where}: current_profile depths must increase')
     return Environment(effects=effects, current_profile=tuple(table))  # type: ignore[arg-type]
 

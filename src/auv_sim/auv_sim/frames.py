@@ -81,7 +81,7 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vectors ``v`` (3) by unit quaternions ``q`` (x, y, z, w): ``q v q*``."""
     q = np.asarray(q, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
-    qv = np.concatenate([v, np.zeros(v.shape[:-1] + (1,))], axis=-1)
+    qv = np.concatenate([v, np.zeros((*v.shape[:-1], 1))], axis=-1)
     return quaternion_multiply(quaternion_multiply(q, qv), quaternion_conjugate(q))[..., :3]
 
 

@@ -11,7 +11,8 @@ from __future__ import annotations
 import dataclasses
 import math
 import pathlib
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import yaml
@@ -121,7 +122,7 @@ class VehicleParams:
         """Weight m g [N]."""
         return self.values['m'] * self.values['g']
 
-    def replace(self, **changes: float) -> 'VehicleParams':
+    def replace(self, **changes: float) -> VehicleParams:
         """A copy with some values changed (validated again)."""
         for key in changes:
             if key not in SCHEMA:

@@ -16,8 +16,7 @@ import numpy as np
 
 from auv_sim.environment import Environment
 from auv_sim.errors import DivergenceError, ParameterError
-from auv_sim.model import (NX, STATE_NAMES, rk4_batch, rk4_batch_parallel, rk4_steps,
-                            wrenches)
+from auv_sim.model import NX, STATE_NAMES, rk4_batch, rk4_batch_parallel, rk4_steps, wrenches
 from auv_sim.params import VehicleParams
 
 CHANNELS = ('bar', 'helm', 'thrust')

@@ -8,6 +8,7 @@ delay).
 """
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 import numpy as np
@@ -38,7 +39,7 @@ def regimes(pr: Problem, residual: np.ndarray, act_bar: np.ndarray, bins: int = 
     for name, sig in signals.items():
         edges = np.unique(np.quantile(sig, np.linspace(0, 1, bins + 1)))
         rows = []
-        for a, b in zip(edges[:-1], edges[1:]):
+        for a, b in itertools.pairwise(edges):
             m = (sig >= a) & ((sig < b) | (b == edges[-1]))
             if m.sum() < 5:
                 continue
@@ -67,10 +68,7 @@ def expected_noise_psd(pr: Problem, row: int, fs: float, nperseg: int, seed: int
     for _ in range(3):
         noise = rng.standard_normal((n, 12)) * pr.noise
         d = savgol_filter(noise, nwin, 3, deriv=1, delta=lg.period, axis=0)
-        if row < 5:
-            e = (d[:, 6:12] @ pr.M.T)[:, EQ_ROWS[row]]
-        else:
-            e = d[:, 2] - noise[:, 8]
+        e = (d[:, 6:12] @ pr.M.T)[:, EQ_ROWS[row]] if row < 5 else d[:, 2] - noise[:, 8]
         _, p = welch(e[::every], fs=fs, nperseg=nperseg)
         acc = p if acc is None else acc + p
     assert acc is not None

@@ -78,7 +78,7 @@ class Perturbation:
     bias: np.ndarray
 
     @classmethod
-    def nominal(cls, vehicle: VehicleParams) -> 'Perturbation':
+    def nominal(cls, vehicle: VehicleParams) -> Perturbation:
         """The vehicle as its file describes it: calm water, nominal actuators, exact sensors."""
         return cls(current=np.zeros(3), C=np.zeros((NB, 6)), delay=np.zeros(3),
                    tau=np.array([vehicle.bar_tau, vehicle.helm_tau, vehicle.thrust_tau]),

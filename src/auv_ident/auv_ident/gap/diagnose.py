@@ -232,7 +232,7 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
         for n in pool:
             if n in best.names:
                 continue
-            es = EffectSet(best.names + (n,), vehicle)
+            es = EffectSet((*best.names, n), vehicle)
             start = np.concatenate([best.fit.values, singles_a[n].values])
             fa = eqf.fit(es, start=start)
             cost = eqf.cost(es, fa.values, held_out=True)

@@ -15,8 +15,8 @@ clusters (residuals inside a window are strongly correlated; windows are indepen
 and Student's t with ``G - 1`` degrees of freedom for ``G`` windows; a free-run interval is
 widened to cover the equation-error estimate (two estimators with different systematic
 errors: initial-state smoothing for the free run, derivative filtering for the equation).
-A parameter whose residual sensitivity is negligible is "not identifiable from these data": it is held at its
-"absent" value and its interval is its whole range.
+A parameter whose residual sensitivity is negligible is "not identifiable from these data": it
+is held at its "absent" value and its interval is its whole range.
 """
 from __future__ import annotations
 

@@ -11,7 +11,6 @@ import dataclasses
 from collections.abc import Sequence
 
 import numpy as np
-
 from scipy.signal import savgol_filter
 
 from auv_ident.errors import GapError
@@ -214,7 +213,7 @@ class Problem:
         act = np.empty((nc, int(sum(self.fine_n)), 3))
         X0 = np.zeros((nc, nw, 15))
         cur = np.empty((nc, 3))
-        C = np.empty((nc,) + perts[0].C.shape)
+        C = np.empty((nc, *perts[0].C.shape))
         for c, pert in enumerate(perts):
             act[c] = self.actuators(pert)
             cur[c] = pert.current

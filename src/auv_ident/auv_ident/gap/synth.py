@@ -13,12 +13,18 @@ from typing import Any
 
 import numpy as np
 
-from auv_ident.gap.logs import CHANNELS, COMMAND_TOPICS, STATE_FIELDS, STATE_TOPIC, GapLog, \
-    from_arrays
+from auv_ident.gap.logs import (
+    CHANNELS,
+    COMMAND_TOPICS,
+    STATE_FIELDS,
+    STATE_TOPIC,
+    GapLog,
+    from_arrays,
+)
 from auv_sim.environment import Environment, parse_environment
+from auv_sim.params import VehicleParams
 from auv_sim.simulator import Simulator
 from auv_sim.trim import VerticalPlane
-from auv_sim.params import VehicleParams
 
 #: Sensor noise (1 sigma) per state: position/depth [m], angles [rad], velocities [m/s],
 #: rates [rad/s]: a pressure sensor, an AHRS, a DVL, gyros of a survey AUV (assumed).

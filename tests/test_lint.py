@@ -1,0 +1,15 @@
+"""The code base stays ruff-clean (rules and line length in ruff.toml)."""
+from __future__ import annotations
+
+import pathlib
+import subprocess
+import sys
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+def test_ruff_finds_nothing() -> None:
+    proc = subprocess.run([sys.executable, '-m', 'ruff', 'check', '--no-cache', 'src', 'tests',
+                           'bench', 'tools'], cwd=ROOT, capture_output=True, text=True,
+                          check=False)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
