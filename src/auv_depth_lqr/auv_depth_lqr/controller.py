@@ -641,6 +641,8 @@ class DepthController:
         self._s_r = 0.0
         self._command: float | None = None
         self._landing: tuple[float | None, float] | None = None
+        self._switch_hint = [0]
+        self._s_root: float | None = None
         self._bar_prev = None if bar_previous is None else _finite('bar_previous', bar_previous)
 
     @property
@@ -761,25 +763,24 @@ class DepthController:
         j_goal = max(j_goal, -jerk) if A < 0.0 else min(max(j_goal, -jerk), jerk)
         s = min(max((j_goal - J) / ts, s_lo), s_hi)
 
+        hint = self._switch_hint
+        hint[0] = max(hint[0] - 1, 0)
+
         def overshoot(s_try: float) -> float:
             dz, v1, a1, j1 = _constant_snap(V, A, J, s_try, ts)
             u1 = b[0] * v1 + b[1] * a1 + b[2] * j1 + b[3] * s_try
-            return dz + _stop_distance(v1, a1, j1, u1, brake) - E
+            return dz + _stop_distance(v1, a1, j1, u1, brake, hint) - E
 
-        if overshoot(s) > 0.0:
+        f_hi = overshoot(s)
+        if f_hi > 0.0:
             lo, hi = s_lo, s
-            if overshoot(lo) >= 0.0 and s_floor < s_lo:
+            f_lo = overshoot(lo)
+            if f_lo >= 0.0 and s_floor < s_lo:
                 lo, hi = s_floor, s_lo  # the rate limit gives way before the target does
-            if overshoot(lo) >= 0.0:
-                s = lo
-            else:
-                for _ in range(24):
-                    mid = 0.5 * (lo + hi)
-                    if overshoot(mid) > 0.0:
-                        hi = mid
-                    else:
-                        lo = mid
-                s = lo
+                f_lo, f_hi = overshoot(lo), f_lo
+            s = lo if f_lo >= 0.0 else _largest_root_below(overshoot, lo, hi, f_lo, f_hi,
+                                                           self._s_root)
+            self._s_root = s
         dz, v1, a1, j1 = _constant_snap(V, A, J, s, ts)
         if v1 > v_cap:  # the speed-up's momentum: never beyond the climb/dive bound
             v1, a1, j1 = v_cap, min(a1, 0.0), min(j1, 0.0)
@@ -886,6 +887,43 @@ class DepthController:
         return bar_cmd
 
 
+def _largest_root_below(f: Callable[[float], float], lo: float, hi: float, f_lo: float,
+                        f_hi: float, guess: float | None = None, tol: float = 1e-6) -> float:
+    """Largest ``x`` in ``[lo, hi]`` with ``f(x) <= 0`` for an increasing ``f`` with
+    ``f(lo) < 0 < f(hi)``, to ``tol`` times the bracket (regula falsi, Illinois variant:
+    a handful of evaluations where bisection needs twenty). A ``guess`` inside the bracket
+    (the last sample's root) is tried first, with a point just beside it."""
+    width = tol * (hi - lo)
+    if guess is not None and lo < guess < hi:
+        for x in (guess, guess + 1e-4 * (hi - lo)):
+            x = min(x, hi - 0.5 * width)
+            fx = f(x)
+            if fx > 0.0:
+                hi, f_hi = x, fx
+                break
+            lo, f_lo = x, fx
+    side = 0
+    for _ in range(60):
+        if hi - lo <= width:
+            break
+        x = hi - f_hi * (hi - lo) / (f_hi - f_lo)
+        x = min(max(x, lo + 0.5 * width), hi - 0.5 * width)
+        fx = f(x)
+        if fx > 0.0:
+            hi, f_hi = x, fx
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+        else:
+            lo, f_lo = x, fx
+            if fx > -1e-6:  # within a micrometre of the target: done
+                break
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
+    return lo
+
+
 def _constant_snap(v: float, a: float, j: float, s: float, t: float
                    ) -> tuple[float, float, float, float]:
     """Distance [m], speed [m/s], acceleration [m/s^2] and jerk [m/s^3] after ``t`` [s] at
@@ -989,7 +1027,8 @@ def _release(state: tuple[float, float, float, float], u: float, brake: _Brake
     return math.inf, state[1]
 
 
-def _stop_distance(v: float, a: float, j: float, u_now: float, brake: _Brake) -> float:
+def _stop_distance(v: float, a: float, j: float, u_now: float, brake: _Brake,
+                   hint: list[int] | None = None) -> float:
     """Distance [m] to the target of the stop from speed ``v`` [m/s], acceleration ``a``
     [m/s^2], jerk ``j`` [m/s^3] (along the travel) and feed-forward input ``u_now`` [rad].
 
@@ -1000,6 +1039,8 @@ def _stop_distance(v: float, a: float, j: float, u_now: float, brake: _Brake) ->
     exp(-t / landing)`` of length ``v_land * landing``. A motion already slower than
     ``v_land`` lands at once; one that brakes harder than it needs releases at once.
     Negative for a motion away from the target (the same stop, mirrored, without a landing).
+    ``hint`` (a one-element list), if given, is where the search for the switch starts and
+    receives the switch found: the stop of the next sample switches about one sample earlier.
     """
     if v < 0.0 or (v == 0.0 and a < 0.0):
         mirrored = brake._replace(v_land=0.0, u_brake=-brake.u_release,
@@ -1021,13 +1062,31 @@ def _stop_distance(v: float, a: float, j: float, u_now: float, brake: _Brake) ->
         p_r, v_r = _release(*states[k], brake)
         return p_r + max(min(v_r, v_land), 0.0) * landing, v_r
 
-    lo_out = outcome(0)
-    if lo_out[1] <= v_land:
-        return lo_out[0]
-    lo, hi = 0, len(states) - 1
-    hi_out = outcome(hi)
-    if hi_out[1] > v_land:
-        return hi_out[0]
+    # The release at k ends faster than v_land for k < k*, slower from k* on: find k*.
+    n = len(states) - 1
+    start = 0 if hint is None else min(max(hint[0], 0), n)
+    out = outcome(start)
+    step = 1
+    if out[1] > v_land:  # switch later: gallop up
+        lo, lo_out = start, out
+        while True:
+            hi = min(lo + step, n)
+            hi_out = outcome(hi)
+            if hi_out[1] <= v_land:
+                break
+            if hi == n:
+                return hi_out[0]
+            lo, lo_out, step = hi, hi_out, 2 * step
+    else:  # switch earlier: gallop down
+        hi, hi_out = start, out
+        while True:
+            if hi == 0:
+                return hi_out[0]  # braking harder than needed already: release at once
+            lo = max(hi - step, 0)
+            lo_out = outcome(lo)
+            if lo_out[1] > v_land:
+                break
+            hi, hi_out, step = lo, lo_out, 2 * step
     while hi - lo > 1:
         mid = (lo + hi) // 2
         out = outcome(mid)
@@ -1035,6 +1094,8 @@ def _stop_distance(v: float, a: float, j: float, u_now: float, brake: _Brake) ->
             lo, lo_out = mid, out
         else:
             hi, hi_out = mid, out
+    if hint is not None:
+        hint[0] = lo
     f = (lo_out[1] - v_land) / (lo_out[1] - hi_out[1])
     return lo_out[0] + f * (hi_out[0] - lo_out[0])
 
