@@ -1049,44 +1049,55 @@ def _stop_distance(v: float, a: float, j: float, u_now: float, brake: _Brake,
     landing, v_land = brake.landing, brake.v_land
     if v <= v_land:
         return v * landing
+    # Brake-hold states, built only as far as the search for the switch needs them; the
+    # hold ends (index n) when the speed is down to v_land.
     states = [((0.0, v, a, j), u_now)]
-    state, u = states[0]
-    while state[1] > v_land:
-        if len(states) > _MAX_BRAKE_STEPS:
-            return math.inf
-        u = _toward(u, brake.u_brake, brake.du)
-        state = brake.advance(state, u)
-        states.append((state, u))
+    end: list[int] = []
+
+    def last(k: int) -> int:
+        """Build the states up to ``k``; the highest valid index at most ``k``."""
+        while len(states) <= k and not end:
+            if len(states) > _MAX_BRAKE_STEPS:
+                raise OverflowError
+            state, u = states[-1]
+            u = _toward(u, brake.u_brake, brake.du)
+            state = brake.advance(state, u)
+            states.append((state, u))
+            if state[1] <= v_land:
+                end.append(len(states) - 1)
+        return min(k, len(states) - 1)
 
     def outcome(k: int) -> tuple[float, float]:
         p_r, v_r = _release(*states[k], brake)
         return p_r + max(min(v_r, v_land), 0.0) * landing, v_r
 
     # The release at k ends faster than v_land for k < k*, slower from k* on: find k*.
-    n = len(states) - 1
-    start = 0 if hint is None else min(max(hint[0], 0), n)
-    out = outcome(start)
-    step = 1
-    if out[1] > v_land:  # switch later: gallop up
-        lo, lo_out = start, out
-        while True:
-            hi = min(lo + step, n)
-            hi_out = outcome(hi)
-            if hi_out[1] <= v_land:
-                break
-            if hi == n:
-                return hi_out[0]
-            lo, lo_out, step = hi, hi_out, 2 * step
-    else:  # switch earlier: gallop down
-        hi, hi_out = start, out
-        while True:
-            if hi == 0:
-                return hi_out[0]  # braking harder than needed already: release at once
-            lo = max(hi - step, 0)
-            lo_out = outcome(lo)
-            if lo_out[1] > v_land:
-                break
-            hi, hi_out, step = lo, lo_out, 2 * step
+    try:
+        start = last(0 if hint is None else max(hint[0], 0))
+        out = outcome(start)
+        step = 1
+        if out[1] > v_land:  # switch later: gallop up
+            lo, lo_out = start, out
+            while True:
+                hi = last(lo + step)
+                if hi == lo:  # the hold is over and still too fast: release at its end
+                    return lo_out[0]
+                hi_out = outcome(hi)
+                if hi_out[1] <= v_land:
+                    break
+                lo, lo_out, step = hi, hi_out, 2 * step
+        else:  # switch earlier: gallop down
+            hi, hi_out = start, out
+            while True:
+                if hi == 0:
+                    return hi_out[0]  # braking harder than needed already: release at once
+                lo = max(hi - step, 0)
+                lo_out = outcome(lo)
+                if lo_out[1] > v_land:
+                    break
+                hi, hi_out, step = lo, lo_out, 2 * step
+    except OverflowError:
+        return math.inf
     while hi - lo > 1:
         mid = (lo + hi) // 2
         out = outcome(mid)
