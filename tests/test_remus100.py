@@ -1,0 +1,325 @@
+"""The REMUS 100 of config/remus100.yaml (Prestero 2001) on the toolkit: file, trims, pilot, ident.
+
+Oracles are Prestero's published dimensional coefficients (MIT/WHOI MS thesis, 2001, tables
+2.3-2.6, B.1, B.2, C.1, C.5, C.10), typed in here independently of the file's nondimensional
+values, and equilibria solved here from his equations with scipy.
+
+What was measured (the figures the tests assert, with the margins stated there):
+
+* The model's forces equal Prestero's linear terms to 7e-16 relative at 1.5 and 2.0 m/s
+  (the scaling is exact at every speed); the axial drag equals his Xuu u|u| at u_ref =
+  1.5 m/s and follows the ITTC line elsewhere (-5.7 % at 2.0 m/s).
+* Trims at 1.5 and 2.0 m/s agree with the equilibrium of Prestero's dimensional equations to
+  5e-16 relative (BAR -9.97 and -5.75 deg, pitch -2.86 and -1.57 deg, thrust 3.99 and 6.30 N). At
+  1.0 m/s there is none within the 13.6 deg fins: with B - W = +7 N it needs BAR -20.6 deg
+  (the lowest trimmable speed is 1.27 m/s). The trim thrust holds u0: from u0 +- 0.1 m/s, with
+  the pitch held by the pilot's own LQR gain, u returns to u0 within 6.2e-7 m/s in 120 s.
+* Open loop the vehicle is unstable (no quadratic cross-flow damping in the model): real
+  eigenvalues +0.63 1/s (pitch/heave/surge) and +1.02 1/s (sway/yaw) at the 1.5 m/s trim,
+  roll damping ratio 0.31.
+* The depth pilot (DepthPilot.for_vehicle, default settings, speed grid 1.3-2.5 m/s) does NOT
+  fly depth changes on it: 20 -> 10 m and 10 -> 30 m at 1.5 m/s both end with the vehicle
+  tumbling (pitch beyond 60 deg within 14 s, planes saturated half the time, never settling;
+  the model has no free surface, so it ends "above" it). The tests that ask for a settled
+  manoeuvre are strict xfails; see test_depth_change_settles.
+* Identification from the force topic with the REMUS missions (config/missions/remus100_*:
+  doublets whose second halves were solved so as not to excite the unstable modes, 20-24 s
+  each) recovers every coefficient to 3e-15 relative (the regression is exact on clean
+  forces); Nelder-Mead agrees to 3e-15.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import pathlib
+from typing import Any
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq, fsolve
+
+from auv_depth_lqr.closed_loop import ClosedLoopRun, run_closed_loop
+from auv_depth_lqr.metrics import StepMetrics, step_metrics
+from auv_depth_lqr.pilot import PilotSettings, build_controller
+from auv_ident import cli
+from auv_ident.simlog import write_record
+from auv_sim.environment import Environment
+from auv_sim.errors import TrimError
+from auv_sim.missions import load_mission, run_mission
+from auv_sim.model import NX, dynamics, wrenches
+from auv_sim.params import VehicleParams, load_vehicle
+from auv_sim.simulator import Simulator
+from auv_sim.trim import VerticalPlane
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+REMUS = ROOT / 'config' / 'remus100.yaml'
+MISSIONS = {name: ROOT / 'config' / 'missions' / f'remus100_{name}.yaml'
+            for name in ('surge', 'pitch', 'yaw')}
+#: Gain-scheduling grid [m/s]: the vehicle trims from 1.27 m/s up (13.6 deg fins).
+SPEEDS = (1.3, 1.5, 2.0, 2.5)
+_H = 1e-30  # complex step
+
+# Prestero 2001, dimensional (his signs; rudder delta_r = -helm, see the vehicle file).
+W, B, ZG = 299.0, 306.0, 0.0196                  # N, N, m (tables 2.3, 2.5)
+XUU = -1.62                                      # kg/m (table C.1)
+ZUW, ZUQ, ZUUDS = -28.6, -5.22, -9.64            # kg/m, kg/rad, kg/(m rad) (table B.1)
+MUW, MUQ, MUUDS = 24.0, -2.00, -6.15             # kg, kg m/rad, kg/rad (table B.2)
+YUV, YUR, YUUDR = -28.6, 5.22, 9.64              # (table B.1)
+NUV, NUR, NUUDR = -24.0, -2.00, -6.15            # (table B.2)
+U_REF = 1.5                                      # m/s, where the axial drag is matched
+
+
+@pytest.fixture(scope='module')
+def remus() -> VehicleParams:
+    return load_vehicle(REMUS)
+
+
+# ----- the file and its forces ----------------------------------------------------------------
+
+def test_file_loads_with_prestero_mass_properties(remus: VehicleParams) -> None:
+    assert remus.name == 'REMUS100'
+    weight = remus.m * remus.g
+    assert weight == pytest.approx(W, rel=1e-12)
+    assert remus.B == B
+    assert (remus.zg, remus.Ix, remus.Iy, remus.Iz) == (ZG, 0.177, 3.45, 3.45)
+    assert (remus.L_ref, remus.diameter, remus.depth_max) == (1.33, 0.191, 100.0)
+    assert math.degrees(remus.bar_max) == pytest.approx(13.6, abs=1e-9)
+    for name, source in remus.sources.items():
+        assert source.startswith(('Prestero', 'derived', 'assumed', 'body origin', 'standard',
+                                  'surface', 'RK4', 'REMUS', '20 deg/s')), (name, source)
+
+
+def wrench_derivatives(p: VehicleParams, u: float) -> dict[str, float]:
+    """d(wrench)/d(state) at straight flight at ``u`` [m/s], by complex step, split like
+    Prestero's coefficients: hydrodynamic + added-mass (Coriolis row minus the rigid-body
+    part, which he keeps on the left-hand side: m (w_dot - u q), m (v_dot + u r)) and fins."""
+    P = p.as_array()
+    env = Environment()
+    e, prof = env.env_vector(), env.profile()
+    x0 = np.zeros(NX, dtype=complex)
+    x0[2], x0[6] = 20.0, u
+
+    def d(index: int, rows: slice) -> np.ndarray:
+        x = x0.copy()
+        x[index] += 1j * _H
+        out = np.zeros((4, 6), dtype=complex)
+        wrenches(0.0, x, P, e, prof, out)
+        return out[rows].sum(axis=0).imag / _H
+
+    hydro = slice(0, 2)
+    m = p.m
+    return {
+        'Zuw': d(8, hydro)[2] / u, 'Muw': d(8, hydro)[4] / u,
+        'Zuq': (d(10, hydro)[2] - m * u) / u, 'Muq': d(10, hydro)[4] / u,
+        'Yuv': d(7, hydro)[1] / u, 'Nuv': d(7, hydro)[5] / u,
+        'Yur': (d(11, hydro)[1] + m * u) / u, 'Nur': d(11, hydro)[5] / u,
+        'Zuuds': d(12, slice(3, 4))[2] / u**2, 'Muuds': d(12, slice(3, 4))[4] / u**2,
+        'Yuudr': -d(13, slice(3, 4))[1] / u**2, 'Nuudr': -d(13, slice(3, 4))[5] / u**2,
+    }
+
+
+@pytest.mark.parametrize('u', [1.5, 2.0])
+def test_forces_equal_prestero_linear_coefficients(remus: VehicleParams, u: float) -> None:
+    got = wrench_derivatives(remus, u)
+    expected = {'Zuw': ZUW, 'Muw': MUW, 'Zuq': ZUQ, 'Muq': MUQ, 'Yuv': YUV, 'Nuv': NUV,
+                'Yur': YUR, 'Nur': NUR, 'Zuuds': ZUUDS, 'Muuds': MUUDS, 'Yuudr': YUUDR,
+                'Nuudr': NUUDR}
+    for name, value in expected.items():
+        assert got[name] == pytest.approx(value, rel=1e-9), name
+
+
+def ittc(p: VehicleParams, u: float) -> float:
+    """ITTC-1957 friction line C_XF at speed u [m/s]."""
+    return 0.075 / (math.log10(u * p.L_ref / p.nu_water) - 2.0) ** 2
+
+
+def drag(p: VehicleParams, u: float) -> float:
+    """The model's axial drag [N] at u (level flight), from its hydrodynamic row."""
+    x = np.zeros(NX)
+    x[2], x[6] = 20.0, u
+    out = np.zeros((4, 6))
+    env = Environment()
+    wrenches(0.0, x, p.as_array(), env.env_vector(), env.profile(), out)
+    return float(out[0, 0])
+
+
+def test_axial_drag_is_prestero_xuu_at_the_reference_speed(remus: VehicleParams) -> None:
+    assert drag(remus, U_REF) == pytest.approx(XUU * U_REF**2, rel=1e-12)
+    # elsewhere it follows the ITTC line: 5.7 % less than Xuu u^2 at 2 m/s
+    ratio = drag(remus, 2.0) / (XUU * 2.0**2)
+    assert ratio == pytest.approx(ittc(remus, 2.0) / ittc(remus, U_REF), rel=1e-12)
+    assert ratio == pytest.approx(0.9435, abs=5e-4)
+
+
+# ----- trims --------------------------------------------------------------------------------
+
+def prestero_trim(u: float) -> tuple[float, float, float]:
+    """(theta, w, delta_s) of level flight at u from Prestero's dimensional equations:
+    Z = (W - B) cos(theta) + Zuw u w + Zuuds u^2 ds = 0, M = -zg W sin(theta) + Muw u w
+    + Muuds u^2 ds = 0 (q = 0: no other term), w = u tan(theta) (z_dot = 0)."""
+    def residual(v: np.ndarray) -> list[float]:
+        theta, ds = v
+        w = u * math.tan(theta)
+        return [(W - B) * math.cos(theta) + ZUW * u * w + ZUUDS * u * u * ds,
+                -ZG * W * math.sin(theta) + MUW * u * w + MUUDS * u * u * ds]
+    theta, ds = fsolve(residual, [0.0, 0.0], xtol=1e-12)
+    return float(theta), u * math.tan(theta), float(ds)
+
+
+@pytest.mark.parametrize(('u0', 'bar_deg', 'theta_deg'), [(1.5, -9.968, -2.863),
+                                                          (2.0, -5.745, -1.568)])
+def test_trims_within_the_fin_limit_and_match_prestero(
+        remus: VehicleParams, u0: float, bar_deg: float, theta_deg: float) -> None:
+    trim = VerticalPlane(remus).trim(u0, z=30.0)
+    theta, w, ds = prestero_trim(u0)
+    assert abs(trim.bar) <= remus.bar_max
+    assert trim.theta == pytest.approx(theta, rel=1e-9)
+    assert trim.w == pytest.approx(w, rel=1e-9)
+    assert trim.bar == pytest.approx(ds, rel=1e-9)
+    assert math.degrees(trim.bar) == pytest.approx(bar_deg, abs=1e-3)
+    assert math.degrees(trim.theta) == pytest.approx(theta_deg, abs=1e-3)
+    # thrust = drag (Xuu, ITTC-scaled away from 1.5 m/s) + the buoyancy's surge component
+    xuu = XUU * ittc(remus, u0) / ittc(remus, U_REF)
+    assert trim.thrust == pytest.approx(-xuu * u0**2 + (W - B) * math.sin(theta), rel=1e-9)
+
+
+def test_no_trim_at_1_m_s_within_the_13_6_deg_fins(remus: VehicleParams) -> None:
+    _, _, ds = prestero_trim(1.0)
+    assert math.degrees(ds) == pytest.approx(-20.61, abs=0.01)    # beyond 13.6 deg
+    with pytest.raises(TrimError, match='beyond the plane limit'):
+        VerticalPlane(remus).trim(1.0, z=30.0)
+    # the lowest speed that trims within the fins (Prestero's equations)
+    u_min = brentq(lambda u: prestero_trim(u)[2] + remus.bar_max, 1.0, 1.5, xtol=1e-10)
+    assert u_min == pytest.approx(1.268, abs=1e-3)
+    VerticalPlane(remus).trim(u_min + 0.01, z=30.0)
+
+
+@pytest.mark.parametrize('u0', [1.5, 2.0])
+@pytest.mark.parametrize('du', [-0.1, 0.1])
+def test_trim_thrust_brings_the_surge_speed_to_u0(remus: VehicleParams, u0: float,
+                                                  du: float) -> None:
+    """Open loop the vehicle pitches over (see the modes test), so the pitch is held by the
+    pilot's own discrete LQR gain at u0 (depth 30 m, no reference governor) while the trim
+    thrust alone sets the speed; measured |u - u0| <= 6.2e-7 m/s after 120 s, pitch within
+    0.33 deg of the trim."""
+    trim = VerticalPlane(remus).trim(u0, z=30.0)
+    op = build_controller(remus, PilotSettings(speeds=SPEEDS)).design.at(u0)
+    x0 = trim.state()
+    x0[6] += du
+    sim = Simulator(remus, x0=x0)
+    ts, xi, bar, peak = 0.1, 0.0, trim.bar, 0.0
+    for _ in range(1200):
+        x = sim.x
+        error = np.array([x[8] - trim.w, x[10], x[2] - 30.0, x[4] - trim.theta, xi])
+        slew = remus.bar_rate * ts
+        bar = float(np.clip(np.clip(trim.bar - op.K @ error, -remus.bar_max, remus.bar_max),
+                            bar - slew, bar + slew))
+        xi += (x[2] - 30.0) * ts
+        sim.command('bar', bar)
+        sim.step(10)
+        peak = max(peak, abs(x[4] - trim.theta))
+    assert sim.x[6] == pytest.approx(u0, abs=2e-6)
+    assert abs(sim.x[2] - 30.0) < 1e-4 and math.degrees(peak) < 0.5
+
+
+# ----- open-loop modes (why the pilot and the missions are as they are) -----------------------
+
+def jacobian(p: VehicleParams, u0: float) -> np.ndarray:
+    trim = VerticalPlane(p).trim(u0, z=30.0)
+    env = Environment()
+    x0 = trim.state().astype(complex)
+    cmd = np.array([trim.bar, 0.0, trim.thrust], dtype=complex)
+    J = np.empty((NX, NX))
+    for j in range(NX):
+        x = x0.copy()
+        x[j] += 1j * _H
+        xdot = np.zeros(NX, dtype=complex)
+        dynamics(0.0, x, cmd, p.as_array(), env.env_vector(), env.profile(), xdot,
+                 np.zeros((4, 6), dtype=complex))
+        J[:, j] = xdot.imag / _H
+    return J
+
+
+def test_open_loop_modes_at_1_5_m_s(remus: VehicleParams) -> None:
+    J = jacobian(remus, 1.5)
+    longitudinal = np.linalg.eigvals(J[np.ix_([6, 8, 10, 4], [6, 8, 10, 4])])
+    lateral = np.linalg.eigvals(J[np.ix_([7, 11, 9, 3], [7, 11, 9, 3])])
+    assert max(longitudinal.real) == pytest.approx(0.628, abs=1e-3)     # pitches over
+    assert max(lateral.real) == pytest.approx(1.021, abs=1e-3)          # turns ever tighter
+    roll = lateral[np.argmax(np.abs(lateral.imag))]
+    assert -roll.real / abs(roll) == pytest.approx(0.306, abs=1e-3)     # roll damping ratio
+    # the nose-up plane left beyond the 1.5 m/s trim: 3.6 deg
+    trim = VerticalPlane(remus).trim(1.5, z=30.0)
+    assert math.degrees(remus.bar_max + trim.bar) == pytest.approx(3.63, abs=0.01)
+
+
+# ----- the depth pilot ----------------------------------------------------------------------
+
+THETA_MAX = PilotSettings().theta_max
+
+
+def fly(p: VehicleParams, z0: float, z1: float, u0: float,
+        duration: float = 120.0) -> tuple[ClosedLoopRun, StepMetrics]:
+    run = run_closed_loop(p, [(0.0, z1)], duration, z0=z0, u0=u0,
+                          settings=PilotSettings(speeds=SPEEDS))
+    rec = run.record
+    return run, step_metrics(rec.t, rec.x[:, 2], rec.x[:, 4], rec.x[:, 10], rec.x[:, 12], z1,
+                             bar_max=p.bar_max, u0=u0, theta_max=THETA_MAX)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    'the depth pilot loses the open-loop-unstable REMUS; measured over 120 s: 20 -> 10 m pitch '
+    'beyond 60 deg at 5.7 s, peak 114 deg, planes saturated 57 s, ends at z = -81 m; 10 -> 30 m '
+    'beyond 60 deg at 13.2 s, peak 62 deg, saturated 82 s, ends at z = -82 m; neither settles'))
+@pytest.mark.parametrize(('z0', 'z1'), [(20.0, 10.0), (10.0, 30.0)])
+def test_depth_change_settles(remus: VehicleParams, z0: float, z1: float) -> None:
+    _, m = fly(remus, z0, z1, 1.5)
+    assert m.settling_time <= 2.0 * m.kinematic_bound, m     # the A18M tests ask 1.6
+    assert m.overshoot < 0.2, m
+    assert m.peak_pitch <= THETA_MAX + 1e-6, m
+
+
+# ----- identification from the simulator's force topic -------------------------------------
+
+@pytest.fixture(scope='module')
+def mission_records(remus: VehicleParams) -> dict[str, Any]:
+    return {name: run_mission(remus, load_mission(path)) for name, path in MISSIONS.items()}
+
+
+def test_missions_stay_near_the_trim(remus: VehicleParams,
+                                     mission_records: dict[str, Any]) -> None:
+    trim = VerticalPlane(remus).trim(1.5, z=30.0)
+    # measured: surge 8.88 deg, 3.09 deg/s; pitch 5.15 deg, 4.13 deg/s; yaw 0.43 deg,
+    # 0.14 deg/s, 4.40 deg/s; u 1.31-1.72 m/s; depth within 1.32 m of 30 m
+    limits = {'surge': (9.0, 3.2, 0.01), 'pitch': (5.5, 4.5, 0.01), 'yaw': (0.5, 0.2, 4.5)}
+    for name, rec in mission_records.items():
+        dtheta, q, r = limits[name]
+        x = rec.x
+        assert math.degrees(np.max(np.abs(x[:, 4] - trim.theta))) < dtheta, name
+        assert math.degrees(np.max(np.abs(x[:, 10]))) < q, name
+        assert math.degrees(np.max(np.abs(x[:, 11]))) < r, name
+        assert np.all(x[:, 6] > 1.3) and np.all(np.abs(x[:, 2] - 30.0) < 1.5), name
+
+
+def test_force_topic_identification_recovers_the_file(
+        remus: VehicleParams, mission_records: dict[str, Any],
+        tmp_path: pathlib.Path) -> None:
+    bags = []
+    for name, rec in mission_records.items():
+        write_record(tmp_path / name, rec, forces=True)
+        bags.append(str(tmp_path / name))
+    parser = argparse.ArgumentParser()
+    cli.add_arguments(parser)
+    args = parser.parse_args([*bags, '--base', str(REMUS), '--out', str(tmp_path / 'out')])
+    assert cli.run(args) == 0
+    report = json.loads((tmp_path / 'out' / 'report.json').read_text())
+    assert report['source'] == 'forces'
+    assert set(report['coefficients']) == {'Ksh', 'CZuw', 'CZuq', 'CMuw', 'CMuq', 'CYuv',
+                                            'CYur', 'CNuv', 'CNur'}
+    for name, c in report['coefficients'].items():
+        assert c['value'] == pytest.approx(remus.values[name], rel=1e-9), name
+    identified = load_vehicle(tmp_path / 'out' / 'vehicle.yaml')
+    assert identified.name == 'REMUS100' and identified.m == remus.m
+    for cmp in report['nelder_mead'].values():
+        assert cmp['max_relative_difference'] < 1e-5
