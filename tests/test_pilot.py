@@ -160,3 +160,16 @@ def test_bad_water_speed_is_refused() -> None:
     for bad in (0.0, -1.0, math.nan):
         with pytest.raises(DesignError, match='water_speed'):
             PilotSettings(water_speed=bad)
+
+
+def test_a_vehicle_the_controller_loses_never_gets_a_non_finite_command() -> None:
+    """On the REMUS 100 file (open-loop unstable in pitch, 3.6 deg of nose-up fin left at
+    trim) the controller's planning can fail; the pilot then sends its safe fin angle, and
+    every command stays finite and within the fin's angle and rate limits."""
+    import pathlib
+    remus = load_vehicle(pathlib.Path(A18M).parent / 'remus100.yaml')
+    settings = PilotSettings(speeds=(1.3, 1.5, 2.0, 2.5))
+    run = run_closed_loop(remus, [(0.0, 10.0)], 60.0, z0=20.0, u0=2.0, settings=settings)
+    assert np.all(np.isfinite(run.bar))
+    assert np.max(np.abs(run.bar)) <= remus.bar_max + 1e-12
+    assert np.max(np.abs(np.diff(run.bar))) <= remus.bar_rate * settings.Ts + 1e-12

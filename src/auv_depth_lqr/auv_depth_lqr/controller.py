@@ -41,7 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.linalg import expm
 
-from auv_depth_lqr.errors import DesignError, InvalidInputError
+from auv_depth_lqr.errors import ControllerError, DesignError, InvalidInputError
 from auv_depth_lqr.lqr import _matrix, check_controllable, lqrd
 
 __all__ = [
@@ -264,7 +264,7 @@ class GovernorSettings:
     release_bar_share: float = 0.1
     """How far beyond the landing's BAR (about the trim) the release of a stop moves the
     feed-forward BAR, as a fraction of the room to the other end of the budget [-]."""
-    bar_rate_margin: float = 0.8
+    bar_rate_margin: float = 0.9
     """Fraction of the BAR rate limit that the feed-forward BAR of the reference may use
     [-]; the stop is planned with the BAR moving at that rate."""
     jerk_bar_share: float = 0.25
@@ -859,6 +859,12 @@ class DepthController:
         bar_linear = bar_ff - float(K[0] * error[0] + K[1] * error[1] + K[3] * error[3]) \
             - depth_terms
 
+        if not (math.isfinite(bar_linear) and math.isfinite(z_r) and math.isfinite(v_r)):
+            # min/max would turn a NaN into a limit: refuse instead; the state is left as is
+            raise ControllerError(
+                f'the controller produced a non-finite command (BAR {bar_linear}, reference '
+                f'z {z_r} m, v {v_r} m/s) from z={z} m, theta={theta} rad, w={w} m/s, '
+                f'q={q} rad/s, u={u} m/s, z_ref={z_cmd} m')
         # Angle limit, then rate limit.
         bar_cmd = min(max(bar_linear, -lim.bar_max), lim.bar_max)
         if self._bar_prev is not None:
@@ -906,8 +912,11 @@ def _largest_root_below(f: Callable[[float], float], lo: float, hi: float, f_lo:
     for _ in range(60):
         if hi - lo <= width:
             break
-        x = hi - f_hi * (hi - lo) / (f_hi - f_lo)
-        x = min(max(x, lo + 0.5 * width), hi - 0.5 * width)
+        if math.isfinite(f_hi) and math.isfinite(f_lo):
+            x = hi - f_hi * (hi - lo) / (f_hi - f_lo)
+            x = min(max(x, lo + 0.5 * width), hi - 0.5 * width)
+        else:  # an endless stop on one side: bisect
+            x = 0.5 * (lo + hi)
         fx = f(x)
         if fx > 0.0:
             hi, f_hi = x, fx

@@ -7,7 +7,8 @@ package family or the built-in type. Messages name the offending value; library 
 """
 from __future__ import annotations
 
-__all__ = ['AuvLqrError', 'DesignError', 'InvalidInputError', 'NotControllableError']
+__all__ = ['AuvLqrError', 'ControllerError', 'DesignError', 'InvalidInputError',
+           'NotControllableError']
 
 
 class AuvLqrError(Exception):
@@ -33,3 +34,8 @@ class InvalidInputError(AuvLqrError, ValueError):
     For instance a NaN depth reference or a non-finite measured depth. The depth-pilot node
     catches it, keeps the last valid command and reports the message.
     """
+
+
+class ControllerError(AuvLqrError):
+    """The controller cannot produce a valid command for this sample (e.g. a non-finite
+    result); the pilot then falls back to its safe BAR."""

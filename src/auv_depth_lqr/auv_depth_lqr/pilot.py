@@ -31,6 +31,7 @@ from auv_depth_lqr.controller import (
     preset,
 )
 from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
+from auv_sim.errors import TrimError
 from auv_sim.params import VehicleParams
 from auv_sim.trim import VerticalPlane
 
@@ -105,6 +106,23 @@ def vehicle_linearization(params: VehicleParams):  # type: ignore[no-untyped-def
     return linearize
 
 
+def trimmable_speeds(params: VehicleParams, speeds: Sequence[float]) -> tuple[float, ...]:
+    """The speeds [m/s] of a gain-scheduling grid at which the vehicle can trim (a slow
+    speed may need more plane than the vehicle has); DesignError if there is none."""
+    plane = VerticalPlane(params)
+    usable = []
+    for u in speeds:
+        try:
+            plane.trim(float(u))
+        except TrimError:
+            continue
+        usable.append(float(u))
+    if not usable:
+        raise DesignError(f'{params.name}: no trim within the plane limit at any of the '
+                          f'gain-scheduling speeds {list(speeds)} m/s')
+    return tuple(usable)
+
+
 def build_controller(params: VehicleParams, settings: PilotSettings) -> DepthController:
     """Gain-scheduled LQR depth controller of a vehicle (see :mod:`auv_depth_lqr.controller`)."""
     weights = preset(settings.weights) if isinstance(settings.weights, str) else settings.weights
@@ -113,7 +131,8 @@ def build_controller(params: VehicleParams, settings: PilotSettings) -> DepthCon
     bar_rate = settings.bar_rate if settings.bar_rate is not None else params.bar_rate
     if not abs(settings.safe_bar) <= bar_max:
         raise DesignError(f'safe_bar = {settings.safe_bar} rad is beyond bar_max = {bar_max}')
-    schedule = GainSchedule.design(vehicle_linearization(params), speeds=settings.speeds,
+    schedule = GainSchedule.design(vehicle_linearization(params),
+                                   speeds=trimmable_speeds(params, settings.speeds),
                                    Q=Q, R=R, Ts=settings.Ts)
     limits = Limits(bar_max=bar_max, bar_rate_max=bar_rate, theta_max=settings.theta_max)
     return DepthController(schedule, limits, settings.Ts, GovernorSettings())

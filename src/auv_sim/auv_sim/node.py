@@ -113,7 +113,9 @@ ODOM_CHILD_FRAME = 'base_link'
 #: Reliable, volatile, last 1000 (20 s of states at 50 Hz): a sample lost on the way (bursts
 #: of a faster-than-real-time run overflow the transport) is resent from this history, so a
 #: recorder that falls behind for a while still gets every message.
-STREAM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+# A deep history: in a lockstep run as fast as possible, a recorder that falls behind (a loaded
+# machine) still gets every sample once it catches up (10 000 samples = 200 s at 50 Hz).
+STREAM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10000,
                         reliability=ReliabilityPolicy.RELIABLE,
                         durability=DurabilityPolicy.VOLATILE)
 _MAX_LAG = 0.25  # wall s behind schedule after which pacing re-anchors instead of bursting
@@ -273,7 +275,7 @@ class SimulatorNode(Node):
         state.header.frame_id = STATE_FRAME
         (state.x, state.y, state.z, state.phi, state.theta, state.psi, state.u, state.v,
          state.w, state.p, state.q, state.r) = (float(v) for v in x[:12])
-        self._pub_state.publish(state)
+        self._send(self._pub_state, state)
 
         odom_arrays = state_to_odometry(x)
         odom = Odometry()
@@ -287,7 +289,7 @@ class SimulatorNode(Node):
         twist = odom.twist.twist
         twist.linear.x, twist.linear.y, twist.linear.z = map(float, odom_arrays.linear)
         twist.angular.x, twist.angular.y, twist.angular.z = map(float, odom_arrays.angular)
-        self._pub_odom.publish(odom)
+        self._send(self._pub_odom, odom)
 
         rows = self.sim.wrenches()
         forces = HydrodynamicForces()
@@ -297,10 +299,29 @@ class SimulatorNode(Node):
         forces.coriolis = _wrench(rows[1])
         forces.restoring = _wrench(rows[2])
         forces.actuators = _wrench(rows[3])
-        self._pub_forces.publish(forces)
+        self._send(self._pub_forces, forces)
 
         if self._pub_clock is not None:
-            self._pub_clock.publish(Clock(clock=stamp))
+            self._send(self._pub_clock, Clock(clock=stamp))
+
+    def _send(self, publisher: Any, msg: Any) -> None:
+        """Publish; if the middleware refuses (a reader too slow to acknowledge a full
+        history), retry for up to 1 s, then drop the sample with a warning: the simulator
+        never dies on a publish."""
+        deadline = time.monotonic() + 1.0
+        while True:
+            try:
+                publisher.publish(msg)
+                return
+            except RuntimeError as exc:  # rclpy's RCLError derives from RuntimeError
+                if self._stop.is_set():
+                    return  # shutting down: the context may be gone already
+                if time.monotonic() > deadline:
+                    self.get_logger().warning(
+                        f'{publisher.topic_name}: sample dropped, publish failed: {exc}',
+                        throttle_duration_sec=5.0)
+                    return
+                time.sleep(0.01)
 
     # ----- the loop -----
     def stop(self) -> None:
