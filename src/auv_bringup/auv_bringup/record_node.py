@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import gc
 import importlib
 import math
 import signal
@@ -183,6 +184,8 @@ def run(args: argparse.Namespace) -> int:
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         print(f'recording {len(args.topics)} topics to {out}', file=sys.stderr, flush=True)
+        gc.collect()
+        gc.freeze()  # long-lived set-up objects out of the cyclic collector's full passes
         t_end = None if args.duration is None else time.monotonic() + args.duration
         next_poll = time.monotonic()
         while not stop['signal'] and (t_end is None or time.monotonic() < t_end):

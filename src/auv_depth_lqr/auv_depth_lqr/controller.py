@@ -466,15 +466,19 @@ class GainSchedule:
         return cls(speeds=grid, K=np.array(gains), w_e=table[:, 0], theta_e=table[:, 1],
                    bar_e=table[:, 2], F=np.array(series), Ts=ts, Q=q_mat, R=r_mat)
 
-    def at(self, u: float) -> OperatingPoint:
-        """Gain and trim at surge speed ``u`` [m/s], linear in ``u``, clamped to the grid."""
+    def weights(self, u: float) -> tuple[float, int, int, float]:
+        """``(u_c, i, j, s)``: ``u`` [m/s] clamped to the grid and the interpolation between
+        grid points ``i`` and ``j`` with weight ``s`` on ``j``."""
         uc = float(np.clip(u, self.speeds[0], self.speeds[-1]))
         i = int(np.clip(np.searchsorted(self.speeds, uc) - 1, 0, max(self.speeds.size - 2, 0)))
         if self.speeds.size == 1:
-            s, j = 0.0, 0
-        else:
-            j = i + 1
-            s = (uc - self.speeds[i]) / (self.speeds[j] - self.speeds[i])
+            return uc, i, i, 0.0
+        j = i + 1
+        return uc, i, j, float((uc - self.speeds[i]) / (self.speeds[j] - self.speeds[i]))
+
+    def at(self, u: float) -> OperatingPoint:
+        """Gain and trim at surge speed ``u`` [m/s], linear in ``u``, clamped to the grid."""
+        uc, i, j, s = self.weights(u)
 
         def interp(values: Matrix) -> Matrix:
             return (1.0 - s) * values[i] + s * values[j]
@@ -621,6 +625,9 @@ class DepthController:
                     f' is beyond the limits (bar_max={self.limits.bar_max:.4g} rad, '
                     f'theta_max={self.limits.theta_max:.4g} rad); remove this speed from the '
                     'grid')
+        # One-sample maps of the stop model at the grid speeds, interpolated like the gains.
+        self._stop_maps = [_series_map([float(x) for x in design.F[k, :, 3]], ts)
+                           for k in range(design.speeds.size)]
         self.reset()
 
     # -- state -----------------------------------------------------------------------------
@@ -694,8 +701,11 @@ class DepthController:
         u_land = b0 * v_land - b1 * v_land / landing  # the landing's input at its start
         u_release = u_land + settings.release_bar_share * (u_other - u_land)
         du = settings.bar_rate_margin * lim.bar_rate_max * self.Ts
-        brake = _Brake.build(tuple(float(x) for x in b), u_brake, u_release, du, landing,
-                             v_land, self.Ts)
+        _, i, j, w = self.design.weights(u)
+        (phi_i, gam_i), (phi_j, gam_j) = self._stop_maps[i], self._stop_maps[j]
+        brake = _Brake(tuple((1.0 - w) * x + w * y for x, y in zip(phi_i, phi_j)),
+                       tuple((1.0 - w) * x + w * y for x, y in zip(gam_i, gam_j)),
+                       u_brake, u_release, max(du, 1e-9), landing, v_land)
         return v_cap, jerk, brake
 
     def _govern(self, op: OperatingPoint, u: float, z_cmd: float
@@ -975,23 +985,8 @@ class _Brake(NamedTuple):
     def build(cls, b: Sequence[float], u_brake: float, u_release: float, du: float,
               landing: float, v_land: float, ts: float) -> _Brake:
         """The stop model of the series coefficients ``b = (b_0, b_1, b_2, b_3)``."""
-        M = np.zeros((5, 5))
-        M[0, 1] = M[1, 2] = M[2, 3] = 1.0
-        tau = 0.1 * ts  # fast lag that stands for a dropped order [s]
-        if b[3] != 0.0 and _hurwitz(b[:4]):
-            M[3, 1:4] = [-b[0] / b[3], -b[1] / b[3], -b[2] / b[3]]
-            M[3, 4] = 1.0 / b[3]
-        elif b[2] != 0.0 and _hurwitz(b[:3]):  # J follows (U - b0 V - b1 A) / b2
-            M[3, 1:4] = [-b[0] / (b[2] * tau), -b[1] / (b[2] * tau), -1.0 / tau]
-            M[3, 4] = 1.0 / (b[2] * tau)
-        elif b[1] != 0.0:  # A follows (U - b0 V) / b1
-            M[2, 3] = 0.0
-            M[2, 1:3] = [-b[0] / (b[1] * tau), -1.0 / tau]
-            M[2, 4] = 1.0 / (b[1] * tau)
-        E = expm(M * ts)
-        return cls(tuple(float(x) for x in E[:4, :4].ravel()),
-                   tuple(float(x) for x in E[:4, 4]), u_brake, u_release, max(du, 1e-9),
-                   landing, v_land)
+        phi, gam = _series_map(b, ts)
+        return cls(phi, gam, u_brake, u_release, max(du, 1e-9), landing, v_land)
 
     def advance(self, state: tuple[float, float, float, float], u: float
                 ) -> tuple[float, float, float, float]:
@@ -1002,6 +997,26 @@ class _Brake(NamedTuple):
                 m[4] * p + m[5] * v + m[6] * a + m[7] * j + g[1] * u,
                 m[8] * p + m[9] * v + m[10] * a + m[11] * j + g[2] * u,
                 m[12] * p + m[13] * v + m[14] * a + m[15] * j + g[3] * u)
+
+
+def _series_map(b: Sequence[float], ts: float) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """``(phi, gam)`` of :class:`_Brake`: the exact one-sample map of the series model with
+    coefficients ``b = (b_0, b_1, b_2, b_3)`` at sample time ``ts`` [s]."""
+    M = np.zeros((5, 5))
+    M[0, 1] = M[1, 2] = M[2, 3] = 1.0
+    tau = 0.1 * ts  # fast lag that stands for a dropped order [s]
+    if b[3] != 0.0 and _hurwitz(b[:4]):
+        M[3, 1:4] = [-b[0] / b[3], -b[1] / b[3], -b[2] / b[3]]
+        M[3, 4] = 1.0 / b[3]
+    elif b[2] != 0.0 and _hurwitz(b[:3]):  # J follows (U - b0 V - b1 A) / b2
+        M[3, 1:4] = [-b[0] / (b[2] * tau), -b[1] / (b[2] * tau), -1.0 / tau]
+        M[3, 4] = 1.0 / (b[2] * tau)
+    elif b[1] != 0.0:  # A follows (U - b0 V) / b1
+        M[2, 3] = 0.0
+        M[2, 1:3] = [-b[0] / (b[1] * tau), -1.0 / tau]
+        M[2, 4] = 1.0 / (b[1] * tau)
+    E = expm(M * ts)
+    return tuple(float(x) for x in E[:4, :4].ravel()), tuple(float(x) for x in E[:4, 4])
 
 
 _MAX_BRAKE_STEPS = 2000

@@ -19,6 +19,7 @@ see :func:`auv_depth_lqr.pilot.water_relative`].
 from __future__ import annotations
 
 import argparse
+import gc
 import math
 import os
 import pathlib
@@ -180,6 +181,10 @@ def main(argv: list[str] | None = None) -> int:
     node = None
     try:
         node = DepthPilotNode()
+        # Everything built so far (rclpy, numpy, the design) is long-lived: keep it out of the
+        # cyclic collector, whose full passes over it would otherwise pause a control step.
+        gc.collect()
+        gc.freeze()
         rclpy.spin(node)
     except (AuvLqrError, AuvSimError, rclpy.exceptions.ParameterException) as exc:
         print(f'error: {exc}', file=sys.stderr)
