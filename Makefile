@@ -18,6 +18,7 @@ bench: setup
 
 lint: setup
 	@$(ENV) python -m ruff check src tests bench tools
+	@$(ENV) python -m mypy
 
 clean:
 	rm -rf build install log out

@@ -1,4 +1,4 @@
-"""The code base stays ruff-clean (rules and line length in ruff.toml)."""
+"""The code base stays ruff-clean (ruff.toml), its pure modules mypy --strict clean (mypy.ini)."""
 from __future__ import annotations
 
 import pathlib
@@ -12,4 +12,10 @@ def test_ruff_finds_nothing() -> None:
     proc = subprocess.run([sys.executable, '-m', 'ruff', 'check', '--no-cache', 'src', 'tests',
                            'bench', 'tools'], cwd=ROOT, capture_output=True, text=True,
                           check=False)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def test_mypy_strict_finds_nothing_in_the_pure_modules() -> None:
+    proc = subprocess.run([sys.executable, '-m', 'mypy'], cwd=ROOT, capture_output=True,
+                          text=True, check=False)
     assert proc.returncode == 0, proc.stdout + proc.stderr

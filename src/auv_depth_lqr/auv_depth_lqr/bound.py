@@ -70,7 +70,8 @@ class _Model:
         k2 = self.rates(X + 0.5 * h * k1, bar)
         k3 = self.rates(X + 0.5 * h * k2, bar)
         k4 = self.rates(X + h * k3, bar)
-        return X + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        out: np.ndarray = X + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        return out
 
     def simulate(self, X0: np.ndarray, bars: np.ndarray) -> np.ndarray:
         out = [X0]
@@ -136,14 +137,16 @@ def _feasible(model: _Model, X0: np.ndarray, trim: np.ndarray, bar_trim: float, 
             A, B = model.jacobians(Xn[k], bars[k])
             c = Xn[k + 1] - A @ Xn[k] - B * bars[k]
             for i in range(4):
-                rows.append(r), cols.append(ix(k + 1, i)), vals.append(1.0)
+                row = [(ix(k + 1, i), 1.0), (nx + k, -float(B[i]))]
                 if k > 0:
-                    for j in range(4):
-                        rows.append(r), cols.append(ix(k, j)), vals.append(-A[i, j])
-                    beq.append(c[i])
+                    row += [(ix(k, j), -float(A[i, j])) for j in range(4)]
+                    beq.append(float(c[i]))
                 else:
-                    beq.append(c[i] + A[i] @ Xn[0])
-                rows.append(r), cols.append(nx + k), vals.append(-B[i])
+                    beq.append(float(c[i] + A[i] @ Xn[0]))
+                for col, value in row:
+                    rows.append(r)
+                    cols.append(col)
+                    vals.append(value)
                 r += 1
         a_eq = sp.csr_matrix((vals, (rows, cols)), shape=(r, nv))
         rows_ub = _Rows()

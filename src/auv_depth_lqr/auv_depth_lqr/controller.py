@@ -481,7 +481,8 @@ class GainSchedule:
         uc, i, j, s = self.weights(u)
 
         def interp(values: Matrix) -> Matrix:
-            return (1.0 - s) * values[i] + s * values[j]
+            out: Matrix = (1.0 - s) * values[i] + s * values[j]
+            return out
 
         F = interp(self.F)
         return OperatingPoint(

@@ -95,7 +95,7 @@ def design_summary(
     x_e, u_e, A, B = check_linearization(linearize, speed)
     result = lqrd(A, B, Q, R, Ts)
     ctrb = controllability(A, B)
-    cont = np.linalg.eigvals(A - B @ result.K)
+    cont = np.linalg.eigvals(A - B @ result.K).astype(np.complex128)
     poles_c = _poles(cont, discrete=False, ts=float(Ts))
     poles_d = _poles(result.E, discrete=True, ts=float(Ts))
     return {

@@ -68,7 +68,8 @@ def quaternion_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def quaternion_conjugate(q: np.ndarray) -> np.ndarray:
     """Conjugate (the inverse of a unit quaternion), (x, y, z, w)."""
     q = np.asarray(q, dtype=np.float64)
-    return q * np.array([-1.0, -1.0, -1.0, 1.0])
+    out: np.ndarray = q * np.array([-1.0, -1.0, -1.0, 1.0])
+    return out
 
 
 def canonical(q: np.ndarray) -> np.ndarray:

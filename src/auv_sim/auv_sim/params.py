@@ -114,7 +114,7 @@ class VehicleParams:
     def __getattr__(self, key: str) -> float:
         values = self.__dict__.get('values')
         if values is not None and key in values:
-            return values[key]
+            return float(values[key])
         raise AttributeError(key)
 
     @property

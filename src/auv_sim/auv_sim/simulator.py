@@ -187,5 +187,6 @@ def step_batch(params: VehicleParams, X: np.ndarray, CMD: np.ndarray, nsteps: in
     env = environment or Environment()
     p = env.apply_to(params)
     kernel = rk4_batch_parallel if parallel else rk4_batch
-    return kernel(t0, X, CMD, p.as_array(), env.env_vector(), env.profile(),
-                     float(dt if dt is not None else params.dt), nsteps)
+    out: np.ndarray = kernel(t0, X, CMD, p.as_array(), env.env_vector(), env.profile(),
+                             float(dt if dt is not None else params.dt), nsteps)
+    return out

@@ -91,7 +91,8 @@ class VerticalPlane:
         """Total body wrench (6) [N, N m] at the full state x (complex allowed)."""
         out = np.zeros((4, 6), dtype=x.dtype)
         wrenches(0.0, x, self._p, self._env, self._prof, out)
-        return out.sum(axis=0)
+        total: np.ndarray = out.sum(axis=0)
+        return total
 
     def rates(self, X: np.ndarray, bar: complex, u0: float, z_ref: float = 0.0,
               kinematics: Kinematics = 'full') -> np.ndarray:
