@@ -30,6 +30,7 @@ import tempfile
 import time
 
 import numpy as np
+from timing import save_figures
 
 from auv_ident import bag
 
@@ -106,7 +107,5 @@ def run(n: int = 180_000, repeats: int = 5) -> dict[str, object]:
 
 if __name__ == '__main__':
     figures = run()
-    out = pathlib.Path(__file__).resolve().parent / 'results' / 'bag.json'
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(figures, indent=2) + '\n')
+    save_figures('bag', figures)
     print(json.dumps(figures, indent=2))

@@ -37,6 +37,8 @@ import platform
 import time
 from typing import Any
 
+from timing import save_figures
+
 from auv_depth_lqr.bound import settling_bound
 from auv_depth_lqr.closed_loop import run_closed_loop
 from auv_depth_lqr.errors import AuvLqrError
@@ -146,7 +148,5 @@ def run() -> dict[str, Any]:
 
 if __name__ == '__main__':
     figures = run()
-    out = pathlib.Path(__file__).resolve().parent / 'results' / 'closed_loop.json'
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(figures, indent=2) + '\n')
+    save_figures('closed_loop', figures)
     print(json.dumps(figures, indent=2))

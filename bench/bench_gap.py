@@ -23,7 +23,7 @@ import platform
 import tempfile
 from typing import Any
 
-from timing import median_time
+from timing import median_time, save_figures
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 TARGET_S = 60.0
@@ -75,7 +75,5 @@ def run(repeats: int = 3) -> dict[str, Any]:
 
 if __name__ == '__main__':
     figures = run()
-    out = ROOT / 'bench' / 'results' / 'gap.json'
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(figures, indent=2) + '\n')
+    save_figures('gap', figures)
     print(json.dumps(figures, indent=2))

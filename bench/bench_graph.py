@@ -26,6 +26,7 @@ import time
 from typing import Any
 
 import numpy as np
+from timing import save_figures
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -97,7 +98,5 @@ def run(lockstep_time: float = 300.0, real_time: float = 30.0) -> dict[str, Any]
 
 if __name__ == '__main__':
     figures = run()
-    path = ROOT / 'bench' / 'results' / 'graph.json'
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(figures, indent=2))
+    save_figures('graph', figures)
     print(json.dumps(figures, indent=2))

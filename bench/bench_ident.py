@@ -21,7 +21,7 @@ import platform
 import tempfile
 from typing import Any
 
-from timing import median_time
+from timing import median_time, save_figures
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SEQUENCE = ('surge', 'pitch', 'yaw', 'surge', 'pitch', 'yaw', 'pitch')
@@ -91,8 +91,6 @@ def run(repeats: int = 3) -> dict[str, Any]:
 
 if __name__ == '__main__':
     figures = run()
-    out = ROOT / 'bench' / 'results' / 'ident.json'
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(figures, indent=2) + '\n')
+    save_figures('ident', figures)
     print(json.dumps({k: v for k, v in figures.items() if not k.startswith('coefficients')},
                      indent=2))

@@ -24,7 +24,7 @@ import platform
 from typing import Any
 
 import numpy as np
-from timing import median_time
+from timing import median_time, save_figures
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 TARGET_US_PER_STEP = 7.0
@@ -114,7 +114,5 @@ def run(steps: int = 100_000, repeats: int = 7, batch_sizes: tuple[int, ...] = (
 
 if __name__ == '__main__':
     figures = run()
-    out = pathlib.Path(__file__).resolve().parent / 'results' / 'sim.json'
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(figures, indent=2) + '\n')
+    save_figures('sim', figures)
     print(json.dumps(figures, indent=2))
