@@ -18,9 +18,10 @@ Beyond the report, :class:`DepthController` adds
   of the integrator's share of the command);
 * BAR angle and rate limits on the output command;
 * a reference governor (:class:`GovernorSettings`) that turns a depth change into a
-  jerk-limited, time-optimal vertical-speed profile whose steady climb/dive needs at most
-  ``margin * theta_max`` pitch, whose feed-forward BAR stays within the plane's authority,
-  and which ends on a short exponential landing, so the attitude is quiet once settled;
+  near time-optimal vertical-speed profile (continuous jerk) whose steady climb/dive needs
+  at most ``margin * theta_max`` pitch, whose feed-forward BAR stays within the plane's
+  angle and rate, whose stop holds the plane at its braking end, and which ends on a short
+  exponential landing, so the attitude is quiet once settled;
 * model-based feed-forward of the whole manoeuvre: the linear model's exact trajectory for
   the profile (a series in the derivatives of the vertical speed, :class:`OperatingPoint`),
   with the exact depth kinematics ``z_dot = -u sin(theta) + w cos(theta)``;
@@ -647,8 +648,7 @@ class DepthController:
         self._a_r = 0.0
         self._j_r = 0.0
         self._s_r = 0.0
-        self._command: float | None = None
-        self._landing: tuple[float | None, float] | None = None
+        self._landing: tuple[float, float] | None = None
         self._switch_hint = [0]
         self._s_root: float | None = None
         self._bar_prev = None if bar_previous is None else _finite('bar_previous', bar_previous)
@@ -664,7 +664,7 @@ class DepthController:
         return None if self._z_r is None else (self._z_r, self._v_r)
 
     # -- one sample ------------------------------------------------------------------------
-    def _limits_toward(self, op: OperatingPoint, u: float, travel: float
+    def _limits_toward(self, op: OperatingPoint, u: float, travel: float, landing: float
                        ) -> tuple[float, float, _Brake]:
         """Limits of the reference for a motion in ``travel`` (+1 down, -1 up).
 
@@ -675,10 +675,10 @@ class DepthController:
         input ``U = travel (BAR - bar_e)`` of the series is ``b_0 V + b_1 A + b_2 J + b_3 S``
         (linear kinematics). A stop moves that input at ``bar_rate_margin`` times the plane's
         rate to the braking end of ``brake_bar_share * bar_margin * bar_max`` and holds it,
-        then releases it at the same rate towards ``release_bar_share`` of the way to the
-        other end, until the deceleration is down to that of the landing. The speed-up jerk is
-        at most ``accel_max / jerk_time`` and ``b_2 jerk`` at most ``jerk_bar_share`` of the
-        budget.
+        then releases it at the same rate towards the landing's input plus
+        ``release_bar_share`` of the room beyond it, until the deceleration is down to that of
+        the landing (time constant ``landing`` [s]). The speed-up jerk is at most
+        ``accel_max / jerk_time`` and ``b_2 jerk`` at most ``jerk_bar_share`` of the budget.
         """
         settings, lim = self.governor, self.limits
         b = op.F[:, 3]
@@ -688,11 +688,6 @@ class DepthController:
             jerk = min(jerk, settings.jerk_bar_share * budget / abs(float(b[2])))
         v_lo, v_hi = GainSchedule.vertical_speed_bounds(op, u, lim, settings.margin)
         v_cap = v_hi if travel > 0.0 else -v_lo
-        # The landing's time constant is fixed per command (at the speed of its first sample):
-        # a landing that changed with every wobble of the measured speed would re-plan itself.
-        if self._landing is None or self._landing[0] != self._command:
-            self._landing = (self._command, settings.approach_length / max(u, 0.1))
-        landing = self._landing[1]
         v_land = settings.landing_distance / landing
         share = settings.brake_bar_share * budget
         sign = 1.0 if float(b[1]) >= 0.0 else -1.0
@@ -722,19 +717,23 @@ class DepthController:
         ``bar_margin * bar_max`` and moves at most at ``bar_rate_margin`` times the plane's
         rate, so the reference is one the plane can fly. If the stop from the state after the
         sample (:func:`_stop_distance`) would pass the target, the snap is instead the largest
-        one whose stop ends on the target (bisection; the rate limit gives way before the
-        target does): the reference brakes as late as the plane allows and never overshoots.
+        one whose stop ends on the target (regula falsi from the last sample's root; the rate
+        limit gives way before the target does): the reference brakes as late as the plane
+        allows and never overshoots.
         """
         settings, lim, ts = self.governor, self.limits, self.Ts
         assert self._z_r is not None
-        self._command = z_cmd
+        # The landing's time constant is fixed per command (at the speed of its first sample):
+        # a landing that changed with every wobble of the measured speed would re-plan itself.
+        if self._landing is None or self._landing[0] != z_cmd:
+            self._landing = (z_cmd, settings.approach_length / max(u, 0.1))
         error = z_cmd - self._z_r
         travel = 1.0 if error > 0.0 or (error == 0.0 and self._v_r > 0.0) else -1.0
         E, V = travel * error, travel * self._v_r
         A, J = travel * self._a_r, travel * self._j_r
         if E < 1e-3 and abs(V) < 1e-3 and abs(A) < 2e-3 and abs(J) < 2e-3:
             return z_cmd, 0.0, 0.0, 0.0, 0.0
-        v_cap, jerk, brake = self._limits_toward(op, u, travel)
+        v_cap, jerk, brake = self._limits_toward(op, u, travel, self._landing[1])
         landing, v_land = brake.landing, brake.v_land
         if 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E:
             # Final approach: the exponential e(t) = E exp(-t / landing).

@@ -90,7 +90,8 @@ def test_stop_distance_matches_the_finely_integrated_stop(
     equals the brute-force stop integrated in 200 steps per sample."""
     ctrl = DepthController(schedule, Limits(), TS)
     op = schedule.at(2.0)
-    _, _, brake = ctrl._limits_toward(op, 2.0, -1.0)
+    landing = ctrl.governor.approach_length / 2.0  # s, as for a command flown at 2 m/s
+    _, _, brake = ctrl._limits_toward(op, 2.0, -1.0, landing)
     b = op.F[:, 3]
     u = b[0] * v + b[1] * a + b[2] * j
     expected = oracle_stop(v, a, j, u, brake, b)
