@@ -162,6 +162,14 @@ def test_bad_water_speed_is_refused() -> None:
             PilotSettings(water_speed=bad)
 
 
+def test_bad_publish_delay_is_refused() -> None:
+    from auv_depth_lqr.errors import DesignError
+    for bad in (-0.001, 0.05, math.nan, math.inf):
+        with pytest.raises(DesignError, match='publish_delay'):
+            PilotSettings(publish_delay=bad)
+    assert PilotSettings(publish_delay=0.0).publish_delay == 0.0
+
+
 def test_a_vehicle_the_controller_loses_never_gets_a_non_finite_command() -> None:
     """On the REMUS 100 file (open-loop unstable in pitch, 3.6 deg of nose-up fin left at
     trim) the controller's planning can fail; the pilot then sends its safe fin angle, and

@@ -34,8 +34,12 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
     rclpy.init()
     node = rclpy.create_node('pilot_probe')
     bars: list[tuple[float, float]] = []
-    node.create_subscription(ActuatorSetpoint, '/auv/bar_command',
-                             lambda m: bars.append((time.monotonic(), m.value)), 50)
+    phase: list[tuple[int, int]] = []  # (header stamp, receipt) [ns, system clock]
+
+    def on_bar(m: ActuatorSetpoint) -> None:
+        bars.append((time.monotonic(), m.value))
+        phase.append((m.header.stamp.sec * 10**9 + m.header.stamp.nanosec, time.time_ns()))
+    node.create_subscription(ActuatorSetpoint, '/auv/bar_command', on_bar, 50)
     state_pub = node.create_publisher(VehicleState, '/auv/state', 50)
     depth_pub = node.create_publisher(Float64, '/auv/depth_command', QoSProfile(
         depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -63,6 +67,11 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
         periods = [b - a for (a, _), (b, _) in itertools.pairwise(bars)]
         assert 15 <= len(bars) <= 25
         assert abs(sorted(periods)[len(periods) // 2] - 0.1) < 0.02
+        # output phase: stamped with the tick's instant (an exact 0.1 s grid), received no
+        # earlier than the default publish delay (5 ms) after it
+        stamps = [st for st, _ in phase[-len(bars):]]
+        assert {b - a for a, b in itertools.pairwise(stamps)} == {100_000_000}
+        assert min(rx - st for st, rx in phase[-len(bars):]) >= 5_000_000
         # a valid command, then NaN, inf and out-of-envelope commands: rejected, node alive
         depth_pub.publish(Float64(data=25.0))
         spin_for(1.0)

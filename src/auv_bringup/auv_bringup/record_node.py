@@ -120,14 +120,16 @@ class Recorder:
         """Write one message; its log time is its DDS receive time (ns, system clock), held
         non-decreasing per topic: a reliable reader delivers in publication order, but samples
         repaired by retransmission carry a later receive time than the ones queued behind them,
-        and the bag's log-time order must be its delivery order."""
+        and the bag's log-time order must be its delivery order. Its publish time is the DDS
+        source timestamp (ns, the publisher's system clock at ``publish``), as rosbag2 records
+        it: the publisher's own timing, without the delivery delay."""
         received = info.get('received_timestamp') or time.time_ns()
         if self.stop_ns is not None and received > self.stop_ns:
             self.late += 1
             return
         received = max(received, self._last_ns.get(topic, 0))
         self._last_ns[topic] = received
-        self.writer.write(topic, data, received)
+        self.writer.write(topic, data, received, info.get('source_timestamp') or received)
         self.count += 1
         self.last_message = time.monotonic()
 

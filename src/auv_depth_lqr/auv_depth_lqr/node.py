@@ -14,9 +14,14 @@ Parameters (validated at start and on change): ``vehicle_file``, ``rate`` [Hz], 
 (preset name), ``theta_max_deg`` [deg], ``bar_max`` / ``bar_rate`` [rad, rad/s; 0 = vehicle
 file], ``state_timeout`` [s], ``safe_bar`` [rad], ``lockstep`` (bool), ``water_speed``
 [m/s; 0 = schedule on the measured surge over ground, else the known speed through the water,
-see :func:`auv_depth_lqr.pilot.water_relative`].
+see :func:`auv_depth_lqr.pilot.water_relative`], ``publish_delay`` [s].
+
+Output phase (timer on the wall clock): the command of the tick due at ``t_k`` is computed at
+once and published at ``t_k + publish_delay`` (default 5 ms), so the publish period keeps the
+timer's grid whatever the step took; a step that ends later publishes at once. The header
+stamp is ``t_k``, the control instant the command is for. On simulated time (``use_sim_time``)
+the command is published as soon as it is computed.
 """
-from __future__ import annotations
 
 import argparse
 import gc
@@ -24,6 +29,7 @@ import math
 import os
 import pathlib
 import sys
+import time
 from typing import Any
 
 import rclpy
@@ -32,6 +38,7 @@ import rclpy.executors
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.timer import TimerInfo
 from std_msgs.msg import Float64
 
 from auv_depth_lqr.errors import AuvLqrError, InvalidInputError
@@ -65,6 +72,7 @@ class DepthPilotNode(Node):
         self.declare_parameter('safe_bar', SAFE_BAR_DEFAULT)
         self.declare_parameter('lockstep', False)
         self.declare_parameter('water_speed', 0.0)
+        self.declare_parameter('publish_delay', 0.005)
         self.pilot = self._build(self._values({}))
         self.add_on_set_parameters_callback(self._on_set)
         # reliable, last 100 (10 s at 10 Hz): a lost sample is resent from this history
@@ -80,7 +88,7 @@ class DepthPilotNode(Node):
     # -- parameters --------------------------------------------------------------------------
     def _values(self, changes: dict[str, Any]) -> dict[str, Any]:
         names = ('vehicle_file', 'rate', 'weights', 'theta_max_deg', 'bar_max', 'bar_rate',
-                 'state_timeout', 'safe_bar', 'lockstep', 'water_speed')
+                 'state_timeout', 'safe_bar', 'lockstep', 'water_speed', 'publish_delay')
         values = {n: self.get_parameter(n).value for n in names}
         values.update(changes)
         return values
@@ -92,7 +100,8 @@ class DepthPilotNode(Node):
             theta_max=math.radians(float(v['theta_max_deg'])),
             bar_max=float(v['bar_max']) or None, bar_rate=float(v['bar_rate']) or None,
             state_timeout=float(v['state_timeout']), safe_bar=float(v['safe_bar']),
-            water_speed=float(v['water_speed']) or None)
+            water_speed=float(v['water_speed']) or None,
+            publish_delay=float(v['publish_delay']))
         return DepthPilot.for_vehicle(params, settings)
 
     def _on_set(self, params: list[Any]) -> SetParametersResult:
@@ -141,12 +150,17 @@ class DepthPilotNode(Node):
             if stamp_ns % self.control_ns == 0:
                 self._publish(msg.header.stamp, self._now())
 
-    def _on_timer(self) -> None:
+    def _on_timer(self, info: TimerInfo) -> None:
         if self._pending_timer:
             self._configure_timer()
-        self._publish(self.get_clock().now().to_msg(), self._now())
+        due = info.expected_call_time
+        wall = not self.get_clock().ros_time_is_active  # ROS time on the system clock
+        out_ns = due.nanoseconds + int(self.pilot.settings.publish_delay * NS_PER_S)
+        self._publish(due.to_msg(), self._now(), out_ns if wall else None)
 
-    def _publish(self, stamp: Any, t: float) -> None:
+    def _publish(self, stamp: Any, t: float, out_ns: int | None = None) -> None:
+        """Compute the command for ``t`` [s] and publish it stamped ``stamp``; with ``out_ns``
+        [ns, system clock], not before that instant."""
         bar, status = self.pilot.command(t)
         if status != self._reported:
             if status == 'ok':
@@ -161,6 +175,10 @@ class DepthPilotNode(Node):
         out.header.stamp = stamp
         out.header.frame_id = 'bar'
         out.value = float(bar)
+        if out_ns is not None:
+            wait = out_ns - time.time_ns()
+            if wait > 0:
+                time.sleep(wait / NS_PER_S)
         self.pub.publish(out)
 
 

@@ -48,7 +48,10 @@ class PilotSettings:
     ``speeds`` is the gain-scheduling grid [m/s]; ``water_speed`` [m/s], when given, is the
     surge speed through the water (from the propeller setting or a water-track log) that the
     pilot schedules on and flies its model at, instead of the measured surge over ground
-    (see :func:`water_relative`).
+    (see :func:`water_relative`). ``publish_delay`` [s, 0 <= d < Ts/2] is the fixed output
+    phase of a pilot on the wall clock: the command of the tick due at ``t_k`` is published at
+    ``t_k + publish_delay``, so the time its step took (and a late wake-up) does not move the
+    publish instant (logical-execution-time output); 0 publishes as soon as it is computed.
     """
 
     rate_hz: float = 10.0
@@ -60,12 +63,17 @@ class PilotSettings:
     state_timeout: float = 0.5
     safe_bar: float = SAFE_BAR_DEFAULT
     water_speed: float | None = None
+    publish_delay: float = 0.005
 
     def __post_init__(self) -> None:
         for name in ('rate_hz', 'theta_max', 'state_timeout'):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise DesignError(f'pilot setting {name} = {value!r} must be finite and > 0')
+        if not (isinstance(self.publish_delay, (int, float))
+                and 0.0 <= self.publish_delay < 0.5 / self.rate_hz):
+            raise DesignError(f'pilot setting publish_delay = {self.publish_delay!r} s must be '
+                              f'>= 0 and below half the sample period ({0.5 / self.rate_hz:g} s)')
         if not math.isfinite(self.safe_bar):
             raise DesignError(f'pilot setting safe_bar = {self.safe_bar!r} must be finite')
         if self.water_speed is not None and not (

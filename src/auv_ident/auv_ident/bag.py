@@ -6,7 +6,9 @@ concatenated message definition, message encoding ``cdr``, the offered QoS profi
 channel's metadata). Every function here also takes a bare ``.mcap`` file.
 
 Times: ``log_time`` is when the recorder received a message (ns since the Unix epoch, or since
-the start of simulated time); ``t`` in the arrays is the message's header stamp (s).
+the start of simulated time); ``publish_time`` is when the publisher sent it (the DDS source
+timestamp, as rosbag2 records it; the log time where none is known); ``t`` in the arrays is the
+message's header stamp (s).
 
 Damage: a bag cut short (a recorder killed mid-write, a copy interrupted) or with garbage
 bytes is read record by record from the start without seeking; every whole message before the
