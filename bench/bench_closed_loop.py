@@ -22,7 +22,8 @@ Cases: 40 -> 10 m at 2 m/s; the same with a 0.3 m/s current (following: north, t
 heads north; head: south; cross: east), the vehicle starting trimmed in the water and the pilot
 told its speed through the water (``PilotSettings.water_speed``, as from its propeller
 setting), and once more in the head current with the pilot on its speed over ground; at
-u0 = 1.5 and 2.5 m/s (gain scheduling); 10 -> 40 m at 2 m/s. Every case runs with the pilot's
+u0 = 1.5, 2.5 and 1.83 m/s (gain scheduling, on and between grid speeds); 10 -> 40 m at
+2 m/s. Every case runs with the pilot's
 default weights and with the report's section-5
 tuning (``report_5``), same governor. Simulated time is exact, so the figures are
 deterministic; the wall time per run is reported for information. Run as a script to write
@@ -62,6 +63,7 @@ CASES: dict[str, tuple[float, float, float, dict[str, float] | None, bool]] = {
     'climb_40_10_u2_current_head_0.3_ground_speed': (40.0, 10.0, 2.0, {'north': -0.3}, False),
     'climb_40_10_u1.5': (40.0, 10.0, 1.5, None, False),
     'climb_40_10_u2.5': (40.0, 10.0, 2.5, None, False),
+    'climb_40_10_u1.83': (40.0, 10.0, 1.83, None, False),
     'dive_10_40_u2': (10.0, 40.0, 2.0, None, False),
 }
 

@@ -268,14 +268,14 @@ class GovernorSettings:
     bar_rate_margin: float = 0.9
     """Fraction of the BAR rate limit that the feed-forward BAR of the reference may use
     [-]; the stop is planned with the BAR moving at that rate."""
-    jerk_bar_share: float = 0.25
+    jerk_bar_share: float = 0.28
     """Fraction of ``bar_margin * bar_max`` that the jerk term ``b_2 j`` of the speed-up may
     use; it bounds the jerk (the pitch acceleration) of the speed-up [-]."""
     max_lag: float = 0.5
     """Largest distance [m] by which the governed reference may lead the vehicle in the
     direction of travel; when the vehicle falls further behind (a current, a speed lower
     than assumed) the reference waits for it instead of winding up the depth error."""
-    pitch_guard: float = 0.98
+    pitch_guard: float = 0.97
     """Fraction of ``theta_max`` beyond which the depth feedback may not ask for more pitch:
     the pitch command ``theta_ref + (depth and integral terms) / K_theta`` of the LQR is
     clipped there (pitch envelope protection; inactive in normal flight) [-]."""
