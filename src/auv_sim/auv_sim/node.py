@@ -47,7 +47,9 @@ allow:
    ``t_k`` and held (zero-order hold) until the next instant's command. A NaN or out-of-range
    answer is rejected as usual (the last valid command stays) but still releases the wait.
 3. If no such command arrives within ``lockstep_timeout`` wall seconds, the simulator logs a
-   warning and goes on with the last valid command.
+   warning and goes on with the last valid command. With a ``stop_time`` that is a control
+   instant, the simulator also waits for the answer to that last state before it exits, so
+   a recording holds the whole exchange.
 4. A ``bar_command`` stamped otherwise (late, early, or unstamped) is ignored with a warning:
    only answers to the awaited instant act, which is what makes the run deterministic.
    ``helm_command`` and ``thrust_command`` are not part of the protocol; they act when they
@@ -418,6 +420,8 @@ class SimulatorNode(Node):
             if s.stop_time > 0.0 and self.sim.t >= s.stop_time - 0.5 * self.setup.dt:
                 if k != next_pub and not control_instant:
                     self._publish()
+                if control_instant:  # the pilot's answer to the last state is part of the run
+                    self._await_command(executor)
                 break
             if control_instant:
                 self._await_command(executor)
