@@ -68,10 +68,10 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
         assert 15 <= len(bars) <= 25
         assert abs(sorted(periods)[len(periods) // 2] - 0.1) < 0.02
         # output phase: stamped with the tick's instant (an exact 0.1 s grid), received no
-        # earlier than the default publish delay (5 ms) after it
+        # earlier than the default publish delay (10 ms) after it
         stamps = [st for st, _ in phase[-len(bars):]]
         assert {b - a for a, b in itertools.pairwise(stamps)} == {100_000_000}
-        assert min(rx - st for st, rx in phase[-len(bars):]) >= 5_000_000
+        assert min(rx - st for st, rx in phase[-len(bars):]) >= 10_000_000
         # a valid command, then NaN, inf and out-of-envelope commands: rejected, node alive
         depth_pub.publish(Float64(data=25.0))
         spin_for(1.0)

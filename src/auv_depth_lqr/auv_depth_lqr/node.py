@@ -17,7 +17,7 @@ file], ``state_timeout`` [s], ``safe_bar`` [rad], ``lockstep`` (bool), ``water_s
 see :func:`auv_depth_lqr.pilot.water_relative`], ``publish_delay`` [s].
 
 Output phase (timer on the wall clock): the command of the tick due at ``t_k`` is computed at
-once and published at ``t_k + publish_delay`` (default 5 ms), so the publish period keeps the
+once and published at ``t_k + publish_delay`` (default 10 ms), so the publish period keeps the
 timer's grid whatever the step took; a step that ends later publishes at once. The header
 stamp is ``t_k``, the control instant the command is for. On simulated time (``use_sim_time``)
 the command is published as soon as it is computed.
@@ -72,7 +72,7 @@ class DepthPilotNode(Node):
         self.declare_parameter('safe_bar', SAFE_BAR_DEFAULT)
         self.declare_parameter('lockstep', False)
         self.declare_parameter('water_speed', 0.0)
-        self.declare_parameter('publish_delay', 0.005)
+        self.declare_parameter('publish_delay', 0.01)
         self.pilot = self._build(self._values({}))
         self.add_on_set_parameters_callback(self._on_set)
         # reliable, last 100 (10 s at 10 Hz): a lost sample is resent from this history

@@ -70,7 +70,7 @@ class PilotSettings:
     state_timeout: float = 0.5
     safe_bar: float = SAFE_BAR_DEFAULT
     water_speed: float | None = None
-    publish_delay: float = 0.005
+    publish_delay: float = 0.01
 
     def __post_init__(self) -> None:
         for name in ('rate_hz', 'theta_max', 'state_timeout'):
