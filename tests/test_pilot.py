@@ -138,6 +138,35 @@ def test_between_and_beside_the_bench_speeds_the_pilot_keeps_its_targets(
     assert m.peak_pitch <= THETA_MAX, m
 
 
+# A vehicle unlike its file's nominal A18M: each pitch and heave derivative, the plane's
+# authority, the restoring moment, the buoyancy, the inertia and the servo lag changed by a
+# factor of 0.3-3. Measured (40 -> 10 m and 10 -> 40 m at 2 m/s): settling 1.25-1.79 T_kin,
+# overshoot <= 0.087 m, peak pitch <= 26.0 deg (CMuq halved), the pitch rate after settling
+# decaying to 0 (no limit cycle).
+VEHICLE_CHANGES = {
+    'CMuw': 1.5, 'CMuq': 0.5, 'CMbar': 2.0, 'CZbar': 0.5, 'zg': 3.0, 'Iy': 1.5, 'Mqdot': 2.0,
+    'bar_tau': 4.0,
+}
+
+
+@pytest.mark.parametrize('name', sorted(VEHICLE_CHANGES))
+@pytest.mark.parametrize(('z0', 'z1'), [(40.0, 10.0), (10.0, 40.0)])
+def test_the_pilot_flies_vehicles_unlike_the_nominal_one(
+    params, name: str, z0: float, z1: float,  # type: ignore[no-untyped-def]
+) -> None:
+    vehicle = params.replace(**{name: params.values[name] * VEHICLE_CHANGES[name]})
+    run = run_closed_loop(vehicle, [(0.0, z1)], 200.0, z0=z0, u0=2.0)
+    rec = run.record
+    m = step_metrics(rec.t, rec.x[:, 2], rec.x[:, 4], rec.x[:, 10], rec.x[:, 12], z1,
+                     bar_max=vehicle.bar_max, u0=2.0, theta_max=THETA_MAX)
+    assert m.settling_time <= 2.0 * m.kinematic_bound, m
+    assert m.overshoot < 0.2, m
+    assert m.peak_pitch <= math.radians(27.0), m
+    last = rec.t >= rec.t[-1] - 20.0
+    assert np.max(np.abs(rec.x[last, 2] - z1)) < 0.01
+    assert math.degrees(np.sqrt(np.mean(rec.x[last, 10] ** 2))) < 0.01
+
+
 def test_big_climb_settles_within_1_5_kinematic_bounds(
     params,  # type: ignore[no-untyped-def]
 ) -> None:
