@@ -82,7 +82,8 @@ def design(params: VehicleParams, speed: float, weights: str = 'default', Ts: fl
     summary = design_summary(linearize, u0, Q, R, ts)
     summary['trim']['thrust'] = trim.thrust
     summary = {'vehicle': params.name, 'weights': weights, 'kinematics': kinematics, **summary}
-    return _json_ready(summary)
+    ready: dict[str, Any] = _json_ready(summary)
+    return ready
 
 
 def _json_ready(value: Any) -> Any:

@@ -36,9 +36,10 @@ import rclpy
 import rclpy.exceptions
 import rclpy.executors
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.clock import ROSClock
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.timer import TimerInfo
+from rclpy.timer import Timer, TimerInfo
 from std_msgs.msg import Float64
 
 from auv_depth_lqr.errors import AuvLqrError, InvalidInputError
@@ -81,7 +82,7 @@ class DepthPilotNode(Node):
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.create_subscription(Float64, '/auv/depth_command', self._on_depth, latched)
         self.create_subscription(VehicleState, '/auv/state', self._on_state, 50)
-        self.timer = None
+        self.timer: Timer | None = None
         self._reported = ''
         self._configure_timer()
 
@@ -154,7 +155,8 @@ class DepthPilotNode(Node):
         if self._pending_timer:
             self._configure_timer()
         due = info.expected_call_time
-        wall = not self.get_clock().ros_time_is_active  # ROS time on the system clock
+        clock = self.get_clock()  # ROS time: on the system clock unless /clock drives it
+        wall = not (isinstance(clock, ROSClock) and clock.ros_time_is_active)
         out_ns = due.nanoseconds + int(self.pilot.settings.publish_delay * NS_PER_S)
         self._publish(due.to_msg(), self._now(), out_ns if wall else None)
 

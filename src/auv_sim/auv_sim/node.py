@@ -218,7 +218,7 @@ class SimulatorNode(Node):
         check_settings(settings)
         return settings
 
-    def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
+    def _on_set_parameters(self, params: list[Parameter[Any]]) -> SetParametersResult:
         changes: dict[str, Any] = {}
         for p in params:
             if p.name not in _DESCRIPTIONS:
@@ -503,8 +503,8 @@ def run(args: argparse.Namespace) -> int:
             node.destroy_node()
         if context.ok():
             context.try_shutdown()
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
+        for number, handler in previous.items():
+            signal.signal(number, handler)
 
 
 def main(argv: Sequence[str] | None = None) -> None:
