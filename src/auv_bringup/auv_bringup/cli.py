@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from types import ModuleType
 from typing import NamedTuple
 
@@ -91,7 +91,7 @@ def run_module(module: ModuleType, prog: str, argv: Sequence[str], description: 
     return _guarded(lambda: int(module.run(args) or 0))
 
 
-def _guarded(call) -> int:  # type: ignore[no-untyped-def]
+def _guarded(call: Callable[[], int]) -> int:
     try:
         return call()
     except KeyboardInterrupt:

@@ -37,7 +37,8 @@ def gap_step(params: VehicleParams, vehicle_file: str, out: pathlib.Path,
         raise RunError(f'auv gap failed: {proc.stderr.strip().splitlines()[-1:]}')
     report = json.loads((out / 'report' / 'report.json').read_text())
     best = report['best']
-    params_best = next((c['params'] for c in report['candidates'] if c['effect'] == best), {})
+    params_best: dict[str, float] = next(
+        (c['params'] for c in report['candidates'] if c['effect'] == best), {})
     held = report['held_out']
     return {'hidden': ', '.join(f'{k} {v}' for k, v in env.effects.items()),
             'verdict': report['verdict'], 'best': best,

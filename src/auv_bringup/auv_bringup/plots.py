@@ -13,6 +13,7 @@ import matplotlib
 matplotlib.use('Agg')
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 
 
 def plot_depth_run(state: Mapping[str, np.ndarray], bar_t: np.ndarray, bar: np.ndarray,
@@ -29,7 +30,7 @@ def plot_depth_run(state: Mapping[str, np.ndarray], bar_t: np.ndarray, bar: np.n
     t0 = state['t'][0]
     paths = []
 
-    def save(fig: plt.Figure, name: str) -> None:
+    def save(fig: Figure, name: str) -> None:
         fig.tight_layout()
         path = out / name
         fig.savefig(path, dpi=110)

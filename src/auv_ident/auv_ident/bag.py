@@ -33,8 +33,8 @@ from io import StringIO
 from typing import IO, Any, NamedTuple
 
 import numpy as np
+from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-from rosbags.typesys.base import Nodetype
 from rosbags.typesys.store import Typestore
 
 from .errors import BagError
@@ -403,7 +403,7 @@ class BagWriter:
     def flush(self) -> None:
         """Write the chunk in progress and flush the file (the OS keeps it if we crash)."""
         self._check_open()
-        self._writer.flush()
+        self._writer.flush()  # type: ignore[no-untyped-call]  # mcap 1.6: unannotated
         self._last_flush = time.monotonic()
 
     # -- closing -----------------------------------------------------------------------------
@@ -415,7 +415,7 @@ class BagWriter:
         try:
             info = self._metadata()
             self._writer.add_metadata('rosbag2', {'serialized_metadata': _yaml_dump(info)})
-            self._writer.finish()
+            self._writer.finish()  # type: ignore[no-untyped-call]  # mcap 1.6: unannotated
         finally:
             self._stream.close()
         if self._dir is not None:
@@ -664,9 +664,9 @@ class _Scanner:
                 loose.add(body)
             elif op == _OP_CHUNK:
                 yield from self._take(loose, chunk, pending, ahead)
-                buffer, body = self._read_into(fh, length)
-                inflated = (self._pool.submit(self._inflate, body, pos) if self._pool
-                            else _done(self._inflate, body, pos))
+                buffer, view = self._read_into(fh, length)
+                inflated = (self._pool.submit(self._inflate, view, pos) if self._pool
+                            else _done(self._inflate, view, pos))
                 chunk.append(_Pending(None, inflated, pos, [], buffer))
             elif op == _OP_MESSAGE_INDEX and chunk:
                 chunk[0].indexes.append(fh.read(length))
@@ -850,7 +850,10 @@ class _Scanner:
                     same = 0
                     if run is not None:
                         pieces.append(_lists_to_arrays(channel, log_time, offset, length))
-                        channel.clear(), log_time.clear(), offset.clear(), length.clear()
+                        channel.clear()
+                        log_time.clear()
+                        offset.clear()
+                        length.clear()
                         pieces.append(run)
                         pos += len(run[0]) * (9 + rlen)
                 prev_len = rlen
@@ -921,7 +924,8 @@ def _gather(data: bytes | np.ndarray, offs: np.ndarray, width: int) -> np.ndarra
     if n <= 0:
         return np.empty((0, width), np.uint8)
     items = np.ndarray((n,), dtype=np.dtype(('V', width)), buffer=data, strides=(1,))
-    return items[offs].view(np.uint8).reshape(len(offs), width)
+    rows: np.ndarray = items[offs].view(np.uint8).reshape(len(offs), width)
+    return rows
 
 
 def _lists_to_arrays(*lists: list[int]) -> tuple[np.ndarray, ...]:
@@ -1020,11 +1024,13 @@ def _decompress(data: bytes | memoryview, comp: str, usize: int) -> bytes:
     if comp == 'zstd':
         import zstandard
 
-        return zstandard.ZstdDecompressor().decompress(data, max_output_size=usize)
+        out: bytes = zstandard.ZstdDecompressor().decompress(data, max_output_size=usize)
+        return out
     if comp == 'lz4':
         import lz4.frame
 
-        return lz4.frame.decompress(data)
+        frame: bytes = lz4.frame.decompress(data)
+        return frame
     raise ValueError(f'unknown compression {comp!r}')
 
 
@@ -1035,11 +1041,13 @@ def _decompress_prefix(data: bytes, comp: str) -> bytes:
     if comp == 'zstd':
         import zstandard
 
-        return zstandard.ZstdDecompressor().decompressobj().decompress(data)
+        prefix: bytes = zstandard.ZstdDecompressor().decompressobj().decompress(data)
+        return prefix
     if comp == 'lz4':
         import lz4.frame
 
-        return lz4.frame.LZ4FrameDecompressor().decompress(data)
+        head: bytes = lz4.frame.LZ4FrameDecompressor().decompress(data)
+        return head
     return b''
 
 
@@ -1283,7 +1291,9 @@ def _compile(store: Typestore, msgtype: str) -> _Layout:
         if typ in _TIME_TYPES:
             ops.append(_Op('time', name_of(path), '', path))
             return
-        for fname, (node, spec) in store.fielddefs[typ][1]:
+        # (node, spec) pairs: spec's shape depends on node, which mypy cannot follow here
+        fields: Sequence[tuple[str, tuple[Nodetype, Any]]] = store.fielddefs[typ][1]
+        for fname, (node, spec) in fields:
             fpath = (*path, fname)
             if node == Nodetype.BASE:
                 base(spec[0], fpath)
@@ -1474,7 +1484,7 @@ def _uniform(values: np.ndarray) -> int | np.ndarray:
 
 def _decode_per_message(layout: _Layout, store: Typestore, msgtype: str, data: bytes,
                         offs: Sequence[int], lens: Sequence[int], topic: str,
-                        file: pathlib.Path | str) -> np.ndarray:
+                        file: str | os.PathLike[str]) -> np.ndarray:
     """Columns by deserializing message by message with rosbags (the reference path).
 
     Returns the columns :func:`_decode_vectorised` gives (messages x :func:`_out_names`).
@@ -1494,7 +1504,7 @@ def _decode_per_message(layout: _Layout, store: Typestore, msgtype: str, data: b
                            f'decode: {exc}') from None
         row = mat[i]
         for j, is_time, path in ops:
-            obj = msg
+            obj: Any = msg  # a generated message class: its fields are known at run time
             for key in path:
                 obj = obj[key] if isinstance(key, int) else getattr(obj, key)
             row[j] = obj.sec + obj.nanosec * 1e-9 if is_time else obj

@@ -38,7 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the diagnosis; 0 on success, 1 with ``error: ...`` on stderr on bad input."""
     from auv_ident.gap.diagnose import diagnose
-    from auv_ident.gap.logs import load_bag
+    from auv_ident.gap.logs import GapLog, load_bag
     from auv_ident.gap.report import write_report
     from auv_sim.errors import ParameterError
     from auv_sim.params import load_vehicle
@@ -63,8 +63,8 @@ def run(args: argparse.Namespace) -> int:
             held_bags.append(norm[key])
         if held_bags and len(set(held_bags)) == len(bags):
             raise ValueError('--holdout cannot hold out every bag')
-        logs = []
-        held_logs = []
+        logs: list[GapLog] = []
+        held_logs: list[int] = []
         for i, b in enumerate(bags):
             say(f'reading {b}')
             for piece in load_bag(b):

@@ -311,7 +311,8 @@ def surge_regressor(u: np.ndarray, params: VehicleParams) -> np.ndarray:
     qs = 0.5 * params.rho * params.S_ref
     re = np.maximum(np.abs(u) * params.L_ref / params.nu_water, RE_MIN)
     cxf = 0.075 / (np.log10(re) - 2.0) ** 2
-    return -qs * cxf * u * np.abs(u)
+    column: np.ndarray = -qs * cxf * u * np.abs(u)
+    return column
 
 
 def regressor_columns(equation: Equation, nu: np.ndarray, params: VehicleParams
@@ -770,7 +771,7 @@ def _smoothed_design(system: LinearSystem, design: np.ndarray) -> np.ndarray | N
 
 def _hac_covariance(system: LinearSystem, As: np.ndarray, resid: np.ndarray,
                     theta: np.ndarray, base: VehicleParams, xtx_inv: np.ndarray,
-                    taus: Sequence[tuple[int, int, float]]
+                    taus: Sequence[tuple[int, int | np.integer[Any], float]]
                     ) -> tuple[np.ndarray, int, str, float]:
     """The ``'hac'`` sandwich ``(D'A)^-1 S (D'A)^-T`` of the column-scaled design ``As``
     (see the module docstring): ``S`` from the sensor-noise propagation when every record has

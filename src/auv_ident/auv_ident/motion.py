@@ -89,7 +89,8 @@ def consistent_kernel(window: int) -> np.ndarray:
     c[0] = 0.0   # c_{-m-1}
     c[-1] = 0.0  # c_m
     w = (c[:-1] + c[1:]) / 2.0
-    return w / w.sum()
+    kernel: np.ndarray = w / w.sum()
+    return kernel
 
 
 def noise_sigma(state: np.ndarray) -> np.ndarray:
@@ -108,7 +109,8 @@ def noise_sigma(state: np.ndarray) -> np.ndarray:
         return np.zeros(x.shape[1])
     d3 = np.diff(x, n=3, axis=0)
     mad = np.median(np.abs(d3 - np.median(d3, axis=0)), axis=0)
-    return 1.4826 * mad / math.sqrt(20.0)
+    sigma: np.ndarray = 1.4826 * mad / math.sqrt(20.0)
+    return sigma
 
 
 def other_jacobian(t: np.ndarray, X: np.ndarray, params: VehicleParams, env: Environment,

@@ -100,7 +100,7 @@ def _make_node(overrides: dict[str, Any]) -> Any:
     from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
     from auv_sim.params import load_vehicle
 
-    class IdentifierNode(Node):  # type: ignore[misc]
+    class IdentifierNode(Node):
         """Accumulates the topics and identifies on request (see module docstring)."""
 
         def __init__(self) -> None:
@@ -192,11 +192,14 @@ def _make_node(overrides: dict[str, Any]) -> Any:
             equations = [e for e in (p['equations'] or []) if e] or None
             records = records_from_topics(self.arrays(), self.base, p['source'],
                                           name='live', window_s=p['window'])
+
+            def log_info(text: str) -> None:
+                self.get_logger().info(text)
+
             result, files = self._identify_and_report(
                 records, self.base, p['out'], ['live topics'], fit_c0=p['fit_c0'],
                 bounds=p['bounds'], errors=p['errors'], equations=equations,
-                nelder_mead=nelder_mead,
-                progress=lambda text: self.get_logger().info(text))
+                nelder_mead=nelder_mead, progress=log_info)
             return {'source': result.source, 'files': files,
                     'coefficients': {n: {'value': c.value, 'std_error': c.std_error,
                                          'ci95': list(c.ci95)}

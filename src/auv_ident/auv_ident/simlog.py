@@ -13,11 +13,15 @@ import dataclasses
 import math
 import os
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from auv_ident.bag import BagWriter, typestore
 from auv_sim.simulator import CHANNELS, Record
+
+if TYPE_CHECKING:
+    from rosbags.typesys.store import MsgType
 
 NS_PER_S = 1_000_000_000
 STATE_FIELDS = ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r')
@@ -72,11 +76,11 @@ def write_record(path: str | os.PathLike[str], rec: Record, *, forces: bool = Tr
         rng = np.random.default_rng(seed)
         meas += rng.standard_normal(meas.shape) * noise.sigmas()
 
-    def header(t: float, frame: str) -> object:
+    def header(t: float, frame: str) -> MsgType:
         ns = stamp_ns(t)
         return Header(stamp=Time(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S), frame_id=frame)
 
-    def wrench(row: np.ndarray) -> object:
+    def wrench(row: np.ndarray) -> MsgType:
         return Wrench(force=Vector3(x=row[0], y=row[1], z=row[2]),
                       torque=Vector3(x=row[3], y=row[4], z=row[5]))
 

@@ -72,7 +72,8 @@ def expected_noise_psd(pr: Problem, row: int, fs: float, nperseg: int, seed: int
         _, p = welch(e[::every], fs=fs, nperseg=nperseg)
         acc = p if acc is None else acc + p
     assert acc is not None
-    return acc / 3.0
+    psd: np.ndarray = acc / 3.0
+    return psd
 
 
 def band(pr: Problem, residual: np.ndarray, row: int) -> tuple[list[float] | None, dict[str, Any]]:

@@ -145,7 +145,8 @@ def separating_manoeuvre(a: str, b: str) -> str:
 
 def _dynamic_pressure_area(vehicle: VehicleParams) -> float:
     """``1/2 rho S_ref`` [kg/m]."""
-    return 0.5 * vehicle.rho * vehicle.S_ref
+    qs: float = 0.5 * vehicle.rho * vehicle.S_ref
+    return qs
 
 
 def _add_force_at(pert: Perturbation, row: int, coef: float, r: tuple[float, float, float]

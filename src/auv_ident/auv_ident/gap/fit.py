@@ -96,7 +96,7 @@ class EquationFit:
             if self.act_nominal is None:
                 self.act_nominal = self.pr.actuators(pert)
             act = self.act_nominal
-        e = self.pr.equation_error(pert, act) / self.pr.eq_sigma
+        e: np.ndarray = self.pr.equation_error(pert, act) / self.pr.eq_sigma
         return e if mask is None else e[mask]
 
     def cost(self, es: EffectSet, values: np.ndarray, held_out: bool) -> float:
@@ -161,7 +161,8 @@ class EquationFit:
         def full(s: np.ndarray) -> np.ndarray:
             x = base.copy()
             x[free] = s
-            return es.absent + x * es.scale
+            values: np.ndarray = es.absent + x * es.scale
+            return values
 
         def fun(s: np.ndarray) -> np.ndarray:
             return self.residual(es, full(s), self.train).ravel()
@@ -221,7 +222,8 @@ class FreeRunFit:
         def full(s: np.ndarray) -> np.ndarray:
             x = x_start.copy()
             x[active] = s
-            return es.absent + x * es.scale
+            values: np.ndarray = es.absent + x * es.scale
+            return values
 
         def fun(s: np.ndarray) -> np.ndarray:
             key = s.tobytes()
