@@ -103,3 +103,69 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
     assert 'not finite' in out and 'outside the vehicle envelope' in out
     assert 'publishing safe BAR' in out
     assert 'depth control active' in out
+
+
+@pytest.mark.parametrize(('ros_args', 'needle'), [
+    (['-p', 'vehicle_file:=/nonexistent/vehicle.yaml'], 'vehicle'),
+    (['-p', 'rate:=-5.0'], 'rate'),
+    (['-p', 'weights:=no_such_preset'], 'no_such_preset'),
+    (['-p', 'theta_max_deg:=0.0'], 'theta_max'),
+    (['-p', 'publish_delay:=0.08'], 'publish_delay'),
+])
+def test_bad_parameter_at_start_exits_with_one_line_error(ros_env, ros_args: list[str],
+                                                          needle: str) -> None:
+    proc = subprocess.run([sys.executable, '-m', 'auv_depth_lqr.node', '--ros-args', *ros_args],
+                          env=ros_env, capture_output=True, text=True, timeout=60, check=False)
+    assert proc.returncode == 1, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith('error: ') and needle in lines[0], \
+        proc.stderr
+
+
+def test_parameter_changes_are_validated_and_applied(pilot_process) -> None:
+    from rcl_interfaces.srv import SetParameters
+    from rclpy.parameter import Parameter
+
+    proc, _ = pilot_process
+    rclpy.init()
+    node = rclpy.create_node('pilot_param_probe')
+    stamps: list[int] = []
+    node.create_subscription(
+        ActuatorSetpoint, '/auv/bar_command',
+        lambda m: stamps.append(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec), 50)
+    client = node.create_client(SetParameters, '/depth_pilot/set_parameters')
+
+    def set_parameter(name: str, value: object) -> tuple[bool, str]:
+        request = SetParameters.Request()
+        request.parameters = [Parameter(name, value=value).to_parameter_msg()]
+        future = client.call_async(request)
+        rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
+        assert future.done(), f'set_parameters {name} timed out'
+        result = future.result().results[0]
+        return result.successful, result.reason
+
+    def spin_for(seconds: float) -> None:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            rclpy.spin_once(node, timeout_sec=0.01)
+
+    try:
+        assert client.wait_for_service(timeout_sec=30.0)
+        for name, bad, needle in (('rate', 0.0, 'rate_hz'), ('weights', 'bogus', 'bogus'),
+                                  ('publish_delay', 0.06, 'publish_delay'),
+                                  ('vehicle_file', '/nonexistent.yaml', 'nonexistent'),
+                                  ('water_speed', -1.0, 'water_speed')):
+            ok, reason = set_parameter(name, bad)
+            assert not ok and needle in reason, (name, reason)
+        assert proc.poll() is None
+        # a valid change is applied: 5 Hz, so the stamps step by 0.2 s
+        ok, reason = set_parameter('rate', 5.0)
+        assert ok, reason
+        spin_for(1.0)
+        stamps.clear()
+        spin_for(2.0)
+        steps = {b - a for a, b in itertools.pairwise(stamps)}
+        assert steps == {200_000_000}, steps
+    finally:
+        node.destroy_node()
+        rclpy.shutdown()
