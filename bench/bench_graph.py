@@ -11,6 +11,9 @@ pitch-up, the climb and the stop, whose planning is the pilot's heaviest computa
   from 0.1 s) from the DDS source stamps the recorder writes as MCAP publish times: when the
   pilot called ``publish``. Target: p99 jitter < 2 ms. Reported beside it, the same period as
   received by the recorder (DDS receive stamps), which adds the delivery delay's jitter.
+* ``timer_realtime``: the same with the pilot on ``SCHED_FIFO`` (``realtime_priority`` 50, as
+  on a vehicle), measured after the ``timer`` run; ``null`` figures with the reason when the
+  machine does not allow it.
 * ``latency``: 30 s in real time with lockstep: for each control instant, the time from the
   recorder's receipt of the state stamped t_k to its receipt of the pilot's BAR command
   stamped t_k (state -> pilot -> BAR, both legs over DDS, measured at one process clock).
@@ -34,7 +37,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
 def _fly(tmp: pathlib.Path, name: str, lockstep: bool, rtf: float, stop_time: float,
-         env: dict[str, str], sim_clock: bool = True, z0: float = 40.0,
+         env: dict[str, str], sim_clock: bool = True, z0: float = 40.0, priority: int = 0,
          ) -> tuple[dict[str, np.ndarray], float]:
     from auv_bringup.launch import GraphConfig, run_graph
     from auv_ident.bag import read_arrays
@@ -43,7 +46,7 @@ def _fly(tmp: pathlib.Path, name: str, lockstep: bool, rtf: float, stop_time: fl
     cfg = GraphConfig(vehicle=str(ROOT / 'config' / 'a18m.yaml'), lockstep=lockstep,
                       real_time_factor=rtf, initial_depth=z0, stop_time=stop_time,
                       record=str(bag), log_dir=str(tmp / f'{name}_logs'), depth_command=10.0,
-                      sim_clock=sim_clock)
+                      sim_clock=sim_clock, realtime_priority=priority)
     wall = time.monotonic()
     codes = run_graph(cfg, duration=stop_time / max(rtf, 1.0) + 300.0, env=env)
     wall = time.monotonic() - wall
@@ -98,6 +101,18 @@ def run(lockstep_time: float = 300.0, real_time: float = 30.0) -> dict[str, Any]
         out['timer'] = {'commands': int(len(bar)),
                         **_period_figures(_publish_times(tmp / 'timer', '/auv/bar_command')),
                         'as_received': _period_figures(bar['t_log'])}
+
+        arrays, _ = _fly(tmp, 'timer_rt', False, 1.0, real_time, env, sim_clock=False, z0=20.0,
+                         priority=50)
+        log = (tmp / 'timer_rt_logs' / 'pilot.log').read_text()
+        if 'threads on SCHED_FIFO' in log:
+            bar = arrays['/auv/bar_command']
+            out['timer_realtime'] = {
+                'commands': int(len(bar)),
+                **_period_figures(_publish_times(tmp / 'timer_rt', '/auv/bar_command')),
+                'as_received': _period_figures(bar['t_log'])}
+        else:
+            out['timer_realtime'] = {'jitter_p99_ms': None, 'reason': log.strip()[-300:]}
 
         arrays, _ = _fly(tmp, 'latency', True, 1.0, real_time, env, z0=20.0)
         st, bar = arrays['/auv/state'], arrays['/auv/bar_command']

@@ -111,6 +111,7 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
     (['-p', 'weights:=no_such_preset'], 'no_such_preset'),
     (['-p', 'theta_max_deg:=0.0'], 'theta_max'),
     (['-p', 'publish_delay:=0.08'], 'publish_delay'),
+    (['-p', 'realtime_priority:=150'], 'realtime_priority'),
 ])
 def test_bad_parameter_at_start_exits_with_one_line_error(ros_env, ros_args: list[str],
                                                           needle: str) -> None:
@@ -154,7 +155,8 @@ def test_parameter_changes_are_validated_and_applied(pilot_process) -> None:
         for name, bad, needle in (('rate', 0.0, 'rate_hz'), ('weights', 'bogus', 'bogus'),
                                   ('publish_delay', 0.06, 'publish_delay'),
                                   ('vehicle_file', '/nonexistent.yaml', 'nonexistent'),
-                                  ('water_speed', -1.0, 'water_speed')):
+                                  ('water_speed', -1.0, 'water_speed'),
+                                  ('realtime_priority', 10, 'at start only')):
             ok, reason = set_parameter(name, bad)
             assert not ok and needle in reason, (name, reason)
         assert proc.poll() is None
@@ -169,3 +171,32 @@ def test_parameter_changes_are_validated_and_applied(pilot_process) -> None:
     finally:
         node.destroy_node()
         rclpy.shutdown()
+
+
+def test_realtime_priority_moves_the_threads_to_sched_fifo_or_says_why_not(ros_env) -> None:
+    """Where the process may (CAP_SYS_NICE or an rtprio limit) every thread of the node runs
+    SCHED_FIFO at the priority; where it may not, one warning says so and the node runs."""
+    import os
+    proc = subprocess.Popen([sys.executable, '-m', 'auv_depth_lqr.node', '--ros-args',
+                             '-p', 'realtime_priority:=7'], env=ros_env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        deadline = time.monotonic() + 30.0
+        lines: list[str] = []
+        while time.monotonic() < deadline:
+            line = proc.stdout.readline() if proc.stdout else ''
+            lines.append(line)
+            if 'SCHED_FIFO' in line or 'not applied' in line:
+                break
+        text = ''.join(lines)
+        if 'threads on SCHED_FIFO 7' in text:
+            tasks = os.listdir(f'/proc/{proc.pid}/task')
+            assert tasks and all(os.sched_getscheduler(int(t)) == os.SCHED_FIFO
+                                 for t in tasks)
+            assert all(os.sched_getparam(int(t)).sched_priority == 7 for t in tasks)
+        else:
+            assert 'realtime_priority 7 not applied' in text, text
+        assert proc.poll() is None
+    finally:
+        proc.terminate()
+        proc.wait(10)

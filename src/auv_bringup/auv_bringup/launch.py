@@ -87,6 +87,7 @@ class GraphConfig:
     pilot_rate: float = 10.0
     weights: str = 'default'
     water_speed: float = 0.0  # speed through the water told to the pilot [m/s]; 0: ground
+    realtime_priority: int = 0  # the pilot's SCHED_FIFO priority (1-99); 0: normal scheduling
     log_dir: str | None = None
     depth_command: float | None = None  # published (and delivered) before the simulator starts
     mission: str | None = None  # an open-loop mission (auv mission) instead of the pilot
@@ -117,7 +118,8 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
         nodes.append(NodeProcess('pilot', [py, '-m', 'auv_depth_lqr.node', *ros_params(
             vehicle_file=cfg.vehicle, lockstep=cfg.lockstep, rate=cfg.pilot_rate,
             weights=cfg.weights, water_speed=float(cfg.water_speed),
-            use_sim_time=cfg.sim_clock)], log('pilot')))
+            realtime_priority=int(cfg.realtime_priority), use_sim_time=cfg.sim_clock)],
+            log('pilot')))
     nodes.append(NodeProcess('simulator', [py, '-m', 'auv_sim.node', *ros_params(
         vehicle_file=cfg.vehicle, effects_file=cfg.effects or '""', lockstep=cfg.lockstep,
         use_sim_clock=cfg.sim_clock,
@@ -224,6 +226,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--water-speed', type=float, default=0.0,
                         help='[m/s] speed through the water told to the pilot (0: it '
                              'schedules on the measured surge over ground)')
+    parser.add_argument('--realtime-priority', type=int, default=0,
+                        help='run the pilot SCHED_FIFO at this priority (1-99; needs '
+                             'CAP_SYS_NICE or an rtprio limit); 0 = normal scheduling')
     parser.add_argument('--record', default=None, help='record the topics to this bag directory')
     parser.add_argument('--log-dir', default=None, help='write each node\'s output here')
     parser.add_argument('--wall-clock', action='store_true',
@@ -261,7 +266,8 @@ def run(args: argparse.Namespace) -> int:
                           stop_time=args.stop_time, pilot=not args.no_pilot,
                           record=args.record, log_dir=args.log_dir,
                           sim_clock=not args.wall_clock, depth_command=args.depth,
-                          water_speed=args.water_speed)
+                          water_speed=args.water_speed,
+                          realtime_priority=args.realtime_priority)
     codes = run_graph(cfg, duration=args.duration)
     bad = {k: v for k, v in codes.items() if v not in (0, None, -2, 130)}
     if bad:

@@ -14,7 +14,13 @@ Parameters (validated at start and on change): ``vehicle_file``, ``rate`` [Hz], 
 (preset name), ``theta_max_deg`` [deg], ``bar_max`` / ``bar_rate`` [rad, rad/s; 0 = vehicle
 file], ``state_timeout`` [s], ``safe_bar`` [rad], ``lockstep`` (bool), ``water_speed``
 [m/s; 0 = schedule on the measured surge over ground, else the known speed through the water,
-see :func:`auv_depth_lqr.pilot.water_relative`], ``publish_delay`` [s].
+see :func:`auv_depth_lqr.pilot.water_relative`], ``publish_delay`` [s],
+``realtime_priority`` (0-99, at start only; 0 = normal scheduling).
+
+Real-time scheduling (``realtime_priority`` > 0): at start the node's threads move to
+``SCHED_FIFO`` at that priority, as a control loop on a vehicle runs, so other processes do
+not delay its wake-ups. It needs CAP_SYS_NICE or an rtprio limit (``ulimit -r``); without them
+the node says so in one warning and runs with normal scheduling.
 
 Output phase (timer on the wall clock): the command of the tick due at ``t_k`` is computed at
 once and published at ``t_k + publish_delay`` (default 10 ms), so the publish period keeps the
@@ -42,7 +48,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.timer import Timer, TimerInfo
 from std_msgs.msg import Float64
 
-from auv_depth_lqr.errors import AuvLqrError, InvalidInputError
+from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
 from auv_depth_lqr.pilot import SAFE_BAR_DEFAULT, DepthPilot, PilotSettings
 from auv_msgs.msg import ActuatorSetpoint, VehicleState
 from auv_sim.errors import AuvSimError
@@ -74,6 +80,8 @@ class DepthPilotNode(Node):
         self.declare_parameter('lockstep', False)
         self.declare_parameter('water_speed', 0.0)
         self.declare_parameter('publish_delay', 0.01)
+        self.declare_parameter('realtime_priority', 0)
+        self.realtime_priority = _priority(self.get_parameter('realtime_priority').value)
         self.pilot = self._build(self._values({}))
         self.add_on_set_parameters_callback(self._on_set)
         # reliable, last 100 (10 s at 10 Hz): a lost sample is resent from this history
@@ -106,6 +114,9 @@ class DepthPilotNode(Node):
         return DepthPilot.for_vehicle(params, settings)
 
     def _on_set(self, params: list[Any]) -> SetParametersResult:
+        if any(p.name == 'realtime_priority' for p in params):
+            return SetParametersResult(successful=False, reason=(
+                'realtime_priority is applied at start only; restart the node to change it'))
         try:
             pilot = self._build(self._values({p.name: p.value for p in params}))
         except (AuvLqrError, AuvSimError, ValueError, TypeError) as exc:
@@ -184,6 +195,26 @@ class DepthPilotNode(Node):
         self.pub.publish(out)
 
 
+def _priority(value: Any) -> int:
+    """``realtime_priority`` checked: an integer 0-99 (DesignError otherwise)."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 99:
+        raise DesignError(f'parameter realtime_priority = {value!r} must be an integer 0-99 '
+                          '(0: normal scheduling)')
+    return value
+
+
+def apply_realtime_priority(priority: int) -> str | None:
+    """Move every thread of this process to ``SCHED_FIFO`` at ``priority`` (1-99); ``None``
+    when done, else why not (e.g. "Operation not permitted": no CAP_SYS_NICE / rtprio)."""
+    try:
+        param = os.sched_param(priority)
+        for task in os.listdir('/proc/self/task'):
+            os.sched_setscheduler(int(task), os.SCHED_FIFO, param)
+    except (OSError, AttributeError) as exc:
+        return getattr(exc, 'strerror', None) or str(exc)
+    return None
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """``auv pilot`` options; ROS parameters go after ``--ros-args -p name:=value``."""
     parser.add_argument('ros_args', nargs=argparse.REMAINDER,
@@ -201,6 +232,13 @@ def main(argv: list[str] | None = None) -> int:
     node = None
     try:
         node = DepthPilotNode()
+        if node.realtime_priority > 0:
+            applied = apply_realtime_priority(node.realtime_priority)
+            if applied is None:
+                node.get_logger().info(f'threads on SCHED_FIFO {node.realtime_priority}')
+            else:
+                node.get_logger().warning(f'realtime_priority {node.realtime_priority} not '
+                                          f'applied ({applied}): normal scheduling')
         # Everything built so far (rclpy, numpy, the design) is long-lived: keep it out of the
         # cyclic collector, whose full passes over it would otherwise pause a control step.
         gc.collect()
