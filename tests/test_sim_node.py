@@ -271,3 +271,53 @@ def test_real_time_pacing_and_parameter_changes(
         executor.shutdown(timeout_sec=0.0)
         node.destroy_node()
     assert returncode == 0, log.read_text()
+
+
+def test_as_fast_as_possible_the_simulator_keeps_pace_with_a_recorder(
+        rclpy_context: tuple[Context, dict[str, str]], tmp_path: pathlib.Path) -> None:
+    """A publisher on /auv/recorder/progress holds the run within half the output history
+    (500 samples = 10 s at 50 Hz) of the last stamp it reports; without reports for 5 wall s
+    the simulator says so and runs on."""
+    from builtin_interfaces.msg import Time
+
+    context, env = rclpy_context
+    log = tmp_path / 'node.log'
+    node = Node('sim_pacing_test', context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    clocks: list[int] = []
+    progress = node.create_publisher(Time, '/auv/recorder/progress', 10)
+    node.create_subscription(Clock, '/clock', lambda m: clocks.append(stamp_to_ns(m.clock)),
+                             QOS)
+    for kind, topic in ((VehicleState, '/auv/state'), (Odometry, '/auv/odom'),
+                        (HydrodynamicForces, '/auv/hydrodynamic_forces')):
+        node.create_subscription(kind, topic, lambda m: None, QOS)
+    # the run starts once this probe (its progress publisher first) is matched
+    proc = start_node(env, ['--real-time-factor', '0', '--stop-time', '60',
+                            '--start-subscribers', '1'], log)
+
+    def spin_for(seconds: float) -> None:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.01)
+
+    try:
+        deadline = time.monotonic() + 30.0
+        while not clocks:
+            assert time.monotonic() < deadline and proc.poll() is None, log.read_text()
+            spin_for(0.05)
+        spin_for(1.0)
+        # no report yet: held at 10 s of simulated time (alone it reaches 60 s in ~0.3 wall s)
+        assert max(clocks) == 10 * NS, max(clocks) / NS
+        progress.publish(Time(sec=25, nanosec=0))
+        spin_for(1.5)
+        assert max(clocks) == 35 * NS, max(clocks) / NS
+        spin_for(5.0)  # no further report: the simulator gives up waiting and finishes
+        assert proc.wait(10.0) == 0
+        assert max(clocks) == 60 * NS
+    finally:
+        node.destroy_node()
+        if proc.poll() is None:
+            proc.terminate()
+            proc.wait(10)
+    assert 'recorder pacing: no progress within 5.0 s at t = 35.00 s' in log.read_text()

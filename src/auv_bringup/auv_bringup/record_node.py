@@ -5,6 +5,12 @@ the project have known types and are subscribed at once (so nothing published af
 recorder starts is missed); other topics are subscribed when their type shows up in the graph.
 SIGINT and SIGTERM stop the recording cleanly: spinning stops, the messages already received
 by DDS are drained, and the bag is closed with its summary and ``metadata.yaml``.
+
+Progress: every ``PROGRESS_EVERY`` ``/auv/state`` messages written, and ``PROGRESS_PERIOD``
+wall seconds after the last report when states were written since, the recorder publishes the
+header stamp of the last one written on ``/auv/recorder/progress`` (``builtin_interfaces/Time``); a
+simulator running as fast as possible paces itself on it (see :mod:`auv_sim.node`), so a
+recorder short of CPU slows the run instead of losing samples.
 """
 from __future__ import annotations
 
@@ -14,6 +20,7 @@ import gc
 import importlib
 import math
 import signal
+import struct
 import sys
 import time
 from types import FrameType
@@ -38,6 +45,9 @@ DRAIN_QUIET = 0.3  # s without a new message that ends the drain after a stop
 DRAIN_MAX = 3.0  # s, longest drain after a stop
 GRAPH_POLL = 0.5  # s between looks at the graph for topics of unknown type
 DRAIN_BATCH = 100  # most messages taken per callback beyond the one the executor took
+PROGRESS_EVERY = 50  # /auv/state messages written between two progress reports
+PROGRESS_PERIOD = 0.05  # wall s after which states written since the last report are reported
+PROGRESS_TOPIC = '/auv/recorder/progress'
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -73,6 +83,16 @@ def message_class(msgtype: str) -> Any:
                        'workspace built and sourced?)') from None
 
 
+def header_stamp(data: bytes) -> tuple[int, int] | None:
+    """``(sec, nanosec)`` of the ``std_msgs/Header`` that opens a CDR-serialized message (after
+    its 4-byte encapsulation header, little- or big-endian); ``None`` if too short."""
+    if len(data) < 12:
+        return None
+    order = '<' if data[1] == 1 else '>'
+    sec, nanosec = struct.unpack_from(f'{order}iI', data, 4)
+    return int(sec), int(nanosec)
+
+
 def _default_out() -> str:
     return time.strftime('out/bags/rosbag2_%Y_%m_%d-%H_%M_%S')
 
@@ -81,9 +101,16 @@ class Recorder:
     """Raw subscriptions feeding a :class:`auv_ident.bag.BagWriter`."""
 
     def __init__(self, node: Any, writer: Any, topics: list[str], qos_depth: int) -> None:
+        from builtin_interfaces.msg import Time
         from rclpy.qos import QoSProfile, ReliabilityPolicy
 
         self.node = node
+        self._time = Time
+        self._progress = node.create_publisher(Time, PROGRESS_TOPIC, QoSProfile(
+            depth=10, reliability=ReliabilityPolicy.RELIABLE))
+        self._unreported = 0  # /auv/state messages written since the last progress report
+        self._last_state = b''  # the last of them (CDR)
+        self._reported_at = 0.0  # time.monotonic() of the last report
         self.writer = writer
         self.count = 0
         self.late = 0  # messages received after the stop, not written
@@ -132,6 +159,20 @@ class Recorder:
                 return
             self._write(topic, taken[0], taken[1])
 
+    def report_progress(self) -> None:
+        """Report the states written since the last report if that is ``PROGRESS_PERIOD`` ago
+        (called from the spin loop)."""
+        if self._unreported and time.monotonic() - self._reported_at >= PROGRESS_PERIOD:
+            self._report()
+
+    def _report(self) -> None:
+        """Publish the header stamp of the last state written (see the module docstring)."""
+        self._unreported = 0
+        self._reported_at = time.monotonic()
+        stamp = header_stamp(self._last_state)
+        if stamp is not None:
+            self._progress.publish(self._time(sec=stamp[0], nanosec=stamp[1]))
+
     def _write(self, topic: str, data: bytes, info: dict[str, int]) -> None:
         """Write one message; its log time is its DDS receive time (ns, system clock), held
         non-decreasing per topic: a reliable reader delivers in publication order, but samples
@@ -147,6 +188,11 @@ class Recorder:
         self._last_ns[topic] = received
         self.writer.write(topic, data, received, info.get('source_timestamp') or received)
         self.count += 1
+        if topic == '/auv/state':
+            self._last_state = data
+            self._unreported += 1
+            if self._unreported >= PROGRESS_EVERY:
+                self._report()
         self.last_message = time.monotonic()
 
     def poll_graph(self) -> None:
@@ -207,7 +253,8 @@ def run(args: argparse.Namespace) -> int:
         t_end = None if args.duration is None else time.monotonic() + args.duration
         next_poll = time.monotonic()
         while not stop['signal'] and (t_end is None or time.monotonic() < t_end):
-            executor.spin_once(timeout_sec=0.05)
+            executor.spin_once(timeout_sec=PROGRESS_PERIOD)
+            recorder.report_progress()
             if time.monotonic() >= next_poll:
                 recorder.poll_graph()
                 next_poll = time.monotonic() + GRAPH_POLL

@@ -59,6 +59,16 @@ allow:
    compute and publish ``bar_command`` with that same stamp (make sure its publisher is
    matched before answering the first state).
 
+Recorder pacing (as fast as possible, ``real_time_factor`` 0, simulated time): a recorder
+reports the stamp of the last ``state`` it wrote on ``/auv/recorder/progress``
+(``builtin_interfaces/Time``, see :mod:`auv_bringup.record_node`). While such a publisher is
+matched, the simulator does not run more than half its output history (``STREAM_QOS`` depth
+/ 2 publish periods, 10 s at 50 Hz) ahead of that stamp, so a recorder starved of CPU slows
+the run instead of losing samples; at ``stop_time`` it also waits until the recorder has
+written the last state, since samples still on their way die with the simulator's process.
+It waits at most ``_RECORDER_TIMEOUT`` wall seconds, then says so and stops waiting for that
+run. Pacing changes wall time only, never the numbers.
+
 Same inputs, same numbers: given the initial state and the command sequence with the instants
 it acts at, :meth:`SimSetup.simulator` stepped offline gives the node's states bit for bit.
 On SIGINT or SIGTERM the node stops at the next step and exits 0.
@@ -124,6 +134,11 @@ STREAM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
 _MAX_LAG = 0.25  # wall s behind schedule after which pacing re-anchors instead of bursting
 _SPIN_SLICE = 0.05  # wall s: longest single wait, so a stop request is seen promptly
 _FAST_SPIN_PERIOD = 0.002  # wall s between callback polls when running as fast as possible
+_RECORDER_TIMEOUT = 5.0  # wall s the simulator waits for a recorder's progress (pacing)
+#: Recorder progress (stamp of the last state written), reliable, keep the last 10.
+PROGRESS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                          reliability=ReliabilityPolicy.RELIABLE,
+                          durability=DurabilityPolicy.VOLATILE)
 
 _DESCRIPTIONS = {
     'vehicle_file': 'vehicle parameter file (YAML)',
@@ -185,6 +200,8 @@ class SimulatorNode(Node):
         self._stop = threading.Event()
         self._awaiting_ns: int | None = None
         self._answered = False
+        self._recorded_ns = -1  # stamp of the last state a recorder reported written [ns]
+        self._recorder_paced = True  # False after a recorder failed to keep up in time
 
         self._pub_state = self.create_publisher(VehicleState, 'state', STREAM_QOS)
         self._pub_odom = self.create_publisher(Odometry, 'odom', STREAM_QOS)
@@ -195,6 +212,8 @@ class SimulatorNode(Node):
         self._subs = {channel: self.create_subscription(
             ActuatorSetpoint, f'{channel}_command', self._command_callback(channel),
             STREAM_QOS) for channel in CHANNELS}
+        self._sub_progress = self.create_subscription(
+            Time, '/auv/recorder/progress', self._on_progress, PROGRESS_QOS)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         s = self.settings
         self.get_logger().info(
@@ -326,6 +345,31 @@ class SimulatorNode(Node):
                     return
                 time.sleep(0.01)
 
+    def _on_progress(self, msg: Time) -> None:
+        self._recorded_ns = max(self._recorded_ns, stamp_to_ns(msg))
+
+    def _pace_recorder(self, executor: SingleThreadedExecutor, last: bool = False) -> None:
+        """As fast as possible: keep within half the output history of a recorder that reports
+        its progress, and with ``last`` wait until it has the last state (see the module
+        docstring)."""
+        window = 0 if last else \
+            (STREAM_QOS.depth // 2) * self.setup.steps_per_publish * self.setup.dt_ns
+        now_ns = self.setup.stamp_ns(self.sim.k)
+
+        def caught_up() -> bool:
+            return now_ns - self._recorded_ns <= window // 2
+
+        if now_ns - self._recorded_ns < window or (last and caught_up()) \
+                or not self._recorder_paced or self._sub_progress.get_publisher_count() == 0:
+            return
+        if not self._spin_until(executor, time.monotonic() + _RECORDER_TIMEOUT, caught_up) \
+                and not self._stop.is_set():
+            self._recorder_paced = False
+            self.get_logger().warning(
+                f'recorder pacing: no progress within {_RECORDER_TIMEOUT} s at t = '
+                f'{self.sim.t:.2f} s (last state written at {self._recorded_ns / 1e9:.2f} s); '
+                f'running on without waiting for it')
+
     # ----- the loop -----
     def stop(self) -> None:
         """Ask the loop to end at its next step (safe from a signal handler)."""
@@ -417,11 +461,15 @@ class SimulatorNode(Node):
             control_instant = s.lockstep and k == next_ctrl
             if k == next_pub or control_instant:
                 self._publish()
+                if s.real_time_factor <= 0.0 and s.use_sim_clock:
+                    self._pace_recorder(executor)
             if s.stop_time > 0.0 and self.sim.t >= s.stop_time - 0.5 * self.setup.dt:
                 if k != next_pub and not control_instant:
                     self._publish()
                 if control_instant:  # the pilot's answer to the last state is part of the run
                     self._await_command(executor)
+                if s.real_time_factor <= 0.0 and s.use_sim_clock:
+                    self._pace_recorder(executor, last=True)
                 break
             if control_instant:
                 self._await_command(executor)
