@@ -47,7 +47,6 @@ GRAPH_POLL = 0.5  # s between looks at the graph for topics of unknown type
 DRAIN_BATCH = 100  # most messages taken per callback beyond the one the executor took
 PROGRESS_EVERY = 50  # /auv/state messages written between two progress reports
 PROGRESS_PERIOD = 0.05  # wall s after which states written since the last report are reported
-PROGRESS_TOPIC = '/auv/recorder/progress'
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -104,10 +103,11 @@ class Recorder:
         from builtin_interfaces.msg import Time
         from rclpy.qos import QoSProfile, ReliabilityPolicy
 
+        from auv_sim.node import PROGRESS_QOS, PROGRESS_TOPIC
+
         self.node = node
         self._time = Time
-        self._progress = node.create_publisher(Time, PROGRESS_TOPIC, QoSProfile(
-            depth=10, reliability=ReliabilityPolicy.RELIABLE))
+        self._progress = node.create_publisher(Time, PROGRESS_TOPIC, PROGRESS_QOS)
         self._unreported = 0  # /auv/state messages written since the last progress report
         self._last_state = b''  # the last of them (CDR)
         self._reported_at = 0.0  # time.monotonic() of the last report

@@ -135,7 +135,9 @@ _MAX_LAG = 0.25  # wall s behind schedule after which pacing re-anchors instead 
 _SPIN_SLICE = 0.05  # wall s: longest single wait, so a stop request is seen promptly
 _FAST_SPIN_PERIOD = 0.002  # wall s between callback polls when running as fast as possible
 _RECORDER_TIMEOUT = 5.0  # wall s the simulator waits for a recorder's progress (pacing)
-#: Recorder progress (stamp of the last state written), reliable, keep the last 10.
+#: Recorder progress (stamp of the last state written; see auv_bringup.record_node) and its QoS:
+#: reliable, keep the last 10.
+PROGRESS_TOPIC = '/auv/recorder/progress'
 PROGRESS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                           reliability=ReliabilityPolicy.RELIABLE,
                           durability=DurabilityPolicy.VOLATILE)
@@ -213,7 +215,7 @@ class SimulatorNode(Node):
             ActuatorSetpoint, f'{channel}_command', self._command_callback(channel),
             STREAM_QOS) for channel in CHANNELS}
         self._sub_progress = self.create_subscription(
-            Time, '/auv/recorder/progress', self._on_progress, PROGRESS_QOS)
+            Time, PROGRESS_TOPIC, self._on_progress, PROGRESS_QOS)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         s = self.settings
         self.get_logger().info(
@@ -355,13 +357,13 @@ class SimulatorNode(Node):
         window = 0 if last else \
             (STREAM_QOS.depth // 2) * self.setup.steps_per_publish * self.setup.dt_ns
         now_ns = self.setup.stamp_ns(self.sim.k)
+        behind = now_ns - self._recorded_ns
+        if (behind <= 0 if last else behind < window) or not self._recorder_paced \
+                or self._sub_progress.get_publisher_count() == 0:
+            return  # the graph query only when behind: it costs much at every publish
 
         def caught_up() -> bool:
             return now_ns - self._recorded_ns <= window // 2
-
-        if now_ns - self._recorded_ns < window or (last and caught_up()) \
-                or not self._recorder_paced or self._sub_progress.get_publisher_count() == 0:
-            return
         if not self._spin_until(executor, time.monotonic() + _RECORDER_TIMEOUT, caught_up) \
                 and not self._stop.is_set():
             self._recorder_paced = False
