@@ -96,23 +96,19 @@ def run(lockstep_time: float = 300.0, real_time: float = 30.0) -> dict[str, Any]
                            'wall_s_with_startup': wall,
                            'real_time_factor_with_startup': float(sim_span / wall)}
 
-        arrays, _ = _fly(tmp, 'timer', False, 1.0, real_time, env, sim_clock=False, z0=20.0)
-        bar = arrays['/auv/bar_command']
-        out['timer'] = {'commands': int(len(bar)),
-                        **_period_figures(_publish_times(tmp / 'timer', '/auv/bar_command')),
-                        'as_received': _period_figures(bar['t_log'])}
-
-        arrays, _ = _fly(tmp, 'timer_rt', False, 1.0, real_time, env, sim_clock=False, z0=20.0,
-                         priority=50)
-        log = (tmp / 'timer_rt_logs' / 'pilot.log').read_text()
-        if 'threads on SCHED_FIFO' in log:
+        def timer_figures(name: str, priority: int) -> dict[str, Any]:
+            arrays, _ = _fly(tmp, name, False, 1.0, real_time, env, sim_clock=False, z0=20.0,
+                             priority=priority)
+            log = (tmp / f'{name}_logs' / 'pilot.log').read_text()
+            if priority and 'threads on SCHED_FIFO' not in log:
+                return {'jitter_p99_ms': None, 'reason': log.strip()[-300:]}
             bar = arrays['/auv/bar_command']
-            out['timer_realtime'] = {
-                'commands': int(len(bar)),
-                **_period_figures(_publish_times(tmp / 'timer_rt', '/auv/bar_command')),
-                'as_received': _period_figures(bar['t_log'])}
-        else:
-            out['timer_realtime'] = {'jitter_p99_ms': None, 'reason': log.strip()[-300:]}
+            return {'commands': int(len(bar)),
+                    **_period_figures(_publish_times(tmp / name, '/auv/bar_command')),
+                    'as_received': _period_figures(bar['t_log'])}
+
+        out['timer'] = timer_figures('timer', 0)
+        out['timer_realtime'] = timer_figures('timer_rt', 50)
 
         arrays, _ = _fly(tmp, 'latency', True, 1.0, real_time, env, z0=20.0)
         st, bar = arrays['/auv/state'], arrays['/auv/bar_command']
