@@ -23,6 +23,10 @@ from auv_ident.bag import read_arrays, read_messages
 N = 500
 RATE_HZ = 200.0
 STATE = '/auv/state'
+#: deadlines (wall s) for a listener to be ready and to hear its stream, with room for a busy
+#: 2-core machine; a listener ends as soon as it has heard its last expected message
+READY_S = 60.0
+LISTEN_S = 60.0
 
 PUBLISHER = r'''
 import sys, time
@@ -36,7 +40,7 @@ rclpy.init()
 node = rclpy.create_node('test_state_publisher')
 pub = node.create_publisher(VehicleState, '/auv/state',
                             QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
-deadline = time.monotonic() + 20.0
+deadline = time.monotonic() + 60.0
 while pub.get_subscription_count() == 0:
     if time.monotonic() > deadline:
         print('no subscriber', flush=True)
@@ -173,21 +177,28 @@ def test_sigterm_mid_stream_closes_a_whole_bag(ros_env: dict[str, str],
 def _play(ros_env: dict[str, str], bag: pathlib.Path, rate: float,
           clock_hz: float | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """Play ``bag`` to a /auv/state listener (and a /clock listener with ``clock_hz``):
-    arrival times (s, monotonic) with x and z; clock values (ns) or None."""
-    subs = [subprocess.Popen([sys.executable, '-c', SUBSCRIBER, str(N), '30'], env=ros_env,
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)]
+    arrival times (s, monotonic) with x and z; clock values (ns) or None.
+
+    Both listeners have their subscriptions before the player starts ('ready' handshake), the
+    player starts once every replayed topic has matched, and each listener ends on the last
+    message it expects (the N-th state; the clock at the bag's last log time)."""
+    last_ns = max(m.log_time for m in read_messages(bag, [STATE], decode=False))
+    subs = [subprocess.Popen([sys.executable, '-c', SUBSCRIBER, str(N), str(LISTEN_S)],
+                             env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True)]
     extra = []
     try:
+        _wait_line(subs[0], 'ready', timeout=READY_S)
         if clock_hz is not None:
             subs.append(_listen(ros_env, '/clock', 'rosgraph_msgs.msg.Clock',
-                                '(m.clock.sec, m.clock.nanosec)', 100_000, 30, wait=False))
+                                '(m.clock.sec, m.clock.nanosec)', 100_000, LISTEN_S,
+                                last=f'({last_ns // 10**9}, {last_ns % 10**9})'))
             extra = ['--clock', str(clock_hz)]
-        # No need to wait for the listeners: the player waits until they have matched.
         play = subprocess.run(_auv('play', str(bag), '--rate', str(rate),
                                    '--wait-for-subscribers', *extra),
-                              env=ros_env, capture_output=True, text=True, timeout=60)
+                              env=ros_env, capture_output=True, text=True, timeout=90)
         assert play.returncode == 0, play.stderr
-        outs = [proc.communicate(timeout=40)[0] for proc in subs]
+        outs = [proc.communicate(timeout=LISTEN_S + 30)[0] for proc in subs]
     finally:
         for proc in subs:
             if proc.poll() is None:
@@ -212,10 +223,13 @@ def test_play_preserves_timing(recorded: pathlib.Path, ros_env: dict[str, str],
     np.testing.assert_array_equal(got[:, 2], arr['z'])
     bag_span = arr['t_log'][-1] - arr['t_log'][0]
     play_span = got[-1, 0] - got[0, 0]
-    assert abs(play_span - bag_span / rate) < 0.05 * bag_span / rate + 0.05
+    # Margins that hold on a busy 2-core machine (the replay's timing figures on an idle one
+    # are measured by bench/bench_replay.py): a player that ignored the log times would be
+    # off by up to the whole span (1.25-2.5 s here).
+    assert abs(play_span - bag_span / rate) < 0.1 * bag_span / rate + 0.2
     # Message by message: arrival offsets follow the bag's log-time offsets / rate.
     lag = (got[:, 0] - got[0, 0]) - (arr['t_log'] - arr['t_log'][0]) / rate
-    assert np.percentile(np.abs(lag), 95) < 0.03
+    assert np.percentile(np.abs(lag), 95) < 0.15
     if clock is not None:
         # /clock: bag time (ns), never going back, from the first to the last log time, at
         # about 50 Hz of wall time while the bag plays at rate 2.
@@ -246,21 +260,20 @@ import rclpy
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 topic, typename, expr, n, timeout = sys.argv[1:6]
+last_value = eval(sys.argv[6]) if len(sys.argv) > 6 else None
 module, name = typename.rsplit('.', 1)
 cls = getattr(importlib.import_module(module), name)
 rclpy.init()
 node = rclpy.create_node('test_listener')
 got = []
-last = [0.0]
 def on_message(m):
     got.append(eval(expr, {'m': m}))
-    last[0] = time.monotonic()
 node.create_subscription(cls, topic, on_message,
                          QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
 print('ready', flush=True)
 deadline = time.monotonic() + float(timeout)
 while len(got) < int(n) and time.monotonic() < deadline:
-    if got and time.monotonic() - last[0] > 1.0:  # the stream has ended
+    if got and last_value is not None and got[-1] == last_value:
         break
     rclpy.spin_once(node, timeout_sec=0.05)
 print(json.dumps(got), flush=True)
@@ -269,12 +282,15 @@ rclpy.shutdown()
 
 
 def _listen(ros_env: dict[str, str], topic: str, typename: str, expr: str, n: int,
-            timeout: float, wait: bool = True) -> subprocess.Popen[str]:
+            timeout: float, last: str | None = None) -> subprocess.Popen[str]:
+    """A listener process on ``topic`` that is subscribed when this returns; it prints the
+    values of ``expr`` once it has ``n`` of them, has heard the value ``last`` (a Python
+    literal), or ``timeout`` wall seconds have passed."""
     proc = subprocess.Popen([sys.executable, '-c', LISTENER, topic, typename, expr, str(n),
-                             str(timeout)], env=ros_env, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
-    if wait:
-        _wait_line(proc, 'ready', timeout=20)
+                             str(timeout), *([last] if last is not None else [])],
+                            env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    _wait_line(proc, 'ready', timeout=READY_S)
     return proc
 
 
@@ -283,12 +299,13 @@ def test_depth_command_is_delivered(ros_env: dict[str, str]) -> None:
                          timeout=30)
     assert res.returncode == 1
     assert res.stderr == 'error: depth must be a finite number of metres, got nan\n'
-    listener = _listen(ros_env, '/auv/depth_command', 'std_msgs.msg.Float64', 'm.data', 1, 20)
+    listener = _listen(ros_env, '/auv/depth_command', 'std_msgs.msg.Float64', 'm.data', 1,
+                       LISTEN_S)
     try:
         res = subprocess.run(_auv('depth', '12.5'), env=ros_env, capture_output=True,
                              text=True, timeout=30)
         assert res.returncode == 0, res.stderr
-        out, _ = listener.communicate(timeout=30)
+        out, _ = listener.communicate(timeout=LISTEN_S + 30)
     finally:
         if listener.poll() is None:
             listener.kill()

@@ -249,7 +249,8 @@ def test_real_time_pacing_and_parameter_changes(
         while not clocks:
             assert time.monotonic() < deadline and proc.poll() is None, log.read_text()
             executor.spin_once(timeout_sec=0.05)
-        assert sim_rate(executor, clocks, 2.0) == pytest.approx(1.0, rel=0.15)
+        # margins that hold on a busy 2-core machine; factors 1 and 4 stay far apart
+        assert sim_rate(executor, clocks, 3.0) == pytest.approx(1.0, rel=0.25)
 
         ok, reason = set_parameter('publish_rate', -1.0)
         assert not ok and 'publish_rate' in reason and '> 0' in reason
@@ -259,7 +260,7 @@ def test_real_time_pacing_and_parameter_changes(
         assert not ok and 'cannot change while the simulator runs' in reason
         ok, reason = set_parameter('real_time_factor', 4.0)
         assert ok, reason
-        assert sim_rate(executor, clocks, 2.0) == pytest.approx(4.0, rel=0.15)
+        assert sim_rate(executor, clocks, 3.0) == pytest.approx(4.0, rel=0.25)
         assert proc.poll() is None
     finally:
         proc.send_signal(signal.SIGTERM)
@@ -301,19 +302,24 @@ def test_as_fast_as_possible_the_simulator_keeps_pace_with_a_recorder(
         while time.monotonic() < end:
             executor.spin_once(timeout_sec=0.01)
 
-    try:
-        deadline = time.monotonic() + 30.0
-        while not clocks:
+    def spin_until(t_ns: int, timeout: float = 30.0) -> None:
+        deadline = time.monotonic() + timeout
+        while not clocks or max(clocks) < t_ns:
             assert time.monotonic() < deadline and proc.poll() is None, log.read_text()
             spin_for(0.05)
-        spin_for(1.0)
+
+    try:
         # no report yet: held at 10 s of simulated time (alone it reaches 60 s in ~0.3 wall s)
+        spin_until(10 * NS)
+        spin_for(1.0)
         assert max(clocks) == 10 * NS, max(clocks) / NS
         progress.publish(Time(sec=25, nanosec=0))
-        spin_for(1.5)
+        spin_until(35 * NS)
+        spin_for(1.0)
         assert max(clocks) == 35 * NS, max(clocks) / NS
-        spin_for(5.0)  # no further report: the simulator gives up waiting and finishes
-        assert proc.wait(10.0) == 0
+        # no further report: within 5 s the simulator gives up waiting and finishes
+        assert proc.wait(30.0) == 0
+        spin_for(0.5)
         assert max(clocks) == 60 * NS
     finally:
         node.destroy_node()
