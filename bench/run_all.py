@@ -1,8 +1,10 @@
 """Run every benchmark of ``bench/`` (each ``bench_*.py`` module's ``run() -> dict``).
 
-Writes the combined figures as JSON (``{name: figures}``, name = module without ``bench_``) to
-``--out`` and prints a short table (one row per scalar figure) to stdout. A benchmark that
-fails is reported as ``{"error": "..."}`` and makes the exit status 1; the others still run.
+Writes each benchmark's figures to ``bench/results/<name>.json`` (as the benchmark does when
+run alone), the combined figures as JSON (``{name: figures}``, name = module without
+``bench_``) to ``--out``, and prints a short table (one row per scalar figure) to stdout.
+A benchmark that fails is reported as ``{"error": "..."}`` and makes the exit status 1; the
+others still run.
 
 Run: ``. .venv/bin/auv-env && python bench/run_all.py --out bench/results/latest.json``
 (``make bench``); ``--only sim,bag`` runs a subset.
@@ -18,6 +20,8 @@ import time
 import traceback
 from types import ModuleType
 from typing import Any
+
+from timing import save_figures
 
 BENCH_DIR = pathlib.Path(__file__).resolve().parent
 
@@ -84,6 +88,7 @@ def main(argv: list[str] | None = None) -> int:
         try:
             module = load(name, found[name])
             figures = module.run()
+            save_figures(name, figures)
         except Exception as exc:
             traceback.print_exc()
             figures = {'error': f'{type(exc).__name__}: {exc}'}

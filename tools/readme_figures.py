@@ -1,0 +1,164 @@
+"""The README's table of figures, generated from the benchmark results files.
+
+Every figure in the table is read from ``bench/results/<name>.json`` (written by ``make bench``
+or by ``python bench/bench_<name>.py``): a cell is a template whose fields
+``{name:dotted.key:format}`` name the results file, the key path inside it and the Python
+format of the value. The table sits in README.md between the lines ``<!-- figures:begin -->``
+and ``<!-- figures:end -->``.
+
+Run: ``python tools/readme_figures.py`` rewrites the block; ``--check`` exits 1 (and says which
+line differs) when the README does not match the results files. ``tests/test_readme_figures.py``
+runs the check.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import re
+import sys
+from typing import Any
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+RESULTS = ROOT / 'bench' / 'results'
+README = ROOT / 'README.md'
+BEGIN, END = '<!-- figures:begin -->', '<!-- figures:end -->'
+
+_CL = 'closed_loop:results.default'
+#: (what, figure template, target); every value comes from a results file
+ROWS: list[tuple[str, str, str]] = [
+    ('single-vehicle RK4 step (4 model evaluations)',
+     '{sim:single_us_per_step:.2f} us (real-time factor {sim:single_real_time_factor:.0f})',
+     '<= 7 us'),
+    ('batch, 10 000 vehicles, vehicle-steps/s on all cores (one thread)',
+     '{sim:batch.10000.parallel_vehicle_steps_per_s:.3g} '
+     '({sim:batch.10000.serial_vehicle_steps_per_s:.3g})',
+     '>= 1e6'),
+    ('40 m -> 10 m at 2 m/s: settling to +-0.1 m',
+     f'{{{_CL}.climb_40_10_u2.settling_time_s:.1f}} s = '
+     f'{{{_CL}.climb_40_10_u2.settling_over_kinematic_bound:.3f}} T_kin = '
+     f'{{{_CL}.climb_40_10_u2.settling_over_time_optimal_bound:.3f}}x the time-optimal bound '
+     f'{{{_CL}.climb_40_10_u2.time_optimal_bound_s:.1f}} s (report: ~379 s)',
+     '1.5 T_kin'),
+    ('same: overshoot / peak pitch / RMS q after settling',
+     f'{{{_CL}.climb_40_10_u2.overshoot_m:.4f}} m / '
+     f'{{{_CL}.climb_40_10_u2.peak_pitch_deg:.2f}} deg / '
+     f'{{{_CL}.climb_40_10_u2.rms_q_settled_deg_s:.3f}} deg/s',
+     '0.2 m / 25 deg / 0.05 deg/s'),
+    ('10 -> 40 m; 40 -> 10 m at 1.5 / 2.5 / 1.83 m/s (T_kin ratio)',
+     f'{{{_CL}.dive_10_40_u2.settling_over_kinematic_bound:.3f}}; '
+     f'{{{_CL}.climb_40_10_u1.5.settling_over_kinematic_bound:.3f}} / '
+     f'{{{_CL}.climb_40_10_u2.5.settling_over_kinematic_bound:.3f}} / '
+     f'{{{_CL}.climb_40_10_u1.83.settling_over_kinematic_bound:.3f}}',
+     '1.5 T_kin'),
+    ('40 -> 10 m in a 0.3 m/s following / head / cross current, pilot told its water speed '
+     '(head current, pilot on ground speed: information)',
+     f'{{{_CL}.climb_40_10_u2_current_following_0.3.settling_over_kinematic_bound:.3f}} / '
+     f'{{{_CL}.climb_40_10_u2_current_head_0.3.settling_over_kinematic_bound:.3f}} / '
+     f'{{{_CL}.climb_40_10_u2_current_cross_0.3.settling_over_kinematic_bound:.3f}} T_kin '
+     f'({{{_CL}.climb_40_10_u2_current_head_0.3_ground_speed.settling_over_kinematic_bound:.3f}})',
+     '1.5 T_kin'),
+    ('every closed-loop case within its targets',
+     '{closed_loop:all_pass_default}', 'True'),
+    ('lockstep graph real-time factor (3 processes; the recorder keeps every message)',
+     '{graph:lockstep.real_time_factor:.1f}', '>= 20'),
+    ('pilot publish period, wall clock, DDS source stamps: median, p99 jitter '
+     '(as received by the recorder)',
+     '{graph:timer.period_median_ms:.2f} ms, {graph:timer.jitter_p99_ms:.2f} ms '
+     '({graph:timer.as_received.jitter_p99_ms:.2f} ms)', 'p99 < 2 ms'),
+    ('the same, pilot on SCHED_FIFO (`realtime_priority` 50)',
+     '{graph:timer_realtime.jitter_p99_ms:.2f} ms', 'p99 < 2 ms'),
+    ('state -> BAR latency through the pilot: median, p99',
+     '{graph:latency.median_ms:.2f} ms, {graph:latency.p99_ms:.2f} ms', 'p99 < 5 ms'),
+    ('replay (`auv play`) at rate 1 / 2: p95 message lag (median of 3)',
+     '{replay:rate_1.lag_p95_s.median:.4f} s / {replay:rate_2.lag_p95_s.median:.4f} s', ''),
+    ('bag -> arrays, /auv/state, 180 000 messages; ratio to rosbags per message, same run',
+     '{bag:vectorised_s:.3f} s; {bag:speedup:.1f}x', '>= 10x'),
+    ('identification, one hour of 50 Hz data: from forces / from motion',
+     '{ident:total_forces_s:.2f} s / {ident:total_motion_s:.2f} s', '< 10 s'),
+    ('gap diagnosis, 20-minute 50 Hz log', '{gap:total_s:.1f} s', '< 60 s'),
+]
+
+_FIELD = re.compile(r'\{([a-z_0-9]+):([^:{}]+):?([^{}]*)\}')
+
+
+class FigureError(Exception):
+    """A figure the table names is missing from its results file."""
+
+
+def _lookup(results: dict[str, Any], name: str, key: str) -> Any:
+    if name not in results:
+        path = RESULTS / f'{name}.json'
+        if not path.is_file():
+            raise FigureError(f'{path} does not exist (run: python bench/bench_{name}.py)')
+        results[name] = json.loads(path.read_text())
+    value: Any = results[name]
+    # keys may hold dots themselves ('climb_40_10_u1.5'): take the longest key that matches
+    rest = key
+    while rest:
+        if not isinstance(value, dict):
+            raise FigureError(f'{name}.json has no {key!r}')
+        match = max((k for k in value if rest == k or rest.startswith(k + '.')), key=len,
+                    default=None)
+        if match is None:
+            raise FigureError(f'{name}.json has no {key!r}')
+        value, rest = value[match], rest[len(match) + 1:]
+    return value
+
+
+def render(template: str, results: dict[str, Any]) -> str:
+    """``template`` with each ``{name:key:format}`` replaced by the value in the results."""
+    def one(m: re.Match[str]) -> str:
+        value = _lookup(results, m.group(1), m.group(2))
+        if value is None:
+            return 'n/a'
+        return format(value, m.group(3)) if m.group(3) else str(value)
+    return _FIELD.sub(one, template)
+
+
+def table() -> str:
+    """The block between the markers, from the results files."""
+    results: dict[str, Any] = {}
+    lines = ['| what | figure | target |', '| --- | --- | --- |']
+    lines += [f'| {what} | {render(figure, results)} | {target} |'
+              for what, figure, target in ROWS]
+    return '\n'.join([BEGIN, *lines, END])
+
+
+def _block(text: str) -> tuple[int, int]:
+    start, end = text.find(BEGIN), text.find(END)
+    if start < 0 or end < start:
+        raise FigureError(f'{README} has no {BEGIN} ... {END} block')
+    return start, end + len(END)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--check', action='store_true',
+                        help='only check that README.md matches the results files')
+    args = parser.parse_args(argv)
+    try:
+        text = README.read_text()
+        start, end = _block(text)
+        new = table()
+    except FigureError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 1
+    if args.check:
+        old = text[start:end].splitlines()
+        for a, b in zip(old, new.splitlines(), strict=False):
+            if a != b:
+                print(f'error: README figures differ from bench/results:\n  README: {a}\n  '
+                      f'results: {b}', file=sys.stderr)
+                return 1
+        if len(old) != len(new.splitlines()):
+            print('error: README figures table has a different number of rows than '
+                  'tools/readme_figures.py', file=sys.stderr)
+            return 1
+        return 0
+    README.write_text(text[:start] + new + text[end:])
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
