@@ -317,13 +317,14 @@ def test_as_fast_as_possible_the_simulator_keeps_pace_with_a_recorder(
         spin_until(35 * NS)
         spin_for(1.0)
         assert max(clocks) == 35 * NS, max(clocks) / NS
-        # no further report: within 5 s the simulator gives up waiting and finishes
+        # no further report: within 5 s the simulator gives up waiting and runs on to its
+        # stop time (its last /clock samples may be lost as it exits: its log says where)
         assert proc.wait(30.0) == 0
-        spin_for(0.5)
-        assert max(clocks) == 60 * NS
     finally:
         node.destroy_node()
         if proc.poll() is None:
             proc.terminate()
             proc.wait(10)
-    assert 'recorder pacing: no progress within 5.0 s at t = 35.00 s' in log.read_text()
+    text = log.read_text()
+    assert 'recorder pacing: no progress within 5.0 s at t = 35.00 s' in text
+    assert 'stopped at t = 60.000 s' in text, text
