@@ -134,7 +134,7 @@ def test_parameter_changes_are_validated_and_applied(pilot_process) -> None:
     node.create_subscription(
         ActuatorSetpoint, '/auv/bar_command',
         lambda m: stamps.append(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec), 50)
-    client = node.create_client(SetParameters, '/depth_pilot/set_parameters')
+    client = node.create_client(SetParameters, '/auv/depth_pilot/set_parameters')
 
     def set_parameter(name: str, value: object) -> tuple[bool, str]:
         request = SetParameters.Request()
