@@ -19,8 +19,8 @@ two symptoms at each control instant:
 
 Either symptom puts the pilot in **recovery**: :func:`recovery_bar` levels the vehicle at the
 trim pitch of its speed with a low-gain copy of the LQR's own heave/pitch feedback (the depth
-and integral terms left out, so it never chases depth), the plane limited to a fraction of
-its travel. Control resumes (hysteresis) once ``|theta| <= theta_max`` and the residual is
+and integral terms left out, so it never chases depth), within the plane's limits (travel,
+optionally a fraction of it, and rate). Control resumes (hysteresis) once ``|theta| <= theta_max`` and the residual is
 below half its threshold, both without a break for ``resume_time`` seconds.
 
 Units: SI, radians; NED/FRD as in ``auv_msgs/VehicleState``.
@@ -51,7 +51,9 @@ class RecoverySettings:
     the residual noise of a 0.05 m depth-sensor noise over the 2 s window); ``rate_window``
     [s] of the residual mean; ``resume_time`` [s] back inside before control resumes;
     ``gain`` (0 < g <= 1) the share of the LQR's heave/pitch feedback the recovery law uses;
-    ``bar_fraction`` (0 < f <= 1) of the plane limit it may use.
+    ``bar_fraction`` (0 < f <= 1) of the plane limit it may use (default 1: out of a large
+    upset the law saturates the plane anyway, and less travel only prolongs it: the A18M
+    pitched to -45 deg at 2 m/s resumes after 10.9 s with the full plane, 15.7 s with half).
     """
 
     enabled: bool = True
@@ -60,7 +62,7 @@ class RecoverySettings:
     rate_window: float = 2.0
     resume_time: float = 3.0
     gain: float = 0.5
-    bar_fraction: float = 0.5
+    bar_fraction: float = 1.0
 
     def __post_init__(self) -> None:
         for name in ('pitch_margin', 'rate_residual_max', 'rate_window', 'resume_time'):
