@@ -20,8 +20,9 @@ two symptoms at each control instant:
 Either symptom puts the pilot in **recovery**: :func:`recovery_bar` levels the vehicle at the
 trim pitch of its speed with a low-gain copy of the LQR's own heave/pitch feedback (the depth
 and integral terms left out, so it never chases depth), within the plane's limits (travel,
-optionally a fraction of it, and rate). Control resumes (hysteresis) once ``|theta| <= theta_max`` and the residual is
-below half its threshold, both without a break for ``resume_time`` seconds.
+optionally a fraction of it, and rate). Control resumes (hysteresis) once
+``|theta| <= theta_max`` and the residual is below half its threshold, both without a break
+for ``resume_time`` seconds.
 
 Units: SI, radians; NED/FRD as in ``auv_msgs/VehicleState``.
 """
