@@ -100,7 +100,7 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
     out, _ = proc.communicate(timeout=10)
     assert 'depth command 25 m accepted' in out
     assert out.count('rejected: depth command') == 4, out
-    assert 'not finite' in out and 'outside the vehicle envelope' in out
+    assert 'not finite' in out and 'outside the depth envelope' in out
     assert 'publishing safe BAR' in out
     assert 'depth control active' in out
 
@@ -112,6 +112,16 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
     (['-p', 'theta_max_deg:=0.0'], 'theta_max'),
     (['-p', 'publish_delay:=0.08'], 'publish_delay'),
     (['-p', 'realtime_priority:=150'], 'realtime_priority'),
+    (['-p', 'depth_max:=500.0'], 'depth_max = 500.0 m is outside the envelope [0, 300]'),
+    (['-p', 'depth_min:=40.0', '-p', 'depth_max:=20.0'], 'must be below depth_max'),
+    (['-p', 'depth_min:=shallow'], 'depth_min'),
+    (['-p', 'depth_command_mode:=round'], 'depth_command_mode'),
+    (['-p', 'state_source:=gps'], 'state_source'),
+    (['-p', 'odom_frame:=enu'], 'odom_frame'),
+    (['-p', 'state_reliability:=sometimes'], 'state_reliability'),
+    (['-p', 'recovery_gain:=2.0'], 'gain'),
+    (['-p', 'recovery_pitch_margin_deg:=-1.0'], 'pitch_margin'),
+    (['-p', 'diagnostics_period:=0.0'], 'diagnostics_period'),
 ])
 def test_bad_parameter_at_start_exits_with_one_line_error(ros_env, ros_args: list[str],
                                                           needle: str) -> None:

@@ -229,7 +229,7 @@ class DepthPilot:
             value = min(max(value, self.depth_min), self.depth_max)
         if not self.depth_min <= value <= self.depth_max:
             raise InvalidInputError(
-                f'depth command {value:g} m is outside the vehicle envelope '
+                f'depth command {value:g} m is outside the depth envelope '
                 f'[{self.depth_min:g}, {self.depth_max:g}] m; kept {self.z_ref} m')
         self.z_ref = value
         return value
