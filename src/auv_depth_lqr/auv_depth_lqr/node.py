@@ -415,7 +415,7 @@ class DepthPilotNode(Node):
         settings = self.pilot.settings
         if status == 'ok':
             verdict = self.pilot.verdict
-            if verdict is not None and verdict.mode == 'normal' and verdict.reason:
+            if verdict is not None and verdict.changed and verdict.mode == 'normal':
                 return verdict.reason
             return 'state received: depth control active'
         if status == 'recovery':
