@@ -9,6 +9,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
+from typing import Any
 
 import pytest
 import rclpy
@@ -136,9 +137,23 @@ def diagnostics_of(statuses: list[DiagnosticStatus]) -> dict[str, str]:
     return {kv.key: kv.value for kv in statuses[-1].values} if statuses else {}
 
 
+def set_remote_parameter(node: Node, client: Any, name: str, value: object
+                         ) -> tuple[bool, str]:
+    """Set one parameter through a SetParameters ``client`` (10 s deadline); returns
+    (successful, reason)."""
+    from rclpy.parameter import Parameter
+
+    request = client.srv_type.Request()
+    request.parameters = [Parameter(name, value=value).to_parameter_msg()]
+    future = client.call_async(request)
+    rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
+    assert future.done(), f'set_parameters {name} timed out'
+    result = future.result().results[0]
+    return result.successful, result.reason
+
+
 def test_depth_envelope_refuses_or_clamps_over_dds(ros_env, probe) -> None:
     from rcl_interfaces.srv import SetParameters
-    from rclpy.parameter import Parameter
 
     statuses: list[DiagnosticStatus] = []
 
@@ -158,13 +173,7 @@ def test_depth_envelope_refuses_or_clamps_over_dds(ros_env, probe) -> None:
         spin_until(probe, lambda: pilot.count(expect) > before, 20, f'{expect!r} for {z}')
 
     def set_parameter(name: str, value: object) -> tuple[bool, str]:
-        request = SetParameters.Request()
-        request.parameters = [Parameter(name, value=value).to_parameter_msg()]
-        future = client.call_async(request)
-        rclpy.spin_until_future_complete(probe, future, timeout_sec=10.0)
-        assert future.done(), f'set_parameters {name} timed out'
-        result = future.result().results[0]
-        return result.successful, result.reason
+        return set_remote_parameter(probe, client, name, value)
 
     def diagnosed_command() -> str:
         statuses.clear()

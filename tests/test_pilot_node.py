@@ -11,6 +11,7 @@ import pytest
 import rclpy
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64
+from test_pilot_interfaces import set_remote_parameter
 
 from auv_depth_lqr.pilot import SAFE_BAR_DEFAULT
 from auv_msgs.msg import ActuatorSetpoint, VehicleState
@@ -135,7 +136,6 @@ def test_bad_parameter_at_start_exits_with_one_line_error(ros_env, ros_args: lis
 
 def test_parameter_changes_are_validated_and_applied(pilot_process) -> None:
     from rcl_interfaces.srv import SetParameters
-    from rclpy.parameter import Parameter
 
     proc, _ = pilot_process
     rclpy.init()
@@ -147,13 +147,7 @@ def test_parameter_changes_are_validated_and_applied(pilot_process) -> None:
     client = node.create_client(SetParameters, '/auv/depth_pilot/set_parameters')
 
     def set_parameter(name: str, value: object) -> tuple[bool, str]:
-        request = SetParameters.Request()
-        request.parameters = [Parameter(name, value=value).to_parameter_msg()]
-        future = client.call_async(request)
-        rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
-        assert future.done(), f'set_parameters {name} timed out'
-        result = future.result().results[0]
-        return result.successful, result.reason
+        return set_remote_parameter(node, client, name, value)
 
     def spin_for(seconds: float) -> None:
         end = time.monotonic() + seconds
