@@ -190,6 +190,8 @@ def test_depth_envelope_refuses_or_clamps_over_dds(ros_env, probe) -> None:
                             (-math.inf, 'depth command -inf is not finite')):
             command(bad, needle)
         assert diagnosed_command() == '30.000'
+        assert 'depth command -inf is not finite; kept 30.0 m' in \
+            diagnostics_of(statuses)['last_rejected_command']
         ok, reason = set_parameter('depth_command_mode', 'clamp')
         assert ok, reason
         command(60.0, 'clamped to 50 m')

@@ -218,6 +218,7 @@ class DepthPilotNode(Node):
         self.pub = self.create_publisher(ActuatorSetpoint, 'bar_command', 100)
         self.pub_diagnostics = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self._seen: collections.OrderedDict[tuple[Any, ...], None] = collections.OrderedDict()
+        self._last_refusal = ''
         self.command_subscriptions = {
             name: self.create_subscription(
                 Float64, 'depth_command', self._on_depth, qos,
@@ -307,6 +308,7 @@ class DepthPilotNode(Node):
             z = self.pilot.set_depth_command(msg.data, clamp=clamp)
         except InvalidInputError as exc:
             self.get_logger().warning(f'rejected: {exc}')
+            self._last_refusal = str(exc)
             return
         if z != msg.data:
             self.get_logger().warning(
@@ -444,6 +446,7 @@ class DepthPilotNode(Node):
             'reason': verdict.reason if verdict else '',
             'depth_command_m': 'none' if pilot.z_ref is None else f'{pilot.z_ref:.3f}',
             'depth_min_m': f'{pilot.depth_min:g}', 'depth_max_m': f'{pilot.depth_max:g}',
+            'last_rejected_command': self._last_refusal,
             'pitch_deg': 'none' if verdict is None else f'{math.degrees(verdict.pitch):.2f}',
             'pitch_limit_deg': f'{math.degrees(pilot.controller.limits.theta_max):g}',
             'depth_rate_residual_mps': ('none' if verdict is None or verdict.residual is None
