@@ -51,3 +51,25 @@ def test_two_namespaced_vehicles_fly_to_different_depths(tmp_path: pathlib.Path,
         pilot_log = (tmp_path / f'{ns}_logs' / 'pilot.log').read_text()
         assert f'depth command {depth:g} m accepted' in pilot_log
         assert f'state from /{ns}/state' in pilot_log
+
+
+def test_pilot_on_the_simulators_odometry_flies_the_offline_run(tmp_path: pathlib.Path,
+                                                                 ros_env) -> None:
+    """The lockstep graph with the pilot on /auv/odom (nav_msgs/Odometry, ENU/FLU) instead of
+    /auv/state: the BAR commands are those of the offline run on the NED/FRD state."""
+    from auv_bringup.launch import GraphConfig, run_graph
+    from auv_depth_lqr.closed_loop import run_closed_loop
+    from auv_sim.params import load_vehicle
+
+    bag = tmp_path / 'bag'
+    cfg = GraphConfig(vehicle=str(A18M), lockstep=True, real_time_factor=0.0,
+                      initial_depth=40.0, stop_time=30.0, record=str(bag),
+                      log_dir=str(tmp_path / 'logs'), depth_command=10.0,
+                      pilot_state='odometry')
+    codes = run_graph(cfg, duration=240.0, env=ros_env)
+    assert codes['simulator'] == 0, codes
+    assert 'state from /auv/odom (enu_flu)' in (tmp_path / 'logs' / 'pilot.log').read_text()
+    bar = read_arrays(bag, ['/auv/bar_command'])['/auv/bar_command']
+    offline = run_closed_loop(load_vehicle(A18M), [(0.0, 10.0)], 30.0, z0=40.0)
+    assert len(bar) == 301
+    assert np.max(np.abs(bar['value'][:len(offline.bar)] - offline.bar)) <= 1e-9

@@ -120,6 +120,7 @@ class GraphConfig:
     mission: str | None = None  # an open-loop mission (auv mission) instead of the pilot
     sim_clock: bool = True  # simulated time and /clock; False: every node on the wall clock
     namespace: str = ''  # the nodes' namespace ('' = /auv); with sim_clock also its own clock
+    pilot_state: str = 'vehicle_state'  # the pilot's state input: vehicle_state or odometry
 
 
 def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
@@ -148,7 +149,8 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
         nodes.append(NodeProcess('pilot', [py, '-m', 'auv_depth_lqr.node', *ros_params(
             vehicle_file=cfg.vehicle, lockstep=cfg.lockstep, rate=cfg.pilot_rate,
             weights=cfg.weights, water_speed=float(cfg.water_speed),
-            realtime_priority=int(cfg.realtime_priority), use_sim_time=cfg.sim_clock),
+            realtime_priority=int(cfg.realtime_priority), use_sim_time=cfg.sim_clock,
+            state_source=cfg.pilot_state),
             *remaps(cfg)], log('pilot')))
     nodes.append(NodeProcess('simulator', [py, '-m', 'auv_sim.node', *ros_params(
         vehicle_file=cfg.vehicle, effects_file=cfg.effects or '""', lockstep=cfg.lockstep,
@@ -273,6 +275,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='run every node in this namespace (e.g. auv1: topics /auv1/state, '
                              '/auv1/depth_command, ...; default /auv), on simulated time with '
                              'its own clock /NS/clock; for several vehicles in one graph')
+    parser.add_argument('--pilot-state', choices=['vehicle_state', 'odometry'],
+                        default='vehicle_state',
+                        help="the pilot's state input: the simulator's state (VehicleState, "
+                             'NED/FRD) or its odom (nav_msgs/Odometry, ENU/FLU), as from a '
+                             "vehicle's navigation solution")
     parser.add_argument('--depth', type=float, default=None,
                         help='depth command [m] delivered to the pilot before the simulator '
                              'starts (for deterministic lockstep runs)')
@@ -308,7 +315,8 @@ def run(args: argparse.Namespace) -> int:
                           record=args.record, log_dir=args.log_dir,
                           sim_clock=not args.wall_clock, depth_command=args.depth,
                           water_speed=args.water_speed,
-                          realtime_priority=args.realtime_priority, namespace=args.namespace)
+                          realtime_priority=args.realtime_priority, namespace=args.namespace,
+                          pilot_state=args.pilot_state)
     codes = run_graph(cfg, duration=args.duration)
     bad = {k: v for k, v in codes.items() if v not in (0, None, -2, 130)}
     if bad:
