@@ -25,7 +25,24 @@ from auv_sim.frames import state_to_odometry
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 BEST_EFFORT = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
-READY = 'depth envelope ['  # the pilot's start line
+#: A user's script: a default-QoS publisher, one command once a subscriber matches.
+USER_SCRIPT = '''
+import time
+import rclpy
+from rclpy.duration import Duration
+from std_msgs.msg import Float64
+rclpy.init()
+node = rclpy.create_node('user_script')
+pub = node.create_publisher(Float64, '/auv/depth_command', 10)
+end = time.monotonic() + 30.0
+while pub.get_subscription_count() < 1:
+    assert time.monotonic() < end, 'no subscriber'
+    time.sleep(0.05)
+pub.publish(Float64(data=12.0))
+assert pub.wait_for_all_acked(Duration(seconds=10.0))
+node.destroy_node()
+rclpy.shutdown()
+'''
 
 
 class PilotProcess:
@@ -110,6 +127,12 @@ def test_commands_from_latched_default_and_best_effort_publishers(ros_env, probe
         plain.publish(Float64(data=15.0))
         spin_until(probe, lambda: pilot.count('depth command 15 m accepted') > 0, 20,
                    'the default-QoS command')
+        # the same from a user's script in its own process
+        script = subprocess.run([sys.executable, '-c', USER_SCRIPT], env=ros_env,
+                                capture_output=True, text=True, timeout=60)
+        assert script.returncode == 0, script.stderr
+        spin_until(probe, lambda: pilot.count('depth command 12 m accepted') > 0, 20,
+                   "the user script's command")
         # the latched subscription cannot match it: said, not silent; another one serves it
         spin_until(probe, lambda: pilot.count('another subscription of the pilot receives')
                    > 0, 20, 'the incompatible-QoS report')
