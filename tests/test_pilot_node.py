@@ -11,6 +11,7 @@ import pytest
 import rclpy
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64
+from test_pilot_interfaces import set_remote_parameter
 
 from auv_depth_lqr.pilot import SAFE_BAR_DEFAULT
 from auv_msgs.msg import ActuatorSetpoint, VehicleState
@@ -100,7 +101,7 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
     out, _ = proc.communicate(timeout=10)
     assert 'depth command 25 m accepted' in out
     assert out.count('rejected: depth command') == 4, out
-    assert 'not finite' in out and 'outside the vehicle envelope' in out
+    assert 'not finite' in out and 'outside the depth envelope' in out
     assert 'publishing safe BAR' in out
     assert 'depth control active' in out
 
@@ -112,6 +113,16 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
     (['-p', 'theta_max_deg:=0.0'], 'theta_max'),
     (['-p', 'publish_delay:=0.08'], 'publish_delay'),
     (['-p', 'realtime_priority:=150'], 'realtime_priority'),
+    (['-p', 'depth_max:=500.0'], 'depth_max = 500.0 m is outside the envelope [0, 300]'),
+    (['-p', 'depth_min:=40.0', '-p', 'depth_max:=20.0'], 'must be below depth_max'),
+    (['-p', 'depth_min:=shallow'], 'depth_min'),
+    (['-p', 'depth_command_mode:=round'], 'depth_command_mode'),
+    (['-p', 'state_source:=gps'], 'state_source'),
+    (['-p', 'odom_frame:=enu'], 'odom_frame'),
+    (['-p', 'state_reliability:=sometimes'], 'state_reliability'),
+    (['-p', 'recovery_gain:=2.0'], 'gain'),
+    (['-p', 'recovery_pitch_margin_deg:=-1.0'], 'pitch_margin'),
+    (['-p', 'diagnostics_period:=0.0'], 'diagnostics_period'),
 ])
 def test_bad_parameter_at_start_exits_with_one_line_error(ros_env, ros_args: list[str],
                                                           needle: str) -> None:
@@ -125,7 +136,6 @@ def test_bad_parameter_at_start_exits_with_one_line_error(ros_env, ros_args: lis
 
 def test_parameter_changes_are_validated_and_applied(pilot_process) -> None:
     from rcl_interfaces.srv import SetParameters
-    from rclpy.parameter import Parameter
 
     proc, _ = pilot_process
     rclpy.init()
@@ -134,16 +144,10 @@ def test_parameter_changes_are_validated_and_applied(pilot_process) -> None:
     node.create_subscription(
         ActuatorSetpoint, '/auv/bar_command',
         lambda m: stamps.append(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec), 50)
-    client = node.create_client(SetParameters, '/depth_pilot/set_parameters')
+    client = node.create_client(SetParameters, '/auv/depth_pilot/set_parameters')
 
     def set_parameter(name: str, value: object) -> tuple[bool, str]:
-        request = SetParameters.Request()
-        request.parameters = [Parameter(name, value=value).to_parameter_msg()]
-        future = client.call_async(request)
-        rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
-        assert future.done(), f'set_parameters {name} timed out'
-        result = future.result().results[0]
-        return result.successful, result.reason
+        return set_remote_parameter(node, client, name, value)
 
     def spin_for(seconds: float) -> None:
         end = time.monotonic() + seconds

@@ -2,7 +2,11 @@
 
 The depth is in metres, positive down (NED). The command waits, with a deadline, for a
 subscriber (the depth pilot) to match, publishes once and waits briefly for the reliable
-delivery to be acknowledged, so that a script can rely on it having arrived.
+delivery to be acknowledged, so that a script can rely on it having arrived. The publisher is
+reliable and transient-local (latched): a pilot that starts while it is still up gets the
+command too. ``--namespace auv1`` commands the vehicle in ``/auv1`` (topic
+``/auv1/depth_command``). Whether the pilot accepts the depth (its envelope) is in its log and
+on ``/diagnostics``.
 """
 from __future__ import annotations
 
@@ -12,8 +16,10 @@ import sys
 import time
 
 from auv_bringup.cli import CliError
+from auv_bringup.launch import namespace_path
 
 DEPTH_TOPIC = '/auv/depth_command'
+DEPTH_TOPIC_NAME = 'depth_command'  # in the vehicle's namespace
 ACK_TIMEOUT = 2.0  # s
 
 
@@ -21,8 +27,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``auv depth``."""
     parser.add_argument('depth', type=float, metavar='Z',
                         help='commanded depth (m, positive down)')
-    parser.add_argument('--topic', default=DEPTH_TOPIC,
-                        help='topic of the command (default: %(default)s)')
+    parser.add_argument('--topic', default=None,
+                        help=f'topic of the command (default: {DEPTH_TOPIC}, or '
+                             'NS/depth_command with --namespace)')
+    parser.add_argument('--namespace', default='/auv', metavar='NS',
+                        help="the vehicle's namespace (default: %(default)s)")
     parser.add_argument('--timeout', type=float, default=5.0, metavar='S',
                         help='deadline for a subscriber to appear (s, default 5)')
     parser.add_argument('--min-subscribers', type=int, default=1, metavar='N',
@@ -35,6 +44,8 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f'depth must be a finite number of metres, got {args.depth}')
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         raise CliError(f'--timeout must be a positive number of seconds, got {args.timeout}')
+    if args.topic is None:
+        args.topic = f'{namespace_path(args.namespace)}/{DEPTH_TOPIC_NAME}'
 
     import rclpy
     from rclpy.duration import Duration

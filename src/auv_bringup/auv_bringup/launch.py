@@ -6,6 +6,11 @@ reaches its ``stop_time`` (or on SIGINT/SIGTERM of ``auv launch``, or ``--durati
 seconds), the simulator and pilot get SIGINT, then the recorder gets SIGTERM so it closes its
 bag with every message it received; each stop has a deadline, after which the process is
 killed and the fact reported.
+
+Namespaces: every node's topics are relative to its namespace, ``/auv`` by default. With
+``namespace`` (``auv launch --namespace auv1``) every node of the graph runs in ``/auv1``
+(``-r __ns:=/auv1``), and on simulated time its clock moves too (``-r /clock:=/auv1/clock``),
+so several simulated vehicles, each with its own simulated time, share one ROS graph.
 """
 from __future__ import annotations
 
@@ -14,6 +19,7 @@ import contextlib
 import dataclasses
 import os
 import pathlib
+import re
 import signal
 import subprocess
 import sys
@@ -60,6 +66,27 @@ class NodeProcess:
         return self.proc.returncode
 
 
+def namespace_path(namespace: str) -> str:
+    """``'auv1'`` or ``'/auv1'`` -> ``'/auv1'``; ``''`` -> ``'/auv'`` (the default);
+    LaunchError for a name ROS does not accept."""
+    ns = '/' + namespace.strip('/') if namespace.strip('/') else '/auv'
+    if not re.fullmatch(r'(/[A-Za-z][A-Za-z0-9_]*)+', ns) or '__' in ns:
+        raise LaunchError(f'namespace {namespace!r} is not a valid ROS namespace (letters, '
+                          'digits and _ separated by /, each part starting with a letter)')
+    return ns
+
+
+def remaps(cfg: GraphConfig) -> list[str]:
+    """``-r`` arguments that put a node into the graph's namespace (none for the default)."""
+    if not cfg.namespace:
+        return []
+    ns = namespace_path(cfg.namespace)
+    out = ['-r', f'__ns:={ns}']
+    if cfg.sim_clock:
+        out += ['-r', f'/clock:={ns}/clock']
+    return out
+
+
 def ros_params(**params: object) -> list[str]:
     """``--ros-args -p k:=v ...`` for the given parameters (bools lower-case)."""
     out = ['--ros-args']
@@ -92,6 +119,8 @@ class GraphConfig:
     depth_command: float | None = None  # published (and delivered) before the simulator starts
     mission: str | None = None  # an open-loop mission (auv mission) instead of the pilot
     sim_clock: bool = True  # simulated time and /clock; False: every node on the wall clock
+    namespace: str = ''  # the nodes' namespace ('' = /auv); with sim_clock also its own clock
+    pilot_state: str = 'vehicle_state'  # the pilot's state input: vehicle_state or odometry
 
 
 def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
@@ -109,6 +138,8 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
         argv = [py, '-m', 'auv_bringup.record_node', '--out', cfg.record]
         if cfg.topics:
             argv += ['--topics', *cfg.topics]
+        if cfg.namespace:
+            argv += ['--ros-args', *remaps(cfg)]
         nodes.append(NodeProcess('recorder', argv, log('recorder')))
     if cfg.mission:
         nodes.append(NodeProcess('mission', [py, '-m', 'auv_bringup.cli', 'mission',
@@ -118,15 +149,16 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
         nodes.append(NodeProcess('pilot', [py, '-m', 'auv_depth_lqr.node', *ros_params(
             vehicle_file=cfg.vehicle, lockstep=cfg.lockstep, rate=cfg.pilot_rate,
             weights=cfg.weights, water_speed=float(cfg.water_speed),
-            realtime_priority=int(cfg.realtime_priority), use_sim_time=cfg.sim_clock)],
-            log('pilot')))
+            realtime_priority=int(cfg.realtime_priority), use_sim_time=cfg.sim_clock,
+            state_source=cfg.pilot_state),
+            *remaps(cfg)], log('pilot')))
     nodes.append(NodeProcess('simulator', [py, '-m', 'auv_sim.node', *ros_params(
         vehicle_file=cfg.vehicle, effects_file=cfg.effects or '""', lockstep=cfg.lockstep,
         use_sim_clock=cfg.sim_clock,
         real_time_factor=cfg.real_time_factor, initial_depth=cfg.initial_depth,
         initial_speed=cfg.initial_speed, stop_time=cfg.stop_time,
         start_subscribers=float(int(cfg.pilot or bool(cfg.mission)) + int(bool(cfg.record))),
-        control_period=1.0 / cfg.pilot_rate)], log('simulator')))
+        control_period=1.0 / cfg.pilot_rate), *remaps(cfg)], log('simulator')))
     return nodes
 
 
@@ -144,11 +176,12 @@ def wait_for_file(path: pathlib.Path, proc: NodeProcess, deadline: float) -> Non
 
 
 def send_depth_command(z: float, env: dict[str, str], subscribers: int = 1,
-                       timeout: float = 20.0) -> None:
-    """Publish a depth command [m] with ``auv depth`` once ``subscribers`` match, and wait
-    until it is delivered."""
+                       timeout: float = 20.0, namespace: str = '') -> None:
+    """Publish a depth command [m] with ``auv depth`` on ``<namespace>/depth_command`` once
+    ``subscribers`` match, and wait until it is delivered."""
     try:
         proc = subprocess.run([sys.executable, '-m', 'auv_bringup.cli', 'depth', str(z),
+                               '--namespace', namespace_path(namespace),
                                '--timeout', str(timeout), '--min-subscribers',
                                str(subscribers)], env=env, capture_output=True,
                               text=True, timeout=timeout + 10.0)
@@ -180,7 +213,8 @@ def run_graph(cfg: GraphConfig, duration: float | None = None,
                 raise LaunchError(f'{node.name} failed to start'
                                   + (f'; see {node.log_path}' if node.log_path else ''))
             if node.name == 'pilot' and cfg.depth_command is not None:
-                send_depth_command(cfg.depth_command, env, 2 if cfg.record else 1)
+                send_depth_command(cfg.depth_command, env, 2 if cfg.record else 1,
+                                   namespace=cfg.namespace)
         sim = nodes[-1]
         end = time.monotonic() + duration if duration else None
         while not stop_requested and sim.running():
@@ -237,6 +271,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--mission', default=None,
                         help='fly an open-loop mission (surge, pitch, yaw or a file) instead of '
                              'the pilot; start depth, speed and stop time come from it')
+    parser.add_argument('--namespace', default='',
+                        help='run every node in this namespace (e.g. auv1: topics /auv1/state, '
+                             '/auv1/depth_command, ...; default /auv), on simulated time with '
+                             'its own clock /NS/clock; for several vehicles in one graph')
+    parser.add_argument('--pilot-state', choices=['vehicle_state', 'odometry'],
+                        default='vehicle_state',
+                        help="the pilot's state input: the simulator's state (VehicleState, "
+                             'NED/FRD) or its odom (nav_msgs/Odometry, ENU/FLU), as from a '
+                             "vehicle's navigation solution")
     parser.add_argument('--depth', type=float, default=None,
                         help='depth command [m] delivered to the pilot before the simulator '
                              'starts (for deterministic lockstep runs)')
@@ -255,6 +298,11 @@ def run(args: argparse.Namespace) -> int:
     if args.lockstep and (args.mission or args.wall_clock):
         raise LaunchError('--lockstep needs the pilot on simulated time (no --mission, no '
                           '--wall-clock)')
+    if args.namespace:
+        namespace_path(args.namespace)  # checked before anything starts
+        if args.mission:
+            raise LaunchError('--namespace is not available with --mission (the mission node '
+                              'publishes on /auv)')
     if args.mission:
         cfg = mission_config(args.mission, vehicle=args.vehicle, effects=args.effects,
                              real_time_factor=args.real_time_factor, record=args.record,
@@ -267,7 +315,8 @@ def run(args: argparse.Namespace) -> int:
                           record=args.record, log_dir=args.log_dir,
                           sim_clock=not args.wall_clock, depth_command=args.depth,
                           water_speed=args.water_speed,
-                          realtime_priority=args.realtime_priority)
+                          realtime_priority=args.realtime_priority, namespace=args.namespace,
+                          pilot_state=args.pilot_state)
     codes = run_graph(cfg, duration=args.duration)
     bad = {k: v for k, v in codes.items() if v not in (0, None, -2, 130)}
     if bad:

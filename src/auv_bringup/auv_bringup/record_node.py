@@ -6,9 +6,12 @@ recorder starts is missed); other topics are subscribed when their type shows up
 SIGINT and SIGTERM stop the recording cleanly: spinning stops, the messages already received
 by DDS are drained, and the bag is closed with its summary and ``metadata.yaml``.
 
-Progress: every ``PROGRESS_EVERY`` ``/auv/state`` messages written, and ``PROGRESS_PERIOD``
+Namespace: the recorder node runs in ``/auv`` (``-r __ns:=/auv1`` moves it with a vehicle's
+graph); relative topic names resolve in it, absolute ones are taken as they are.
+
+Progress: every ``PROGRESS_EVERY`` ``state`` messages written, and ``PROGRESS_PERIOD``
 wall seconds after the last report when states were written since, the recorder publishes the
-header stamp of the last one written on ``/auv/recorder/progress`` (``builtin_interfaces/Time``); a
+header stamp of the last one written on ``recorder/progress`` (``builtin_interfaces/Time``); a
 simulator running as fast as possible paces itself on it (see :mod:`auv_sim.node`), so a
 recorder short of CPU slows the run instead of losing samples.
 """
@@ -28,17 +31,19 @@ from typing import Any
 
 from auv_bringup.cli import CliError, standalone
 
-#: Types of the project's topics (architecture contract), subscribed without waiting.
+#: Types of the project's topics (architecture contract), subscribed without waiting; names
+#: relative to the recorder's namespace (``/auv`` unless remapped with ``-r __ns:=...``).
 KNOWN_TOPICS: dict[str, str] = {
-    '/auv/state': 'auv_msgs/msg/VehicleState',
-    '/auv/odom': 'nav_msgs/msg/Odometry',
-    '/auv/hydrodynamic_forces': 'auv_msgs/msg/HydrodynamicForces',
-    '/auv/bar_command': 'auv_msgs/msg/ActuatorSetpoint',
-    '/auv/helm_command': 'auv_msgs/msg/ActuatorSetpoint',
-    '/auv/thrust_command': 'auv_msgs/msg/ActuatorSetpoint',
-    '/auv/depth_command': 'std_msgs/msg/Float64',
+    'state': 'auv_msgs/msg/VehicleState',
+    'odom': 'nav_msgs/msg/Odometry',
+    'hydrodynamic_forces': 'auv_msgs/msg/HydrodynamicForces',
+    'bar_command': 'auv_msgs/msg/ActuatorSetpoint',
+    'helm_command': 'auv_msgs/msg/ActuatorSetpoint',
+    'thrust_command': 'auv_msgs/msg/ActuatorSetpoint',
+    'depth_command': 'std_msgs/msg/Float64',
     '/clock': 'rosgraph_msgs/msg/Clock',
 }
+NAMESPACE = '/auv'  # the recorder node's default namespace
 DEFAULT_TOPICS = list(KNOWN_TOPICS)
 
 DRAIN_QUIET = 0.3  # s without a new message that ends the drain after a stop
@@ -54,7 +59,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--out', metavar='DIR', default=None,
                         help='bag directory to create (default: out/bags/rosbag2_<date-time>)')
     parser.add_argument('--topics', nargs='+', metavar='TOPIC', default=DEFAULT_TOPICS,
-                        help='topics to record (default: %(default)s)')
+                        help='topics to record, relative ones in the namespace (/auv unless '
+                             '--ros-args -r __ns:=/NS) (default: %(default)s)')
     parser.add_argument('--duration', type=float, metavar='S', default=None,
                         help='stop after this many seconds (wall clock; default: until '
                              'SIGINT/SIGTERM)')
@@ -108,6 +114,8 @@ class Recorder:
         self.node = node
         self._time = Time
         self._progress = node.create_publisher(Time, PROGRESS_TOPIC, PROGRESS_QOS)
+        self._state_topic = node.resolve_topic_name('state')
+        known = {node.resolve_topic_name(name): msgtype for name, msgtype in KNOWN_TOPICS.items()}
         self._unreported = 0  # /auv/state messages written since the last progress report
         self._last_state = b''  # the last of them (CDR)
         self._reported_at = 0.0  # time.monotonic() of the last report
@@ -124,7 +132,7 @@ class Recorder:
         self.subscriptions: dict[str, tuple[Any, bool]] = {}  # topic -> (sub, reliable)
         for topic in topics:
             name = node.resolve_topic_name(topic)
-            msgtype = KNOWN_TOPICS.get(name)
+            msgtype = known.get(name)
             if msgtype is None:
                 self.pending.append(name)
             else:
@@ -188,7 +196,7 @@ class Recorder:
         self._last_ns[topic] = received
         self.writer.write(topic, data, received, info.get('source_timestamp') or received)
         self.count += 1
-        if topic == '/auv/state':
+        if topic == self._state_topic:
             self._last_state = data
             self._unreported += 1
             if self._unreported >= PROGRESS_EVERY:
@@ -241,7 +249,7 @@ def run(args: argparse.Namespace) -> int:
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     writer = None
     try:
-        node = rclpy.create_node('auv_recorder')
+        node = rclpy.create_node('auv_recorder', namespace=NAMESPACE)
         writer = BagWriter(out, compression=args.compression,
                            flush_interval=args.flush_interval)
         recorder = Recorder(node, writer, list(dict.fromkeys(args.topics)), args.qos_depth)

@@ -1,21 +1,43 @@
 """The depth-pilot node: ``ros2 run auv_depth_lqr depth_pilot`` / ``auv pilot``.
 
-Subscribes ``/auv/depth_command`` (std_msgs/Float64, metres down; reliable, transient-local so
-a command sent before the pilot starts is not lost) and ``/auv/state``
-(auv_msgs/VehicleState, NED/FRD); publishes ``/auv/bar_command`` (auv_msgs/ActuatorSetpoint,
-rad) at a fixed rate (``rate``, default 10 Hz) from a timer, whether or not new state arrived.
+Topics, relative to the node's namespace (``/auv`` unless remapped with ``-r __ns:=/auv1``;
+each topic also with ``-r state:=/nav/state`` etc.):
+
+* ``depth_command`` (std_msgs/Float64, metres down) from any publisher: three subscriptions
+  on the topic — reliable + transient-local (a latched command, also one sent before the pilot
+  started), reliable + volatile (a default-QoS script, ``ros2 topic pub``) and best-effort +
+  volatile (a best-effort publisher) — so that every publisher matches at least one; a
+  sample that arrives through more than one is applied once (same publisher and sequence
+  number). An incompatible-QoS event is logged: a warning when the publisher matches none of
+  the pilot's subscriptions (its commands are lost), an info line when another one serves it.
+* the state: ``state`` (auv_msgs/VehicleState, NED/FRD) or, with ``state_source:=odometry``,
+  ``odom`` (nav_msgs/Odometry, ``odom_frame`` ``enu_flu`` (REP-105) or ``ned_frd``, see
+  :mod:`auv_depth_lqr.state_input`); reliable by default, best effort with
+  ``state_reliability:=best_effort`` (an incompatible publisher is reported in a warning).
+* publishes ``bar_command`` (auv_msgs/ActuatorSetpoint, rad) at a fixed rate (``rate``,
+  default 10 Hz) from a timer, whether or not new state arrived, and ``/diagnostics``
+  (diagnostic_msgs/DiagnosticArray, absolute as the ROS convention has it) every
+  ``diagnostics_period`` seconds and at once when the pilot's mode changes.
+
 All logic is in :class:`auv_depth_lqr.pilot.DepthPilot`; this module converts messages.
 
 Lockstep (parameter ``lockstep``, with the simulator's ``lockstep``): no timer; each state
 whose stamp is a control instant ``k / rate`` gets its BAR command stamped with that same
 instant, so the simulator can wait for it (see :mod:`auv_sim.node`).
 
-Parameters (validated at start and on change): ``vehicle_file``, ``rate`` [Hz], ``weights``
-(preset name), ``theta_max_deg`` [deg], ``bar_max`` / ``bar_rate`` [rad, rad/s; 0 = vehicle
-file], ``state_timeout`` [s], ``safe_bar`` [rad], ``lockstep`` (bool), ``water_speed``
-[m/s; 0 = schedule on the measured surge over ground, else the known speed through the water,
-see :func:`auv_depth_lqr.pilot.water_relative`], ``publish_delay`` [s],
-``realtime_priority`` (0-99, at start only; 0 = normal scheduling).
+Parameters (validated at start: a bad one ends the node with one line ``error: ...`` and exit
+status 1; and on change, where a bad one is refused with a reason): ``vehicle_file``,
+``rate`` [Hz], ``weights`` (preset name), ``theta_max_deg`` [deg], ``bar_max`` /
+``bar_rate`` [rad, rad/s; 0 = vehicle file], ``state_timeout`` [s], ``safe_bar`` [rad],
+``lockstep`` (bool), ``water_speed`` [m/s; 0 = schedule on the measured surge over ground,
+else the known speed through the water, see :func:`auv_depth_lqr.pilot.water_relative`],
+``publish_delay`` [s], ``depth_min`` / ``depth_max`` [m; NaN (default) = the vehicle file's
+envelope], ``depth_command_mode`` (``refuse`` or ``clamp``), ``odom_frame``, the envelope
+fallback ``recovery`` (bool), ``recovery_pitch_margin_deg`` [deg],
+``recovery_rate_residual`` [m/s], ``recovery_rate_window`` [s], ``recovery_resume_time``
+[s], ``recovery_gain``, ``recovery_bar_fraction`` (see :mod:`auv_depth_lqr.recovery`),
+at start only: ``diagnostics_period`` [s], ``state_source`` (``vehicle_state`` or
+``odometry``), ``state_reliability``, ``realtime_priority`` (0-99; 0 = normal scheduling).
 
 Real-time scheduling (``realtime_priority`` > 0): at start the node's threads move to
 ``SCHED_FIFO`` at that priority, as a control loop on a vehicle runs, so other processes do
@@ -30,6 +52,8 @@ the command is published as soon as it is computed.
 """
 
 import argparse
+import collections
+import functools
 import gc
 import math
 import os
@@ -41,20 +65,77 @@ from typing import Any
 import rclpy
 import rclpy.exceptions
 import rclpy.executors
-from rcl_interfaces.msg import SetParametersResult
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.clock import ROSClock
+from rclpy.event_handler import QoSRequestedIncompatibleQoSInfo, SubscriptionEventCallbacks
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import (
+    DurabilityPolicy,
+    QoSCompatibility,
+    QoSPolicyKind,
+    QoSProfile,
+    ReliabilityPolicy,
+    qos_check_compatible,
+)
 from rclpy.timer import Timer, TimerInfo
 from std_msgs.msg import Float64
 
+from auv_depth_lqr.controller import PlaneState
 from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
 from auv_depth_lqr.pilot import SAFE_BAR_DEFAULT, DepthPilot, PilotSettings
+from auv_depth_lqr.recovery import RecoverySettings
+from auv_depth_lqr.state_input import ODOM_FRAMES, plane_state_from_odometry
 from auv_msgs.msg import ActuatorSetpoint, VehicleState
 from auv_sim.errors import AuvSimError
 from auv_sim.params import load_vehicle
 
 NS_PER_S = 1_000_000_000
+DEFAULT_NAMESPACE = '/auv'
+NODE_NAME = 'depth_pilot'
+
+#: The depth-command subscriptions: together they match every publisher (see module docstring).
+COMMAND_QOS: dict[str, QoSProfile] = {
+    'latched': QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                          durability=DurabilityPolicy.TRANSIENT_LOCAL),
+    'reliable': QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
+                           durability=DurabilityPolicy.VOLATILE),
+    'best_effort': QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT,
+                              durability=DurabilityPolicy.VOLATILE),
+}
+STATE_RELIABILITY = {'reliable': ReliabilityPolicy.RELIABLE,
+                     'best_effort': ReliabilityPolicy.BEST_EFFORT}
+STATE_SOURCES = ('vehicle_state', 'odometry')
+COMMAND_MODES = ('refuse', 'clamp')
+START_ONLY = ('realtime_priority', 'state_source', 'state_reliability',
+              'diagnostics_period')
+_SEEN_COMMANDS = 64  # depth-command samples remembered to apply each once
+_LEVELS = {'ok': DiagnosticStatus.OK, 'recovery': DiagnosticStatus.WARN,
+           'no_state': DiagnosticStatus.WARN, 'stale': DiagnosticStatus.ERROR}
+
+#: Numeric parameters (double; an integer value is accepted too) and their defaults.
+_NUMBERS: dict[str, float] = {
+    'rate': 10.0, 'theta_max_deg': 25.0, 'bar_max': 0.0, 'bar_rate': 0.0,
+    'state_timeout': 0.5, 'safe_bar': SAFE_BAR_DEFAULT, 'water_speed': 0.0,
+    'publish_delay': 0.01, 'depth_min': math.nan, 'depth_max': math.nan,
+    'recovery_pitch_margin_deg': math.degrees(RecoverySettings.pitch_margin),
+    'recovery_rate_residual': RecoverySettings.rate_residual_max,
+    'recovery_rate_window': RecoverySettings.rate_window,
+    'recovery_resume_time': RecoverySettings.resume_time,
+    'recovery_gain': RecoverySettings.gain,
+    'recovery_bar_fraction': RecoverySettings.bar_fraction,
+    'diagnostics_period': 1.0,
+}
+_TEXTS: dict[str, str] = {
+    'weights': 'default', 'depth_command_mode': 'refuse', 'state_source': 'vehicle_state',
+    'odom_frame': 'enu_flu', 'state_reliability': 'reliable',
+}
+_CHOICES: dict[str, tuple[str, ...]] = {
+    'depth_command_mode': COMMAND_MODES, 'state_source': STATE_SOURCES,
+    'odom_frame': ODOM_FRAMES, 'state_reliability': tuple(STATE_RELIABILITY),
+}
+_FLAGS: dict[str, bool] = {'lockstep': False, 'recovery': True}
 
 
 def default_vehicle_file() -> str:
@@ -64,68 +145,132 @@ def default_vehicle_file() -> str:
     return str(base / 'config' / 'a18m.yaml')
 
 
+def checked_values(values: dict[str, Any]) -> dict[str, Any]:
+    """The node's parameter values checked for type and choice (DesignError naming the
+    parameter); numbers as float, flags as bool."""
+    out = dict(values)
+    for name in _NUMBERS:
+        value = values[name]
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise DesignError(f'parameter {name} = {value!r} must be a number')
+        out[name] = float(value)
+    for name, choices in _CHOICES.items():
+        if values[name] not in choices:
+            raise DesignError(f'parameter {name} = {values[name]!r} must be one of '
+                              f'{list(choices)}')
+    for name in _FLAGS:
+        if not isinstance(values[name], bool):
+            raise DesignError(f'parameter {name} = {values[name]!r} must be true or false')
+    period = out['diagnostics_period']
+    if not (math.isfinite(period) and period > 0):
+        raise DesignError(f'parameter diagnostics_period = {period!r} s must be finite and > 0')
+    for name in ('depth_min', 'depth_max'):
+        if math.isinf(out[name]):
+            raise DesignError(f'parameter {name} = {out[name]!r} m must be finite (or NaN: '
+                              "the vehicle file's envelope)")
+    return out
+
+
+def pilot_from_values(v: dict[str, Any]) -> DepthPilot:
+    """The pilot the (checked) parameter values describe; DesignError / ParameterError
+    naming what is wrong."""
+    params = load_vehicle(v['vehicle_file'])
+    recovery = RecoverySettings(
+        enabled=v['recovery'], pitch_margin=math.radians(v['recovery_pitch_margin_deg']),
+        rate_residual_max=v['recovery_rate_residual'], rate_window=v['recovery_rate_window'],
+        resume_time=v['recovery_resume_time'], gain=v['recovery_gain'],
+        bar_fraction=v['recovery_bar_fraction'])
+    settings = PilotSettings(
+        rate_hz=v['rate'], weights=str(v['weights']),
+        theta_max=math.radians(v['theta_max_deg']),
+        bar_max=v['bar_max'] or None, bar_rate=v['bar_rate'] or None,
+        state_timeout=v['state_timeout'], safe_bar=v['safe_bar'],
+        water_speed=v['water_speed'] or None, publish_delay=v['publish_delay'],
+        recovery=recovery)
+    return DepthPilot.for_vehicle(
+        params, settings,
+        depth_min=None if math.isnan(v['depth_min']) else v['depth_min'],
+        depth_max=None if math.isnan(v['depth_max']) else v['depth_max'])
+
+
 class DepthPilotNode(Node):
     """Thin ROS wrapper of :class:`DepthPilot` (see module docstring)."""
 
     def __init__(self, **kwargs: Any) -> None:
-        super().__init__('depth_pilot', **kwargs)
+        kwargs.setdefault('namespace', DEFAULT_NAMESPACE)
+        super().__init__(NODE_NAME, **kwargs)
+        numbers = ParameterDescriptor(dynamic_typing=True)  # 5 as well as 5.0
         self.declare_parameter('vehicle_file', default_vehicle_file())
-        self.declare_parameter('rate', 10.0)
-        self.declare_parameter('weights', 'default')
-        self.declare_parameter('theta_max_deg', 25.0)
-        self.declare_parameter('bar_max', 0.0)
-        self.declare_parameter('bar_rate', 0.0)
-        self.declare_parameter('state_timeout', 0.5)
-        self.declare_parameter('safe_bar', SAFE_BAR_DEFAULT)
-        self.declare_parameter('lockstep', False)
-        self.declare_parameter('water_speed', 0.0)
-        self.declare_parameter('publish_delay', 0.01)
+        for name, number in _NUMBERS.items():
+            self.declare_parameter(name, number, numbers)
+        for name, text in _TEXTS.items():
+            self.declare_parameter(name, text)
+        for name, flag in _FLAGS.items():
+            self.declare_parameter(name, flag)
         self.declare_parameter('realtime_priority', 0)
         self.realtime_priority = _priority(self.get_parameter('realtime_priority').value)
-        self.pilot = self._build(self._values({}))
+        values = checked_values(self._values({}))
+        self.pilot = pilot_from_values(values)
+        self.command_mode = values['depth_command_mode']
+        self.odom_frame = values['odom_frame']
         self.add_on_set_parameters_callback(self._on_set)
         # reliable, last 100 (10 s at 10 Hz): a lost sample is resent from this history
-        self.pub = self.create_publisher(ActuatorSetpoint, '/auv/bar_command', 100)
-        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self.create_subscription(Float64, '/auv/depth_command', self._on_depth, latched)
-        self.create_subscription(VehicleState, '/auv/state', self._on_state, 50)
+        self.pub = self.create_publisher(ActuatorSetpoint, 'bar_command', 100)
+        self.pub_diagnostics = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self._seen: collections.OrderedDict[tuple[Any, ...], None] = collections.OrderedDict()
+        self._last_refusal = ''
+        self.command_subscriptions = {
+            name: self.create_subscription(
+                Float64, 'depth_command', self._on_depth, qos,
+                event_callbacks=SubscriptionEventCallbacks(
+                    incompatible_qos=functools.partial(self._on_command_incompatible, name)))
+            for name, qos in COMMAND_QOS.items()}
+        state_qos = QoSProfile(depth=50,
+                               reliability=STATE_RELIABILITY[values['state_reliability']])
+        state_events = SubscriptionEventCallbacks(incompatible_qos=self._on_state_incompatible)
+        if values['state_source'] == 'odometry':
+            self.state_subscription = self.create_subscription(
+                Odometry, 'odom', self._on_odometry, state_qos, event_callbacks=state_events)
+        else:
+            self.state_subscription = self.create_subscription(
+                VehicleState, 'state', self._on_state, state_qos, event_callbacks=state_events)
         self.timer: Timer | None = None
         self._reported = ''
         self._configure_timer()
+        self.create_timer(values['diagnostics_period'], self._publish_diagnostics)
+        self.get_logger().info(
+            f'{self.pilot.controller.limits.theta_max * 180 / math.pi:g} deg pitch limit, '
+            f'depth envelope [{self.pilot.depth_min:g}, {self.pilot.depth_max:g}] m '
+            f'({self.command_mode} outside), state from '
+            f'{self.state_subscription.topic_name}'
+            + (f' ({self.odom_frame})' if values['state_source'] == 'odometry' else ''))
 
     # -- parameters --------------------------------------------------------------------------
     def _values(self, changes: dict[str, Any]) -> dict[str, Any]:
-        names = ('vehicle_file', 'rate', 'weights', 'theta_max_deg', 'bar_max', 'bar_rate',
-                 'state_timeout', 'safe_bar', 'lockstep', 'water_speed', 'publish_delay')
+        names = ('vehicle_file', *_NUMBERS, *_TEXTS, *_FLAGS)
         values = {n: self.get_parameter(n).value for n in names}
         values.update(changes)
         return values
 
-    def _build(self, v: dict[str, Any]) -> DepthPilot:
-        params = load_vehicle(v['vehicle_file'])
-        settings = PilotSettings(
-            rate_hz=float(v['rate']), weights=str(v['weights']),
-            theta_max=math.radians(float(v['theta_max_deg'])),
-            bar_max=float(v['bar_max']) or None, bar_rate=float(v['bar_rate']) or None,
-            state_timeout=float(v['state_timeout']), safe_bar=float(v['safe_bar']),
-            water_speed=float(v['water_speed']) or None,
-            publish_delay=float(v['publish_delay']))
-        return DepthPilot.for_vehicle(params, settings)
-
     def _on_set(self, params: list[Any]) -> SetParametersResult:
-        if any(p.name == 'realtime_priority' for p in params):
+        fixed = [p.name for p in params if p.name in START_ONLY]
+        if fixed:
             return SetParametersResult(successful=False, reason=(
-                'realtime_priority is applied at start only; restart the node to change it'))
+                f'{", ".join(fixed)} applied at start only; restart the node to change it'))
         try:
-            pilot = self._build(self._values({p.name: p.value for p in params}))
+            values = checked_values(self._values({p.name: p.value for p in params}))
+            pilot = pilot_from_values(values)
+            z_ref = self.pilot.z_ref
+            if z_ref is not None:
+                # the command in force must be flyable under the new envelope
+                pilot.set_depth_command(z_ref)
         except (AuvLqrError, AuvSimError, ValueError, TypeError) as exc:
             return SetParametersResult(successful=False, reason=str(exc))
-        if self.pilot.z_ref is not None:
-            pilot.z_ref = self.pilot.z_ref
         self.pilot = pilot
+        self.command_mode = values['depth_command_mode']
+        self.odom_frame = values['odom_frame']
         self.get_logger().info('parameters changed: controller redesigned')
-        # the timer period may have changed
+        # the timer periods may have changed
         self._pending_timer = True
         return SetParametersResult(successful=True)
 
@@ -139,29 +284,103 @@ class DepthPilotNode(Node):
             self.timer = self.create_timer(self.pilot.settings.Ts, self._on_timer)
         self._pending_timer = False
 
-    # -- callbacks ---------------------------------------------------------------------------
+    # -- depth commands ----------------------------------------------------------------------
+    def _first_time(self, info: Any) -> bool:
+        """True the first time a sample (publisher, sequence number) is seen."""
+        gid = info.get('publisher_gid') if isinstance(info, dict) else None
+        gid_bytes = bytes(gid['data']) if isinstance(gid, dict) and 'data' in gid else None
+        seq = info.get('publication_sequence_number') if isinstance(info, dict) else None
+        if gid_bytes is None or seq is None:
+            return True  # no identity to compare: apply (a repeated value changes nothing)
+        key = (gid_bytes, seq)
+        if key in self._seen:
+            return False
+        self._seen[key] = None
+        while len(self._seen) > _SEEN_COMMANDS:
+            self._seen.popitem(last=False)
+        return True
+
+    def _on_depth(self, msg: Float64, info: Any) -> None:
+        if not self._first_time(info):
+            return
+        clamp = self.command_mode == 'clamp'
+        try:
+            z = self.pilot.set_depth_command(msg.data, clamp=clamp)
+        except InvalidInputError as exc:
+            self.get_logger().warning(f'rejected: {exc}')
+            self._last_refusal = str(exc)
+            return
+        if z != msg.data:
+            self.get_logger().warning(
+                f'depth command {msg.data:g} m outside the envelope [{self.pilot.depth_min:g}, '
+                f'{self.pilot.depth_max:g}] m: clamped to {z:g} m')
+        else:
+            self.get_logger().info(f'depth command {z:g} m accepted')
+
+    def _on_command_incompatible(self, name: str, info: QoSRequestedIncompatibleQoSInfo,
+                                 ) -> None:
+        policy = _policy_name(info.last_policy_kind)
+        topic = self.command_subscriptions[name].topic_name
+        lost = []
+        for pub in self.get_publishers_info_by_topic(topic):
+            if all(qos_check_compatible(pub.qos_profile, qos)[0] == QoSCompatibility.ERROR
+                   for qos in COMMAND_QOS.values()):
+                lost.append(f'{pub.node_namespace.rstrip("/")}/{pub.node_name} '
+                            f'({_qos_text(pub.qos_profile)})')
+        if lost:
+            self.get_logger().warning(
+                f'{topic}: publisher(s) {", ".join(lost)} incompatible with every depth-command '
+                f'subscription (last policy: {policy}): their commands do not arrive')
+        else:
+            self.get_logger().info(
+                f'{topic}: a publisher offers a {policy} the {name} subscription does not '
+                'match; another subscription of the pilot receives its commands')
+
+    def _on_state_incompatible(self, info: QoSRequestedIncompatibleQoSInfo) -> None:
+        policy = _policy_name(info.last_policy_kind)
+        topic = self.state_subscription.topic_name
+        hint = (' (a best-effort publisher: set state_reliability:=best_effort)'
+                if policy == 'RELIABILITY' else '')
+        self.get_logger().warning(
+            f'{topic}: a publisher with incompatible QoS ({policy}){hint}: its state does '
+            'not arrive')
+
+    # -- state -------------------------------------------------------------------------------
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds / NS_PER_S
 
-    def _on_depth(self, msg: Float64) -> None:
-        try:
-            z = self.pilot.set_depth_command(msg.data)
-            self.get_logger().info(f'depth command {z:g} m accepted')
-        except InvalidInputError as exc:
-            self.get_logger().warning(f'rejected: {exc}')
-
     def _on_state(self, msg: VehicleState) -> None:
+        self._take_state(PlaneState(z=msg.z, theta=msg.theta, w=msg.w, q=msg.q, u=msg.u),
+                         msg.header.stamp)
+
+    def _on_odometry(self, msg: Odometry) -> None:
+        pose, twist = msg.pose.pose, msg.twist.twist
         try:
-            self.pilot.on_state(self._now(), z=msg.z, theta=msg.theta, w=msg.w, q=msg.q,
-                                u=msg.u)
+            state = plane_state_from_odometry(
+                (pose.position.x, pose.position.y, pose.position.z),
+                (pose.orientation.x, pose.orientation.y, pose.orientation.z,
+                 pose.orientation.w),
+                (twist.linear.x, twist.linear.y, twist.linear.z),
+                (twist.angular.x, twist.angular.y, twist.angular.z), self.odom_frame)
         except InvalidInputError as exc:
             self.get_logger().warning(f'rejected: {exc}')
             return
-        if self.lockstep:
-            stamp_ns = msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec
-            if stamp_ns % self.control_ns == 0:
-                self._publish(msg.header.stamp, self._now())
+        self._take_state(state, msg.header.stamp)
 
+    def _take_state(self, s: PlaneState, stamp: Any) -> None:
+        try:
+            self.pilot.on_state(self._now(), z=s.z, theta=s.theta, w=s.w, q=s.q, u=s.u)
+        except InvalidInputError as exc:
+            self.get_logger().warning(f'rejected: {exc}')
+            return
+        if self._pending_timer and self.lockstep:
+            self._configure_timer()
+        if self.lockstep:
+            stamp_ns = stamp.sec * NS_PER_S + stamp.nanosec
+            if stamp_ns % self.control_ns == 0:
+                self._publish(stamp, self._now())
+
+    # -- output ------------------------------------------------------------------------------
     def _on_timer(self, info: TimerInfo) -> None:
         if self._pending_timer:
             self._configure_timer()
@@ -175,14 +394,12 @@ class DepthPilotNode(Node):
         """Compute the command for ``t`` [s] and publish it stamped ``stamp``; with ``out_ns``
         [ns, system clock], not before that instant."""
         bar, status = self.pilot.command(t)
-        if status != self._reported:
+        changed = status != self._reported
+        if changed:
             if status == 'ok':
-                self.get_logger().info('state received: depth control active')
+                self.get_logger().info(self._status_text(status))
             else:
-                text = {'stale': f'no state for more than {self.pilot.settings.state_timeout}'
-                                 f' s: publishing safe BAR {self.pilot.settings.safe_bar:.3f} rad',
-                        'no_state': 'no state yet: publishing safe BAR'}.get(status, status)
-                self.get_logger().warning(text)
+                self.get_logger().warning(self._status_text(status))
             self._reported = status
         out = ActuatorSetpoint()
         out.header.stamp = stamp
@@ -193,6 +410,65 @@ class DepthPilotNode(Node):
             if wait > 0:
                 time.sleep(wait / NS_PER_S)
         self.pub.publish(out)
+        if changed:
+            self._publish_diagnostics()
+
+    def _status_text(self, status: str) -> str:
+        settings = self.pilot.settings
+        if status == 'ok':
+            verdict = self.pilot.verdict
+            if verdict is not None and verdict.changed and verdict.mode == 'normal':
+                return verdict.reason
+            return 'state received: depth control active'
+        if status == 'recovery':
+            reason = self.pilot.verdict.reason if self.pilot.verdict else ''
+            return f'envelope left ({reason}): recovery law, levelling the vehicle'
+        if status == 'stale':
+            return (f'no state for more than {settings.state_timeout} s: publishing safe BAR '
+                    f'{settings.safe_bar:.3f} rad')
+        if status == 'no_state':
+            return 'no state yet: publishing safe BAR'
+        return status
+
+    def _publish_diagnostics(self) -> None:
+        """One DiagnosticStatus for the pilot on ``/diagnostics`` (ROS convention)."""
+        pilot = self.pilot
+        status = pilot.status
+        verdict = pilot.verdict
+        out = DiagnosticStatus()
+        out.level = _LEVELS.get(status, DiagnosticStatus.ERROR)
+        out.name = f'{self.get_fully_qualified_name()}: depth control'
+        out.message = self._status_text(status)
+        out.hardware_id = self.get_namespace()
+        values = {
+            'status': status,
+            'mode': verdict.mode if verdict else 'normal',
+            'reason': verdict.reason if verdict else '',
+            'depth_command_m': 'none' if pilot.z_ref is None else f'{pilot.z_ref:.3f}',
+            'depth_min_m': f'{pilot.depth_min:g}', 'depth_max_m': f'{pilot.depth_max:g}',
+            'last_rejected_command': self._last_refusal,
+            'pitch_deg': 'none' if verdict is None else f'{math.degrees(verdict.pitch):.2f}',
+            'pitch_limit_deg': f'{math.degrees(pilot.controller.limits.theta_max):g}',
+            'depth_rate_residual_mps': ('none' if verdict is None or verdict.residual is None
+                                        else f'{verdict.residual:+.3f}'),
+        }
+        out.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+        array = DiagnosticArray()
+        array.header.stamp = self.get_clock().now().to_msg()
+        array.status = [out]
+        self.pub_diagnostics.publish(array)
+
+
+def _policy_name(kind: int) -> str:
+    """Name of a QoS policy kind (``DURABILITY``, ``RELIABILITY``, ...)."""
+    try:
+        return QoSPolicyKind(kind).name
+    except ValueError:
+        return f'policy {kind}'
+
+
+def _qos_text(qos: QoSProfile) -> str:
+    return f'{qos.reliability.name.lower()}, {qos.durability.name.lower()}'
 
 
 def _priority(value: Any) -> int:

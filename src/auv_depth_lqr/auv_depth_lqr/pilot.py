@@ -3,14 +3,21 @@
 :class:`DepthPilot` wraps a :class:`~auv_depth_lqr.controller.DepthController` with what a
 pilot on a vehicle must also do:
 
-* a depth command that is NaN, infinite or outside the vehicle's depth envelope is rejected
-  (:class:`~auv_depth_lqr.errors.InvalidInputError` naming the value) and the last valid one
-  is kept; before any command the pilot holds the first depth it measured;
+* a depth command that is NaN or infinite is rejected, and one outside the depth envelope
+  ``[depth_min, depth_max]`` [m] (the vehicle file's, or a narrower one: surface margin,
+  bottom, rated depth) is rejected or, when asked, clamped to it
+  (:class:`~auv_depth_lqr.errors.InvalidInputError` naming the value; the last valid one is
+  kept): a depth outside the envelope is never flown; before any command the pilot holds the
+  first depth it measured, brought inside the envelope;
 * when no state has arrived for longer than ``state_timeout`` [s] it commands the documented
   safe BAR (a gentle nose-up climb, default -0.12 rad = -6.9 deg: about +7 deg pitch and
   0.25 m/s climb for the A18M at 2 m/s) and says so; when state returns it resumes, with the
   controller reset so that no stale integrator or reference acts;
-* any failure of the controller on a sample gives the safe BAR, never an exception.
+* any failure of the controller on a sample gives the safe BAR, never an exception;
+* when the vehicle leaves the envelope its design model describes (pitch beyond the limit
+  plus a margin, a depth rate the model cannot explain) it flies the conservative recovery
+  law of :mod:`auv_depth_lqr.recovery` until the vehicle is back inside, then resumes with
+  the controller reset.
 
 The depth-pilot node and offline closed-loop runs both drive this class, so a lockstep graph
 run and an offline run give the same commands. Times are in seconds on any one clock.
@@ -31,6 +38,13 @@ from auv_depth_lqr.controller import (
     preset,
 )
 from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
+from auv_depth_lqr.recovery import (
+    RECOVERY,
+    EnvelopeMonitor,
+    RecoverySettings,
+    Verdict,
+    recovery_bar,
+)
 from auv_sim.errors import TrimError
 from auv_sim.params import VehicleParams
 from auv_sim.trim import VerticalPlane
@@ -59,6 +73,7 @@ class PilotSettings:
     phase of a pilot on the wall clock: the command of the tick due at ``t_k`` is published at
     ``t_k + publish_delay``, so the time its step took (and a late wake-up) does not move the
     publish instant (logical-execution-time output); 0 publishes as soon as it is computed.
+    ``recovery``: when the envelope fallback acts and how (:class:`RecoverySettings`).
     """
 
     rate_hz: float = 10.0
@@ -71,6 +86,7 @@ class PilotSettings:
     safe_bar: float = SAFE_BAR_DEFAULT
     water_speed: float | None = None
     publish_delay: float = 0.01
+    recovery: RecoverySettings = dataclasses.field(default_factory=RecoverySettings)
 
     def __post_init__(self) -> None:
         for name in ('rate_hz', 'theta_max', 'state_timeout'):
@@ -158,10 +174,17 @@ class DepthPilot:
 
     def __init__(self, controller: DepthController, depth_min: float, depth_max: float,
                  settings: PilotSettings) -> None:
+        if not (math.isfinite(depth_min) and math.isfinite(depth_max)
+                and 0.0 <= depth_min < depth_max):
+            raise DesignError(f'depth envelope [{depth_min!r}, {depth_max!r}] m must be finite '
+                              'with 0 <= depth_min < depth_max')
         self.controller = controller
         self.depth_min = float(depth_min)
         self.depth_max = float(depth_max)
         self.settings = settings
+        self.monitor = EnvelopeMonitor(controller.limits.theta_max, settings.recovery)
+        self.verdict: Verdict | None = None
+        self._t_monitored: float | None = None
         self.z_ref: float | None = None
         self._state: PlaneState | None = None
         self._t_state: float | None = None
@@ -171,14 +194,30 @@ class DepthPilot:
 
     @classmethod
     def for_vehicle(cls, params: VehicleParams, settings: PilotSettings | None = None,
+                    depth_min: float | None = None, depth_max: float | None = None,
                     ) -> DepthPilot:
-        """A pilot for a vehicle file's parameters and envelope."""
+        """A pilot for a vehicle file's parameters; its depth envelope [m] is the vehicle
+        file's unless ``depth_min`` / ``depth_max`` narrow it (DesignError if they are
+        outside the file's rated envelope)."""
         settings = settings or PilotSettings()
-        return cls(build_controller(params, settings), params.depth_min, params.depth_max,
-                   settings)
+        lo = params.depth_min if depth_min is None else depth_min
+        hi = params.depth_max if depth_max is None else depth_max
+        for name, value in (('depth_min', lo), ('depth_max', hi)):
+            if not (math.isfinite(value) and params.depth_min <= value <= params.depth_max):
+                raise DesignError(f'{name} = {value!r} m is outside the envelope '
+                                  f'[{params.depth_min:g}, {params.depth_max:g}] m of '
+                                  f'{params.name} (its vehicle file)')
+        if not lo < hi:
+            raise DesignError(f'depth_min = {lo:g} m must be below depth_max = {hi:g} m')
+        return cls(build_controller(params, settings), lo, hi, settings)
 
-    def set_depth_command(self, z: float) -> float:
-        """Accept a commanded depth [m, down]; InvalidInputError (last one kept) if bad."""
+    def set_depth_command(self, z: float, clamp: bool = False) -> float:
+        """Accept a commanded depth [m, down] and return the depth that will be flown.
+
+        A non-finite command is always refused; one outside ``[depth_min, depth_max]`` is
+        refused, or with ``clamp`` replaced by the nearest envelope bound. Refused:
+        InvalidInputError naming the value (the last valid command is kept).
+        """
         try:
             value = float(z)
         except (TypeError, ValueError):
@@ -186,9 +225,11 @@ class DepthPilot:
                                     f'{self.z_ref} m') from None
         if not math.isfinite(value):
             raise InvalidInputError(f'depth command {value} is not finite; kept {self.z_ref} m')
+        if clamp:
+            value = min(max(value, self.depth_min), self.depth_max)
         if not self.depth_min <= value <= self.depth_max:
             raise InvalidInputError(
-                f'depth command {value:g} m is outside the vehicle envelope '
+                f'depth command {value:g} m is outside the depth envelope '
                 f'[{self.depth_min:g}, {self.depth_max:g}] m; kept {self.z_ref} m')
         self.z_ref = value
         return value
@@ -209,16 +250,26 @@ class DepthPilot:
     def command(self, t: float) -> tuple[float, str]:
         """BAR command [rad] at time ``t`` [s] and the status that produced it.
 
-        Status: ``ok``; ``stale`` (no state for longer than the timeout: safe BAR);
-        ``no_state`` (none yet: safe BAR); ``error: ...`` (controller failed: safe BAR).
+        Status: ``ok``; ``recovery`` (outside the envelope of the design model: recovery
+        law, see :attr:`verdict`); ``stale`` (no state for longer than the timeout: safe
+        BAR); ``no_state`` (none yet: safe BAR); ``error: ...`` (controller failed: safe BAR).
         """
         if self._state is None or self._t_state is None:
             self.status = 'no_state'
             return self._safe(), self.status
         if t - self._t_state > self.settings.state_timeout:
             self._stale = True
+            self.monitor.reset()
             self.status = 'stale'
             return self._safe(), self.status
+        if self._t_monitored != self._t_state:
+            s = self._state
+            self.verdict = self.monitor.update(self._t_state, s.z, s.theta, s.w, s.u)
+            self._t_monitored = self._t_state
+        if self.monitor.mode == RECOVERY:
+            self._stale = True  # the controller restarts from scratch on resuming
+            self.status = 'recovery'
+            return self._recovery(), self.status
         if self._stale:
             self.controller.reset(bar_previous=self._last_bar)
             self._stale = False
@@ -233,9 +284,24 @@ class DepthPilot:
         self.status = 'ok'
         return bar, self.status
 
+    def _recovery(self) -> float:
+        """The recovery law's BAR (see :func:`auv_depth_lqr.recovery.recovery_bar`) at the
+        present speed, rate-limited like every command."""
+        assert self._state is not None
+        s, rec = self._state, self.settings.recovery
+        op = self.controller.design.at(s.u)
+        limits = self.controller.limits
+        return self._slewed(recovery_bar(
+            float(op.K[0]), float(op.K[1]), float(op.K[3]), op.w_e, op.theta_e, op.bar_e,
+            s.w, s.q, s.theta, rec.gain, rec.bar_fraction * limits.bar_max))
+
     def _safe(self) -> float:
         """The safe BAR, reached no faster than the plane's rate limit allows."""
-        target = self.settings.safe_bar
+        return self._slewed(self.settings.safe_bar)
+
+    def _slewed(self, target: float) -> float:
+        """``target`` [rad] moved toward from the last command at most the plane's rate
+        limit times the sample period."""
         if self._last_bar is not None:
             slew = self.controller.limits.bar_rate_max * self.settings.Ts
             target = min(max(target, self._last_bar - slew), self._last_bar + slew)

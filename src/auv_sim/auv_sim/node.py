@@ -60,7 +60,7 @@ allow:
    matched before answering the first state).
 
 Recorder pacing (as fast as possible, ``real_time_factor`` 0, simulated time): a recorder
-reports the stamp of the last ``state`` it wrote on ``/auv/recorder/progress``
+reports the stamp of the last ``state`` it wrote on ``recorder/progress`` (namespaced)
 (``builtin_interfaces/Time``, see :mod:`auv_bringup.record_node`). While such a publisher is
 matched, the simulator does not run more than half its output history (``STREAM_QOS`` depth
 / 2 publish periods, 10 s at 50 Hz) ahead of that stamp, so a recorder starved of CPU slows
@@ -137,7 +137,7 @@ _FAST_SPIN_PERIOD = 0.002  # wall s between callback polls when running as fast 
 _RECORDER_TIMEOUT = 5.0  # wall s the simulator waits for a recorder's progress (pacing)
 #: Recorder progress (stamp of the last state written; see auv_bringup.record_node) and its QoS:
 #: reliable, keep the last 10.
-PROGRESS_TOPIC = '/auv/recorder/progress'
+PROGRESS_TOPIC = 'recorder/progress'  # relative: /auv/recorder/progress by default
 PROGRESS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                           reliability=ReliabilityPolicy.RELIABLE,
                           durability=DurabilityPolicy.VOLATILE)
