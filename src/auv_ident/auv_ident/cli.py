@@ -45,7 +45,11 @@ def stderr_progress(text: str) -> None:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``auv ident``."""
-    parser.add_argument('bags', nargs='+', metavar='BAG', help='bag directories or .mcap files')
+    parser.add_argument('bags', nargs='+', metavar='BAG',
+                        help='bag directories or .mcap files (with --map: the original logs)')
+    parser.add_argument('--map', default=None, metavar='MAP',
+                        help='read the original logs through this mapping file (as `auv '
+                             'import` does, without writing a bag); forces from motion')
     parser.add_argument('--base', default=str(DEFAULT_BASE),
                         help='vehicle file the identified values replace (default: a18m)')
     parser.add_argument('--out', required=True, help='output directory')
@@ -68,12 +72,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def load_records(bags: Sequence[str], base: VehicleParams, source: str = 'auto',
-                 window_s: float = WINDOW_S, progress: Progress | None = None
-                 ) -> tuple[list[ForceRecord], str]:
+                 window_s: float = WINDOW_S, progress: Progress | None = None,
+                 limits: dict[str, Any] | None = None) -> tuple[list[ForceRecord], str]:
     """Read the bags and build force records; returns them and the source used.
 
     ``auto`` uses the force topic when every bag has it, else the motion of every bag.
+    Logged commands outside the vehicle file's limits are used as logged and counted into
+    ``limits`` (see :mod:`auv_ident.limits`).
     """
+    limits = {} if limits is None else limits
     from auv_ident.bag import bag_topics, read_arrays
 
     present = [set(bag_topics(b)) for b in bags]
@@ -98,8 +105,47 @@ def load_records(bags: Sequence[str], base: VehicleParams, source: str = 'auto',
         if progress is not None:
             n = sum(len(a) for a in arrays.values())
             progress(f'read {bag}: {n} messages in {time.perf_counter() - t0:.2f} s')
-        records += records_from_topics(arrays, base, source, name=name, window_s=window_s)
+        records += _records_as_logged(arrays, base, source, name, window_s, limits)
     return records, source
+
+
+def _records_as_logged(arrays: Any, base: VehicleParams, source: str, name: str,
+                       window_s: float, limits: dict[str, Any]) -> list[ForceRecord]:
+    """Force records with the actuator limits widened to the logged commands
+    (:mod:`auv_ident.limits`: used as logged, never clipped); what lay outside the vehicle
+    file's limits is merged into ``limits`` (channel -> count, total, range)."""
+    from auv_ident.limits import as_logged
+
+    commands = {ch: (arrays[tp]['t'], arrays[tp]['value']) for ch, tp in COMMAND_TOPICS.items()
+                if tp in arrays}
+    params, found = as_logged(base, [commands])
+    for ch, r in found.items():
+        old = limits.get(ch)
+        limits[ch] = r if old is None else {**r, 'count': old['count'] + r['count'],
+                                            'total': old['total'] + r['total'],
+                                            'min': min(old['min'], r['min']),
+                                            'max': max(old['max'], r['max'])}
+    return records_from_topics(arrays, params, source, name=name, window_s=window_s)
+
+
+def load_records_from_map(map_path: str, logs: Sequence[str], base: VehicleParams,
+                          window_s: float = WINDOW_S, progress: Progress | None = None,
+                          limits: dict[str, Any] | None = None
+                          ) -> tuple[list[ForceRecord], list[dict[str, Any]]]:
+    """Import the original logs through a map (:mod:`auv_ident.realog`) into the contract's
+    arrays and build force records from motion exactly as from the imported bag; returns the
+    records and each log's import report."""
+    from auv_ident.realog.importer import contract_arrays, import_logs
+
+    _, imported = import_logs(map_path, logs)
+    records: list[ForceRecord] = []
+    for lg in imported:
+        if progress is not None:
+            progress(f'imported {lg.name}: {len(lg.t)} state samples, '
+                     f'{len(lg.segments)} segment(s)')
+        records += _records_as_logged(contract_arrays(lg), base, 'motion', lg.name, window_s,
+                                      {} if limits is None else limits)
+    return records, [dict(lg.report) for lg in imported]
 
 
 def identify_and_report(records: Sequence[ForceRecord], base: VehicleParams, out: str,
@@ -132,12 +178,26 @@ def run(args: argparse.Namespace) -> int:
     base = load_vehicle(args.base)
     if not (args.window > 0):
         raise IdentificationError(f'--window must be > 0 s, got {args.window}')
-    records, source = load_records(args.bags, base, args.source, args.window, stderr_progress)
+    limits: dict[str, Any] = {}
+    extra: dict[str, Any] = {}
+    if args.map is not None:
+        if args.source == 'forces':
+            raise IdentificationError('--map logs have no force topic: use --source motion')
+        records, extra['imports'] = load_records_from_map(
+            args.map, args.bags, base, args.window, stderr_progress, limits)
+        source = 'motion'
+    else:
+        records, source = load_records(args.bags, base, args.source, args.window,
+                                       stderr_progress, limits)
     stderr_progress(f'force source: {source}')
+    from auv_ident.limits import describe
+    for line in describe(limits):
+        stderr_progress(line)
+    extra['logged_outside_limits'] = limits
     result, files = identify_and_report(
         records, base, args.out, args.bags, fit_c0=args.fit_c0, bounds=args.bounds,
         errors=args.errors, equations=args.equations, nelder_mead=not args.no_nelder_mead,
-        progress=stderr_progress)
+        progress=stderr_progress, extra=extra)
     out = {name: {'value': c.value, 'std_error': c.std_error, 'ci95': list(c.ci95)}
            for name, c in result.coefficients.items()}
     print(json.dumps({'source': source, 'coefficients': out, 'files': files}, indent=2))
