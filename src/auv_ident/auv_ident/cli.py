@@ -27,7 +27,14 @@ from auv_ident.identify import (
     compare_nelder_mead,
     identify,
 )
-from auv_ident.motion import SOURCES, WINDOW_S, choose_source, needed_topics, records_from_topics
+from auv_ident.motion import (
+    COMMAND_TOPICS,
+    SOURCES,
+    WINDOW_S,
+    choose_source,
+    needed_topics,
+    records_from_topics,
+)
 from auv_ident.report import write_outputs
 from auv_sim.params import VehicleParams, load_vehicle
 

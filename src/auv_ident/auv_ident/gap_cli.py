@@ -43,8 +43,8 @@ def run(args: argparse.Namespace) -> int:
     """Run the diagnosis; 0 on success, 1 with ``error: ...`` on stderr on bad input."""
     from auv_ident.gap.diagnose import diagnose
     from auv_ident.gap.logs import GapLog, from_contract_arrays, load_bag
-    from auv_ident.limits import as_logged, describe
     from auv_ident.gap.report import write_report
+    from auv_ident.limits import as_logged, describe
     from auv_sim.errors import ParameterError
     from auv_sim.params import load_vehicle
 

@@ -27,6 +27,7 @@ from __future__ import annotations
 import dataclasses
 import datetime
 import hashlib
+import itertools
 import json
 import os
 import pathlib
@@ -420,7 +421,7 @@ def write_contract_bag(out: str | os.PathLike[str], logmap: LogMap,
     if dest.exists():
         raise RealLogError(f'output {dest} exists already')
     spans = sorted((float(lg.t[0]), float(lg.t[-1]), lg.name) for lg in logs)
-    for (a0, a1, an), (b0, _, bn) in zip(spans, spans[1:]):
+    for (_a0, a1, an), (b0, _, bn) in itertools.pairwise(spans):
         if b0 <= a1:
             raise RealLogError(f'logs {an} and {bn} overlap in time: import them into separate '
                                'bags')

@@ -35,6 +35,7 @@ Every error names the map key and its line (:class:`MapError`).
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import os
@@ -275,10 +276,8 @@ class _Node:
         lc = getattr(self.data, 'lc', None)
         line = self.line
         if lc is not None and name in self.data:
-            try:
+            with contextlib.suppress(KeyError, TypeError, IndexError):
                 line = int(lc.key(name)[0]) + 1
-            except (KeyError, TypeError, IndexError):
-                pass
         return Where(f'{self.key}.{name}' if self.key else name, line)
 
     def has(self, name: str) -> bool:
@@ -341,10 +340,8 @@ class _Node:
         for i, item in enumerate(raw):
             line = w.line
             if lc is not None:
-                try:
+                with contextlib.suppress(KeyError, TypeError, IndexError):
                     line = int(lc.item(i)[0]) + 1
-                except (KeyError, TypeError, IndexError):
-                    pass
             out.append(_Node(item, f'{w.key}[{i}]', line))
         return out
 

@@ -107,7 +107,8 @@ def compile_path(path: str) -> Callable[[Any], Any]:
 
 
 def _fields_of(msg: Any) -> str:
-    names = getattr(type(msg), '__dataclass_fields__', None) or getattr(msg, '__slots__', ())
+    names: Iterable[str] = (getattr(type(msg), '__dataclass_fields__', None)
+                            or getattr(msg, '__slots__', None) or ())
     return ', '.join(n for n in names if not n.startswith('_'))
 
 
@@ -211,7 +212,7 @@ def _read_anyreader(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
             for conn, log_ns, raw in reader.messages(connections=conns):
                 try:
                     msg = reader.deserialize(raw, conn.msgtype)
-                except Exception as exc:  # noqa: BLE001 - rosbags raises several kinds
+                except Exception as exc:
                     raise LogReadError(f'bag {path}: a {conn.msgtype} message on {conn.topic} '
                                        f'does not decode: {exc}') from None
                 yield conn.topic, conn.msgtype, log_ns, msg
