@@ -176,11 +176,14 @@ def _collect(messages: Iterable[tuple[str, str, int, Any]], requests: Mapping[st
     return out
 
 
-def _unknown_type(topic: str, msgtype: str, known: Iterable[str]) -> LogReadError:
-    names = sorted(known)
+def _unknown_type(topic: str, msgtype: str, in_bag: Iterable[str],
+                  builtin: Iterable[str]) -> LogReadError:
+    bag = sorted(set(in_bag) - set(builtin))
+    n = len(set(builtin))
     return LogReadError(f'topic {topic}: message type {msgtype} has no definition in the bag '
-                        f'and is not a type the readers know ({len(names)} known, e.g. '
-                        f'{", ".join(n for n in names if "/msg/" in n and n.startswith(("nav_", "sensor_", "std_msgs", "geometry_", "auv_msgs")))})')  # noqa: E501
+                        f'and is not a type the readers know (the bag defines: '
+                        f'{", ".join(bag) or "none"}; built in: {n} standard ROS 2 types and '
+                        'auv_msgs)')
 
 
 def _read_anyreader(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
@@ -203,10 +206,11 @@ def _read_anyreader(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
                 raise LogReadError(f'bag {path} has no topic {topic} (it has: '
                                    f'{", ".join(sorted(present))})')
         conns: list[Connection] = [c for c in reader.connections if c.topic in requests]
-        known = set(reader.typestore.fielddefs)
+        known = set(reader.typestore.fielddefs) | set(store.fielddefs)
         for c in conns:
             if c.msgtype not in known:
-                raise _unknown_type(c.topic, c.msgtype, known)
+                raise _unknown_type(c.topic, c.msgtype, reader.typestore.fielddefs,
+                                    store.fielddefs)
 
         def messages() -> Iterator[tuple[str, str, int, Any]]:
             for conn, log_ns, raw in reader.messages(connections=conns):
@@ -255,7 +259,7 @@ def _read_mcap_file(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
                     store.register({k: v for k, v in types.items()
                                     if k not in store.fielddefs})
                 if sc.name not in store.fielddefs:
-                    raise _unknown_type(ch.topic, sc.name, store.fielddefs)
+                    raise _unknown_type(ch.topic, sc.name, (), base.fielddefs)
 
             def messages() -> Iterator[tuple[str, str, int, Any]]:
                 for schema, channel, message in reader.iter_messages(topics=list(requests)):
