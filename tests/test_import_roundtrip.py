@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from auv_ident import cli, import_cli
+from auv_ident import cli, gap_cli, import_cli
 from auv_ident.bag import read_arrays
 from auv_ident.realog import synth
 from auv_ident.realog.importer import ContractLog, contract_arrays, import_log, read_provenance
@@ -147,7 +147,9 @@ def contract_ident(run: tuple[Record, np.ndarray], tmp_path_factory: pytest.Temp
     rec_noisy = Record(rec.t, rec.x, rec.measured.copy(), rec.cmd, rec.wrench)
     rec_noisy.measured[:, :12] += noise
     write_record(root / 'bag', rec_noisy, forces=False)
-    return _ident([str(root / 'bag')], root / 'out')
+    report = _ident([str(root / 'bag')], root / 'out')
+    report['bag'] = str(root / 'bag')
+    return report
 
 
 @pytest.mark.parametrize('name', ['mcap', 'mcap10', 'ros1.bag', 'custom'])
@@ -160,6 +162,7 @@ def test_coefficients_from_converted_logs_within_contract_intervals(
     assert report['imports'][0]['derived'] == []
     for coef, ref in contract_ident['coefficients'].items():
         lo, hi = ref['ci95']
+        assert hi - lo > 0
         assert lo <= report['coefficients'][coef]['value'] <= hi, (coef, ref)
 
 
@@ -201,3 +204,28 @@ def test_text_log_at_2hz_intervals_cover_the_vehicle_file(
         lo, hi = c['ci95']
         assert lo <= base.values[coef] <= hi, (coef, c)
     assert any(line.startswith('q: derived') for line in report['imports'][0]['derived'])
+
+
+def _gap(args: list[str], out: pathlib.Path) -> dict[str, Any]:
+    parser = argparse.ArgumentParser()
+    gap_cli.add_arguments(parser)
+    assert gap_cli.run(parser.parse_args([*args, '--model', str(A18M), '--out', str(out),
+                                          '--no-plots', '--quiet'])) == 0
+    report: dict[str, Any] = json.loads((out / 'report.json').read_text())
+    return report
+
+
+def test_gap_on_original_log_with_map_equals_gap_on_imported_bag(
+        logs: dict[str, pathlib.Path], contract_ident: dict[str, Any],
+        tmp_path: pathlib.Path) -> None:
+    map_path = MAPS / 'ros2_odometry_imu_pressure.yaml'
+    parser = argparse.ArgumentParser()
+    import_cli.add_arguments(parser)
+    assert import_cli.run(parser.parse_args([str(logs['mcap10']), '--map', str(map_path),
+                                             '--out', str(tmp_path / 'bag')])) == 0
+    direct = _gap([str(logs['mcap10']), '--map', str(map_path)], tmp_path / 'a')
+    imported = _gap([str(tmp_path / 'bag')], tmp_path / 'b')
+    assert direct == imported
+    # the simulated vehicle is the model: no gap, as on the simulator's own 50 Hz bag
+    contract = _gap([contract_ident['bag']], tmp_path / 'c')
+    assert direct['verdict'] == contract['verdict'] == 'no_gap'

@@ -253,13 +253,17 @@ def import_log(logmap: LogMap, path: str | os.PathLike[str],
     for sig, sc in logmap.scalars.items():
         series[sig] = _scalar_series(sc, tables)
     source_topic: dict[str, str | None] = {}
+    label: dict[str, str] = {}
     for vec in logmap.vectors:
         for sig in vec.gives:
             if sig not in logmap.scalars:
                 source_topic[sig] = vec.topic
+                label[sig] = f'{vec.topic or "columns"} ({vec.origin}, {vec.kind})'
     for sig, sc in logmap.scalars.items():
         tps = {term.topic for term in sc.terms}
         source_topic[sig] = tps.pop() if len(tps) == 1 else '(several topics)'
+        label[sig] = ', '.join(dict.fromkeys(term.topic or f'column {term.path}'
+                                             for term in sc.terms))
     # time base
     base = logmap.time.base if logmap.kind == 'bag' else None
     if base not in tables:
@@ -325,9 +329,8 @@ def import_log(logmap: LogMap, path: str | os.PathLike[str],
     report = {
         'log': str(p),
         'map': logmap.path,
-        'signals': {sig: ('derived' if sig in missing else
-                          f'{source_topic.get(sig) or "rows"}') for sig in STATE}
-        | {ch: str(source_topic.get(ch)) for ch in commands},
+        'signals': {sig: 'derived' if sig in missing else label[sig] for sig in STATE}
+        | {ch: label[ch] for ch in commands},
         'derived': derived,
         'time_base': (f'state at the stamps of {base} ({logmap.time.stamp} stamps)' if base
                       else 'state at every row of the log (time column '
