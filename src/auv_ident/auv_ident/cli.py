@@ -17,7 +17,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from auv_ident.errors import IdentError, IdentificationError
+from auv_ident.errors import IdentError, IdentificationError, NotIdentifiableError
 from auv_ident.identify import (
     EQUATIONS,
     ERROR_METHODS,
@@ -135,6 +135,32 @@ def _records_as_logged(arrays: Any, base: VehicleParams, source: str, name: str,
     return records_from_topics(arrays, params, source, name=name, window_s=window_s)
 
 
+#: Equations that need a state signal the log must carry (an assumed value cannot identify).
+_NEEDS = {'sway': ('v',), 'yaw': ('v',), 'surge': ('u',), 'heave': ('w',), 'pitch': ('w',)}
+
+
+def _unsupported_equations(imports: Sequence[dict[str, Any]], requested: Sequence[str] | None
+                           ) -> tuple[list[str], dict[str, str]]:
+    """Equations to fit, and those left out because a signal they need was not logged but
+    assumed (e.g. ``v`` = 0 with no DVL or position): requested explicitly, that is an error."""
+    assumed = {line.split(':')[0] for imp in imports for line in imp['derived']
+               if 'assumed' in line}
+    out: dict[str, str] = {}
+    for eq in requested or EQUATIONS:
+        missing = [s for s in _NEEDS.get(eq, ()) if s in assumed]
+        if missing:
+            out[eq] = (f'{", ".join(missing)} was not logged (assumed 0 in the import); log it '
+                       '(a DVL, odometry twist or position fixes) to identify this equation')
+    if requested is not None and out:
+        eq, why = next(iter(out.items()))
+        raise NotIdentifiableError(f'{eq}: {why}')
+    keep = [eq for eq in (requested or EQUATIONS) if eq not in out]
+    if not keep:
+        raise NotIdentifiableError('no equation can be identified from these logs: '
+                                   + '; '.join(f'{k}: {v}' for k, v in out.items()))
+    return keep, out
+
+
 def load_records_from_map(map_path: str, logs: Sequence[str], base: VehicleParams,
                           window_s: float = WINDOW_S, progress: Progress | None = None,
                           limits: dict[str, Any] | None = None
@@ -193,6 +219,10 @@ def run(args: argparse.Namespace) -> int:
         records, extra['imports'] = load_records_from_map(
             args.map, args.bags, base, args.window, stderr_progress, limits)
         source = 'motion'
+        args.equations, extra['not_identifiable'] = _unsupported_equations(
+            extra['imports'], args.equations)
+        for eq, why in extra['not_identifiable'].items():
+            stderr_progress(f'{eq}: not identifiable from these logs: {why}')
     else:
         records, source = load_records(args.bags, base, args.source, args.window,
                                        stderr_progress, limits)

@@ -174,7 +174,7 @@ class TextFormat:
 class TimeSpec:
     """Time stamps: ``stamp`` ``header`` or ``log`` (bags), ``column`` and its unit factor
     (text), the state's time ``base`` topic, the zero-order-hold ``max_age`` [s], per-topic
-    clock ``offsets`` [s], optional uniform ``grid`` period [s] (linear interpolation)."""
+    clock ``offsets`` [s]."""
 
     stamp: str
     column: str | None
@@ -182,7 +182,6 @@ class TimeSpec:
     base: str | None
     max_age: float
     offsets: Mapping[str, float]
-    grid: float | None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -561,7 +560,7 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
     elif root.has('text'):
         raise MapError(f'{root.where("text")}: text: is for kind text')
     tm = root.child('time') if root.has('time') else _Node({}, 'time', root.line)
-    tm.finish(('stamp', 'column', 'unit', 'base', 'max_age', 'offsets', 'grid'))
+    tm.finish(('stamp', 'column', 'unit', 'base', 'max_age', 'offsets'))
     stamp = tm.text('stamp', 'header' if kind == 'bag' else 'column')
     col = None
     factor = 1.0
@@ -576,10 +575,13 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
     offsets_raw = tm.get('offsets') or {}
     if not isinstance(offsets_raw, Mapping):
         raise MapError(f'{tm.where("offsets")}: expected topic: seconds')
-    offsets = {str(k): float(v) for k, v in offsets_raw.items()}
-    grid = tm.number('grid', positive=True) if tm.has('grid') else None
+    offsets = {}
+    for k, v in offsets_raw.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise MapError(f'{tm.where("offsets")}: offset of {k} must be a number of seconds')
+        offsets[str(k)] = float(v)
     time_spec = TimeSpec(stamp, col, factor, tm.get('base'), tm.number('max_age', 0.0) if
-                         tm.has('max_age') else 0.0, offsets, grid)
+                         tm.has('max_age') else 0.0, offsets)
     if time_spec.max_age < 0:
         raise MapError(f'{tm.where("max_age")}: must be >= 0 s')
     scalars: dict[str, Scalar] = {}
