@@ -246,3 +246,24 @@ def test_columnar_and_per_message_readers_agree(logs: dict[str, pathlib.Path]) -
         for path in req[topic]:
             assert np.array_equal(fast[topic].columns[path], slow[topic].columns[path])
     assert slow['/thruster/rpm'].stamp_kind == 'log'     # Float64 has no header
+
+
+def test_what_a_log_without_sway_cannot_identify_is_said(
+        logs: dict[str, pathlib.Path], tmp_path: pathlib.Path) -> None:
+    """The text log has no sway speed and no position: v is assumed 0, so sway and yaw are
+    not identifiable and surge would be biased in turns; they are left out and said so, and
+    asking for sway is one error naming the cause."""
+    parser = argparse.ArgumentParser()
+    cli.add_arguments(parser)
+    ns = parser.parse_args([str(logs['text']), '--map', str(MAPS / 'text_2hz_deg_cm.yaml'),
+                            '--out', str(tmp_path / 'a'), '--no-nelder-mead'])
+    assert cli.run(ns) == 0
+    report = json.loads((tmp_path / 'a' / 'report.json').read_text())
+    assert sorted(report['not_identifiable']) == ['surge', 'sway', 'yaw']
+    assert sorted(report['coefficients']) == ['CMuq', 'CMuw', 'CZuq', 'CZuw']
+    ns = parser.parse_args([str(logs['text']), '--map', str(MAPS / 'text_2hz_deg_cm.yaml'),
+                            '--out', str(tmp_path / 'b'), '--equations', 'sway'])
+    from auv_ident.errors import NotIdentifiableError
+    with pytest.raises(NotIdentifiableError, match=r'^sway: v was not logged \(assumed 0 in '
+                                                   r'the import\); log it '):
+        cli.run(ns)

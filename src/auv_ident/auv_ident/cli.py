@@ -135,26 +135,40 @@ def _records_as_logged(arrays: Any, base: VehicleParams, source: str, name: str,
     return records_from_topics(arrays, params, source, name=name, window_s=window_s)
 
 
-#: Equations that need a state signal the log must carry (an assumed value cannot identify).
-_NEEDS = {'sway': ('v',), 'yaw': ('v',), 'surge': ('u',), 'heave': ('w',), 'pitch': ('w',)}
+#: Equations whose regressors need a state signal: not identifiable when it was only assumed.
+_REGRESSOR_NEEDS = {'sway': 'v', 'yaw': 'v'}
+#: Equations whose reconstructed force needs a signal (Coriolis terms): biased in turns when
+#: it was only assumed (the surge force holds (m - Yvdot) v r).
+_FORCE_NEEDS = {'surge': 'v'}
 
 
 def _unsupported_equations(imports: Sequence[dict[str, Any]], requested: Sequence[str] | None
                            ) -> tuple[list[str], dict[str, str]]:
-    """Equations to fit, and those left out because a signal they need was not logged but
-    assumed (e.g. ``v`` = 0 with no DVL or position): requested explicitly, that is an error."""
+    """Equations to fit, and why others are left out, when the import only assumed a signal
+    (``v`` = 0 with no DVL or position). Sway and yaw requested explicitly: an error; surge
+    requested explicitly: fitted, with the warning in the returned reasons."""
     assumed = {line.split(':')[0] for imp in imports for line in imp['derived']
                if 'assumed' in line}
     out: dict[str, str] = {}
+    keep = []
     for eq in requested or EQUATIONS:
-        missing = [s for s in _NEEDS.get(eq, ()) if s in assumed]
-        if missing:
-            out[eq] = (f'{", ".join(missing)} was not logged (assumed 0 in the import); log it '
-                       '(a DVL, odometry twist or position fixes) to identify this equation')
-    if requested is not None and out:
-        eq, why = next(iter(out.items()))
-        raise NotIdentifiableError(f'{eq}: {why}')
-    keep = [eq for eq in (requested or EQUATIONS) if eq not in out]
+        sig = _REGRESSOR_NEEDS.get(eq)
+        if sig in assumed:
+            why = (f'{sig} was not logged (assumed 0 in the import); log it (a DVL, odometry '
+                   'twist or position fixes) to identify this equation')
+            if requested is not None:
+                raise NotIdentifiableError(f'{eq}: {why}')
+            out[eq] = why
+            continue
+        sig = _FORCE_NEEDS.get(eq)
+        if sig in assumed:
+            why = (f'{sig} was not logged (assumed 0): its Coriolis term is missing from the '
+                   'reconstructed force, which biases the fit wherever the vehicle turns')
+            if requested is None:
+                out[eq] = why + '; left out (ask for it with --equations on straight runs)'
+                continue
+            out[eq] = why + '; fitted as asked: use straight runs only'
+        keep.append(eq)
     if not keep:
         raise NotIdentifiableError('no equation can be identified from these logs: '
                                    + '; '.join(f'{k}: {v}' for k, v in out.items()))
@@ -222,7 +236,7 @@ def run(args: argparse.Namespace) -> int:
         args.equations, extra['not_identifiable'] = _unsupported_equations(
             extra['imports'], args.equations)
         for eq, why in extra['not_identifiable'].items():
-            stderr_progress(f'{eq}: not identifiable from these logs: {why}')
+            stderr_progress(f'{eq}: {why}')
     else:
         records, source = load_records(args.bags, base, args.source, args.window,
                                        stderr_progress, limits)
