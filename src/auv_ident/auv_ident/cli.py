@@ -112,11 +112,11 @@ def load_records(bags: Sequence[str], base: VehicleParams, source: str = 'auto',
         if progress is not None:
             n = sum(len(a) for a in arrays.values())
             progress(f'read {bag}: {n} messages in {time.perf_counter() - t0:.2f} s')
-        records += _records_as_logged(arrays, base, source, name, window_s, limits)
+        records += records_as_logged(arrays, base, source, name, window_s, limits)
     return records, source
 
 
-def _records_as_logged(arrays: Any, base: VehicleParams, source: str, name: str,
+def records_as_logged(arrays: Any, base: VehicleParams, source: str, name: str,
                        window_s: float, limits: dict[str, Any]) -> list[ForceRecord]:
     """Force records with the actuator limits widened to the logged commands
     (:mod:`auv_ident.limits`: used as logged, never clipped); what lay outside the vehicle
@@ -142,7 +142,7 @@ _REGRESSOR_NEEDS = {'sway': 'v', 'yaw': 'v'}
 _FORCE_NEEDS = {'surge': 'v'}
 
 
-def _unsupported_equations(imports: Sequence[dict[str, Any]], requested: Sequence[str] | None
+def unsupported_equations(imports: Sequence[dict[str, Any]], requested: Sequence[str] | None
                            ) -> tuple[list[str], dict[str, str]]:
     """Equations to fit, and why others are left out, when the import only assumed a signal
     (``v`` = 0 with no DVL or position). Sway and yaw requested explicitly: an error; surge
@@ -190,7 +190,7 @@ def load_records_from_map(map_path: str, logs: Sequence[str], base: VehicleParam
         if progress is not None:
             progress(f'imported {lg.name}: {len(lg.t)} state samples, '
                      f'{len(lg.segments)} segment(s)')
-        records += _records_as_logged(contract_arrays(lg), base, 'motion', lg.name, window_s,
+        records += records_as_logged(contract_arrays(lg), base, 'motion', lg.name, window_s,
                                       {} if limits is None else limits)
     return records, [dict(lg.report) for lg in imported]
 
@@ -233,7 +233,7 @@ def run(args: argparse.Namespace) -> int:
         records, extra['imports'] = load_records_from_map(
             args.map, args.bags, base, args.window, stderr_progress, limits)
         source = 'motion'
-        args.equations, extra['not_identifiable'] = _unsupported_equations(
+        args.equations, extra['not_identifiable'] = unsupported_equations(
             extra['imports'], args.equations)
         for eq, why in extra['not_identifiable'].items():
             stderr_progress(f'{eq}: {why}')
