@@ -267,3 +267,30 @@ def test_what_a_log_without_sway_cannot_identify_is_said(
     with pytest.raises(NotIdentifiableError, match=r'^sway: v was not logged \(assumed 0 in '
                                                    r'the import\); log it '):
         cli.run(ns)
+
+
+def test_irregular_text_log_resampled_only_when_the_map_asks(
+        run: tuple[Record, np.ndarray], tmp_path: pathlib.Path) -> None:
+    """Rows at 2 Hz +- 0.1 s with 3 % dropped. With ``time: {grid: 0.5}`` the state is on a
+    uniform 0.5 s grid, said so in the report; linear interpolation between noisy samples
+    cannot raise white noise, so the resampled depth stays within the logged noise (0.02 m
+    rms) of the simulator's noise-free depth at the grid times."""
+    rec, noise = run
+    rng = np.random.default_rng(11)
+    rows = np.arange(5, len(rec.t) - 5, 25)
+    rows = rows + rng.integers(-5, 6, len(rows))
+    rows = rows[rng.random(len(rows)) > 0.03]
+    synth.write_text(tmp_path / 'jitter.txt', rec, noise=noise, rows=rows)
+    text = (MAPS / 'text_2hz_deg_cm.yaml').read_text()
+    as_logged = import_log(load_map(MAPS / 'text_2hz_deg_cm.yaml'), tmp_path / 'jitter.txt')
+    assert np.allclose(as_logged.t, rec.t[rows], rtol=0, atol=1e-9)
+    assert as_logged.report['resampled'] == 'no: state at its own stamps'
+    (tmp_path / 'grid.yaml').write_text(text.replace(
+        'time: {column: time, unit: s}', 'time: {column: time, unit: s, grid: 0.5}'))
+    log = import_log(load_map(tmp_path / 'grid.yaml'), tmp_path / 'jitter.txt')
+    assert log.report['resampled'].startswith('state of each segment resampled onto a '
+                                              'uniform 0.5 s grid by linear interpolation')
+    assert np.allclose(np.diff(log.t), 0.5)
+    i = np.searchsorted(rec.t, log.t - 1e-6)
+    assert np.allclose(rec.t[i], log.t, atol=1e-9)
+    assert float(np.sqrt(np.mean((log.state[:, 2] - rec.measured[i, 2]) ** 2))) < 0.02

@@ -42,7 +42,7 @@ from auv_ident.realog.derive import derive_missing
 from auv_ident.realog.errors import LogReadError, MapError, RealLogError
 from auv_ident.realog.mapping import SCALAR_ENU, STATE, LogMap, Scalar, Vector, load_map
 from auv_ident.realog.readers import Table, log_kind, read_bag, read_text
-from auv_ident.realog.segments import split
+from auv_ident.realog.segments import resample, split
 from auv_sim.frames import (
     Q_FRD_TO_FLU,
     Q_NED_TO_ENU,
@@ -323,8 +323,11 @@ def import_log(logmap: LogMap, path: str | os.PathLike[str],
         ts = t[sl]
         seg = {sig: state[sig][sl].copy() for sig in given}
         derived = list(dict.fromkeys(derived + derive_missing(ts, seg, set(missing))))
+        rows = np.column_stack([seg[sig] for sig in STATE])
+        if logmap.time.grid is not None:
+            ts, rows = resample(ts, rows, logmap.time.grid)
         pieces_t.append(ts)
-        pieces_s.append(np.column_stack([seg[sig] for sig in STATE]))
+        pieces_s.append(rows)
         segs.append((float(ts[0]), float(ts[-1]), len(ts)))
     report = {
         'log': str(p),
@@ -336,6 +339,9 @@ def import_log(logmap: LogMap, path: str | os.PathLike[str],
                       else 'state at every row of the log (time column '
                       f'{logmap.time.column!r})'),
         'holds': holds,
+        'resampled': (f'state of each segment resampled onto a uniform {logmap.time.grid:g} s '
+                      'grid by linear interpolation (roll, yaw unwrapped); not across segments'
+                      if logmap.time.grid is not None else 'no: state at its own stamps'),
         'commands': 'as logged, at their own stamps (held by the consumers until the next)',
         'segments': [{'start': a, 'end': b, 'samples': n} for a, b, n in segs],
         'left_out': seg_notes,

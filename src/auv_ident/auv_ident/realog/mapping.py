@@ -174,7 +174,8 @@ class TextFormat:
 class TimeSpec:
     """Time stamps: ``stamp`` ``header`` or ``log`` (bags), ``column`` and its unit factor
     (text), the state's time ``base`` topic, the zero-order-hold ``max_age`` [s], per-topic
-    clock ``offsets`` [s]."""
+    clock ``offsets`` [s], and the optional uniform ``grid`` period [s] onto which each
+    segment's state is resampled (linear interpolation; said in the report)."""
 
     stamp: str
     column: str | None
@@ -182,6 +183,7 @@ class TimeSpec:
     base: str | None
     max_age: float
     offsets: Mapping[str, float]
+    grid: float | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -560,7 +562,7 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
     elif root.has('text'):
         raise MapError(f'{root.where("text")}: text: is for kind text')
     tm = root.child('time') if root.has('time') else _Node({}, 'time', root.line)
-    tm.finish(('stamp', 'column', 'unit', 'base', 'max_age', 'offsets'))
+    tm.finish(('stamp', 'column', 'unit', 'base', 'max_age', 'offsets', 'grid'))
     stamp = tm.text('stamp', 'header' if kind == 'bag' else 'column')
     col = None
     factor = 1.0
@@ -581,7 +583,8 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
             raise MapError(f'{tm.where("offsets")}: offset of {k} must be a number of seconds')
         offsets[str(k)] = float(v)
     time_spec = TimeSpec(stamp, col, factor, tm.get('base'), tm.number('max_age', 0.0) if
-                         tm.has('max_age') else 0.0, offsets)
+                         tm.has('max_age') else 0.0, offsets,
+                         tm.number('grid', positive=True) if tm.has('grid') else None)
     if time_spec.max_age < 0:
         raise MapError(f'{tm.where("max_age")}: must be >= 0 s')
     scalars: dict[str, Scalar] = {}

@@ -9,6 +9,10 @@ longer than ``max_gap`` [s] (default: 3 median sample periods); runs shorter tha
 than :data:`auv_ident.gap.logs.GAP_SPLIT` sample periods (and interpolate shorter ones), the
 last samples of a segment are left out when needed so that consecutive segments are more than
 that many periods apart; every sample left out is counted in the notes.
+
+Resampling (only when the map asks, ``time: {grid: PERIOD}``): each segment's state onto
+``t0 + k PERIOD`` by linear interpolation between its own samples (roll and yaw unwrapped
+first, wrapped back to (-pi, pi] after); never across segments.
 """
 from __future__ import annotations
 
@@ -70,3 +74,17 @@ def split(t: np.ndarray, usable: np.ndarray, *, max_gap: float | None,
         notes.append(f'{trimmed} sample(s) at segment ends left out so that segments are more '
                      f'than {GAP_SPLIT:g} periods ({separation:.3g} s) apart')
     return out, notes
+
+
+def resample(t: np.ndarray, state: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
+    """One segment's state (N x 12, NED/FRD, rad) at stamps ``t`` [s] onto the uniform grid
+    ``t[0] + k period`` [s] up to ``t[-1]``, by linear interpolation (see module docstring)."""
+    n = int(np.floor((t[-1] - t[0]) / period + 1e-9)) + 1
+    grid = t[0] + period * np.arange(n)
+    out = np.empty((n, state.shape[1]))
+    for k in range(state.shape[1]):
+        col = np.unwrap(state[:, k]) if k in (3, 5) else state[:, k]
+        out[:, k] = np.interp(grid, t, col)
+        if k in (3, 5):
+            out[:, k] = np.angle(np.exp(1j * out[:, k]))
+    return grid, out

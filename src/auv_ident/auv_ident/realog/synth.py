@@ -157,18 +157,19 @@ TEXT_COLUMNS = ('time', 'depth_cm', 'roll_deg', 'pitch_deg', 'heading_deg', 'spe
 
 
 def write_text(path: str | os.PathLike[str], rec: Record, *, every: int = 25,
-               noise: np.ndarray | None = None) -> int:
-    """Write ``rec`` as a vendor text log (whitespace, header) every ``every`` samples;
-    returns the rows written. Commands are the ones applied at each row's time."""
+               noise: np.ndarray | None = None, rows: np.ndarray | None = None) -> int:
+    """Write ``rec`` as a vendor text log (whitespace, header) every ``every`` samples (or
+    at the sample indices ``rows``: irregular logging); returns the rows written. Commands are
+    the ones applied at each row's time."""
     meas = _state(rec, noise)
-    idx = np.arange(0, len(rec.t), every)
-    rows = [' '.join(TEXT_COLUMNS)]
+    idx = np.arange(0, len(rec.t), every) if rows is None else np.asarray(rows)
+    lines = [' '.join(TEXT_COLUMNS)]
     for i in idx:
         bar, helm, thrust = rec.cmd[i]
         vals = (rec.t[i], 100.0 * meas[i, 2], math.degrees(meas[i, 3]),
                 math.degrees(meas[i, 4]), math.degrees(meas[i, 5]) % 360.0, 100.0 * meas[i, 6],
                 math.degrees(bar), -math.degrees(bar), math.degrees(helm),
                 float(rpm_of_thrust(np.array(thrust))))
-        rows.append(' '.join(f'{v:.10g}' for v in vals))
-    pathlib.Path(path).write_text('\n'.join(rows) + '\n')
+        lines.append(' '.join(f'{v:.10g}' for v in vals))
+    pathlib.Path(path).write_text('\n'.join(lines) + '\n')
     return len(idx)
