@@ -148,6 +148,13 @@ def _check_path(msg: Any, path: str, topic: str, msgtype: str) -> None:
 # --------------------------------------------------------------------------------------------
 # bags
 
+def _seconds(ns: int) -> float:
+    """A receive time [ns] in seconds, computed as a header stamp is (``sec + nanosec 1e-9``)
+    so that equal instants compare equal."""
+    sec, nsec = divmod(int(ns), 1_000_000_000)
+    return float(sec) + float(nsec) * 1e-9
+
+
 def _stamp_of(msg: Any) -> float:
     st = msg.header.stamp
     return float(st.sec) + 1e-9 * float(st.nanosec)
@@ -168,7 +175,7 @@ def _collect(messages: Iterable[tuple[str, str, int, Any]], requests: Mapping[st
             for p in requests[topic]:
                 _check_path(msg, p, topic, msgtype)
             kinds[topic] = 'header' if stamp == 'header' and hasattr(msg, 'header') else 'log'
-        stamps[topic].append(_stamp_of(msg) if kinds[topic] == 'header' else log_ns * 1e-9)
+        stamps[topic].append(_stamp_of(msg) if kinds[topic] == 'header' else _seconds(log_ns))
         c = cols[topic]
         for p, get in getters[topic]:
             c[p].append(float(get(msg)))
