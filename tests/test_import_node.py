@@ -19,19 +19,12 @@ from auv_sim.params import load_vehicle
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 MAP = ROOT / 'config' / 'maps' / 'ros2_custom_fins.yaml'
 EQUATIONS = ('heave', 'pitch')
-MANOEUVRE = {
-    'mission': 'short pitch', 'duration': 80.0, 'initial': {'z': 40.0, 'u': 2.0},
-    'events': [[0.0, 'bar', 'trim'], [0.0, 'thrust', 'trim'], [5.0, 'bar', -0.0237],
-               [8.0, 'bar', -0.1437], [11.0, 'bar', 'trim'], [20.0, 'thrust', 110.0],
-               [35.0, 'bar', 0.0163], [39.0, 'bar', -0.1837], [43.0, 'bar', 'trim'],
-               [50.0, 'thrust', 25.0], [60.0, 'bar', -0.2037], [62.0, 'bar', 0.0363],
-               [64.0, 'bar', 'trim']],
-}
+
 
 
 def test_node_reads_original_logs_through_a_map(ros_env: dict[str, str],
                                                 tmp_path: pathlib.Path) -> None:
-    from test_ident_node import call_identify
+    from test_ident_node import MANOEUVRE, call_identify
 
     rec = run_mission(load_vehicle(ROOT / 'config' / 'a18m.yaml'), parse_mission(MANOEUVRE))
     log = tmp_path / 'lab_bag'
