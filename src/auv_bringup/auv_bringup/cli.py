@@ -39,6 +39,8 @@ SUBCOMMANDS: dict[str, Subcommand] = {
     'design': Subcommand('auv_depth_lqr.cli', 'trim, linearisation and LQR gains as JSON'),
     'ident': Subcommand('auv_ident.cli', 'identify coefficients from bags'),
     'gap': Subcommand('auv_ident.gap_cli', 'sim-to-real gap diagnosis'),
+    'import': Subcommand('auv_ident.import_cli', 'real logs through a map -> contract bag'),
+    'vehicle-init': Subcommand('auv_ident.vehicle_init', 'starting vehicle file from L, D, m'),
     'demo': Subcommand('auv_bringup.demo', 'the end-to-end demonstration'),
 }
 

@@ -248,6 +248,7 @@ class BagWriter:
         chunk_size: int = 768 * 1024,
         flush_interval: float = 1.0,
         store: Typestore | None = None,
+        custom_data: dict[str, str] | None = None,
     ) -> None:
         """Open the bag for writing.
 
@@ -258,6 +259,8 @@ class BagWriter:
             flush_interval: longest time a message stays in memory before it is written (s,
                 wall clock); 0 writes every message at once.
             store: typestore for message objects and definitions (default: :func:`typestore`).
+            custom_data: strings for ``metadata.yaml``'s ``custom_data`` (and an MCAP
+                metadata record ``custom_data``), e.g. an import's provenance.
 
         Raises:
             BagError: the path exists and is not an empty directory, or cannot be created.
@@ -300,6 +303,7 @@ class BagWriter:
         self._flush_interval = flush_interval
         self._last_flush = time.monotonic()
         self._closed = False
+        self._custom = dict(custom_data or {})
 
     # -- topics ------------------------------------------------------------------------------
     def add_topic(self, topic: str, msgtype: str, qos: str | None = None) -> None:
@@ -415,6 +419,8 @@ class BagWriter:
         try:
             info = self._metadata()
             self._writer.add_metadata('rosbag2', {'serialized_metadata': _yaml_dump(info)})
+            if self._custom:
+                self._writer.add_metadata('custom_data', self._custom)
             self._writer.finish()  # type: ignore[no-untyped-call]  # mcap 1.6: unannotated
         finally:
             self._stream.close()
@@ -456,7 +462,7 @@ class BagWriter:
                 'duration': {'nanoseconds': duration},
                 'message_count': count,
             }],
-            'custom_data': {},
+            'custom_data': dict(self._custom),
             'ros_distro': 'kilted',
         }
 

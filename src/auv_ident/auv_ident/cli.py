@@ -17,7 +17,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from auv_ident.errors import IdentError, IdentificationError
+from auv_ident.errors import IdentError, IdentificationError, NotIdentifiableError
 from auv_ident.identify import (
     EQUATIONS,
     ERROR_METHODS,
@@ -27,7 +27,14 @@ from auv_ident.identify import (
     compare_nelder_mead,
     identify,
 )
-from auv_ident.motion import SOURCES, WINDOW_S, choose_source, needed_topics, records_from_topics
+from auv_ident.motion import (
+    COMMAND_TOPICS,
+    SOURCES,
+    WINDOW_S,
+    choose_source,
+    needed_topics,
+    records_from_topics,
+)
 from auv_ident.report import write_outputs
 from auv_sim.params import VehicleParams, load_vehicle
 
@@ -45,7 +52,11 @@ def stderr_progress(text: str) -> None:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``auv ident``."""
-    parser.add_argument('bags', nargs='+', metavar='BAG', help='bag directories or .mcap files')
+    parser.add_argument('bags', nargs='+', metavar='BAG',
+                        help='bag directories or .mcap files (with --map: the original logs)')
+    parser.add_argument('--map', default=None, metavar='MAP',
+                        help='read the original logs through this mapping file (as `auv '
+                             'import` does, without writing a bag); forces from motion')
     parser.add_argument('--base', default=str(DEFAULT_BASE),
                         help='vehicle file the identified values replace (default: a18m)')
     parser.add_argument('--out', required=True, help='output directory')
@@ -68,12 +79,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def load_records(bags: Sequence[str], base: VehicleParams, source: str = 'auto',
-                 window_s: float = WINDOW_S, progress: Progress | None = None
-                 ) -> tuple[list[ForceRecord], str]:
+                 window_s: float = WINDOW_S, progress: Progress | None = None,
+                 limits: dict[str, Any] | None = None) -> tuple[list[ForceRecord], str]:
     """Read the bags and build force records; returns them and the source used.
 
     ``auto`` uses the force topic when every bag has it, else the motion of every bag.
+    Logged commands outside the vehicle file's limits are used as logged and counted into
+    ``limits`` (see :mod:`auv_ident.limits`).
     """
+    limits = {} if limits is None else limits
     from auv_ident.bag import bag_topics, read_arrays
 
     present = [set(bag_topics(b)) for b in bags]
@@ -98,8 +112,87 @@ def load_records(bags: Sequence[str], base: VehicleParams, source: str = 'auto',
         if progress is not None:
             n = sum(len(a) for a in arrays.values())
             progress(f'read {bag}: {n} messages in {time.perf_counter() - t0:.2f} s')
-        records += records_from_topics(arrays, base, source, name=name, window_s=window_s)
+        records += records_as_logged(arrays, base, source, name, window_s, limits)
     return records, source
+
+
+def records_as_logged(arrays: Any, base: VehicleParams, source: str, name: str,
+                       window_s: float, limits: dict[str, Any]) -> list[ForceRecord]:
+    """Force records with the actuator limits widened to the logged commands
+    (:mod:`auv_ident.limits`: used as logged, never clipped); what lay outside the vehicle
+    file's limits is merged into ``limits`` (channel -> count, total, range)."""
+    from auv_ident.limits import as_logged
+
+    commands = {ch: (arrays[tp]['t'], arrays[tp]['value']) for ch, tp in COMMAND_TOPICS.items()
+                if tp in arrays}
+    params, found = as_logged(base, [commands])
+    for ch, r in found.items():
+        old = limits.get(ch)
+        limits[ch] = r if old is None else {**r, 'count': old['count'] + r['count'],
+                                            'total': old['total'] + r['total'],
+                                            'min': min(old['min'], r['min']),
+                                            'max': max(old['max'], r['max'])}
+    return records_from_topics(arrays, params, source, name=name, window_s=window_s)
+
+
+#: Equations whose regressors need a state signal: not identifiable when it was only assumed.
+_REGRESSOR_NEEDS = {'sway': 'v', 'yaw': 'v'}
+#: Equations whose reconstructed force needs a signal (Coriolis terms): biased in turns when
+#: it was only assumed (the surge force holds (m - Yvdot) v r).
+_FORCE_NEEDS = {'surge': 'v'}
+
+
+def unsupported_equations(imports: Sequence[dict[str, Any]], requested: Sequence[str] | None
+                           ) -> tuple[list[str], dict[str, str]]:
+    """Equations to fit, and why others are left out, when the import only assumed a signal
+    (``v`` = 0 with no DVL or position). Sway and yaw requested explicitly: an error; surge
+    requested explicitly: fitted, with the warning in the returned reasons."""
+    assumed = {line.split(':')[0] for imp in imports for line in imp['derived']
+               if 'assumed' in line}
+    out: dict[str, str] = {}
+    keep = []
+    for eq in requested or EQUATIONS:
+        sig = _REGRESSOR_NEEDS.get(eq)
+        if sig in assumed:
+            why = (f'{sig} was not logged (assumed 0 in the import); log it (a DVL, odometry '
+                   'twist or position fixes) to identify this equation')
+            if requested is not None:
+                raise NotIdentifiableError(f'{eq}: {why}')
+            out[eq] = why
+            continue
+        sig = _FORCE_NEEDS.get(eq)
+        if sig in assumed:
+            why = (f'{sig} was not logged (assumed 0): its Coriolis term is missing from the '
+                   'reconstructed force, which biases the fit wherever the vehicle turns')
+            if requested is None:
+                out[eq] = why + '; left out (ask for it with --equations on straight runs)'
+                continue
+            out[eq] = why + '; fitted as asked: use straight runs only'
+        keep.append(eq)
+    if not keep:
+        raise NotIdentifiableError('no equation can be identified from these logs: '
+                                   + '; '.join(f'{k}: {v}' for k, v in out.items()))
+    return keep, out
+
+
+def load_records_from_map(map_path: str, logs: Sequence[str], base: VehicleParams,
+                          window_s: float = WINDOW_S, progress: Progress | None = None,
+                          limits: dict[str, Any] | None = None
+                          ) -> tuple[list[ForceRecord], list[dict[str, Any]]]:
+    """Import the original logs through a map (:mod:`auv_ident.realog`) into the contract's
+    arrays and build force records from motion exactly as from the imported bag; returns the
+    records and each log's import report."""
+    from auv_ident.realog.importer import contract_arrays, import_logs
+
+    _, imported = import_logs(map_path, logs)
+    records: list[ForceRecord] = []
+    for lg in imported:
+        if progress is not None:
+            progress(f'imported {lg.name}: {len(lg.t)} state samples, '
+                     f'{len(lg.segments)} segment(s)')
+        records += records_as_logged(contract_arrays(lg), base, 'motion', lg.name, window_s,
+                                      {} if limits is None else limits)
+    return records, [dict(lg.report) for lg in imported]
 
 
 def identify_and_report(records: Sequence[ForceRecord], base: VehicleParams, out: str,
@@ -132,12 +225,30 @@ def run(args: argparse.Namespace) -> int:
     base = load_vehicle(args.base)
     if not (args.window > 0):
         raise IdentificationError(f'--window must be > 0 s, got {args.window}')
-    records, source = load_records(args.bags, base, args.source, args.window, stderr_progress)
+    limits: dict[str, Any] = {}
+    extra: dict[str, Any] = {}
+    if args.map is not None:
+        if args.source == 'forces':
+            raise IdentificationError('--map logs have no force topic: use --source motion')
+        records, extra['imports'] = load_records_from_map(
+            args.map, args.bags, base, args.window, stderr_progress, limits)
+        source = 'motion'
+        args.equations, extra['not_identifiable'] = unsupported_equations(
+            extra['imports'], args.equations)
+        for eq, why in extra['not_identifiable'].items():
+            stderr_progress(f'{eq}: {why}')
+    else:
+        records, source = load_records(args.bags, base, args.source, args.window,
+                                       stderr_progress, limits)
     stderr_progress(f'force source: {source}')
+    from auv_ident.limits import describe
+    for line in describe(limits):
+        stderr_progress(line)
+    extra['logged_outside_limits'] = limits
     result, files = identify_and_report(
         records, base, args.out, args.bags, fit_c0=args.fit_c0, bounds=args.bounds,
         errors=args.errors, equations=args.equations, nelder_mead=not args.no_nelder_mead,
-        progress=stderr_progress)
+        progress=stderr_progress, extra=extra)
     out = {name: {'value': c.value, 'std_error': c.std_error, 'ci95': list(c.ci95)}
            for name, c in result.coefficients.items()}
     print(json.dumps({'source': source, 'coefficients': out, 'files': files}, indent=2))

@@ -8,6 +8,7 @@ Exit status 0 on success; on bad input one line ``error: ...`` and status 1.
 from __future__ import annotations
 
 import argparse
+import json
 import pathlib
 import sys
 import time
@@ -19,6 +20,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the options of ``auv gap``."""
     parser.add_argument('bags', nargs='+', metavar='BAG',
                         help='bag directories or .mcap files of the real vehicle')
+    parser.add_argument('--map', default=None, metavar='MAP',
+                        help='read the original logs (BAG...) through this mapping file, as '
+                             '`auv import` does, without writing a bag')
     parser.add_argument('--model', required=True, metavar='VEHICLE.yaml',
                         help='the nominal vehicle file (e.g. config/a18m.yaml)')
     parser.add_argument('--out', required=True, metavar='DIR', help='output directory')
@@ -38,8 +42,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the diagnosis; 0 on success, 1 with ``error: ...`` on stderr on bad input."""
     from auv_ident.gap.diagnose import diagnose
-    from auv_ident.gap.logs import GapLog, load_bag
+    from auv_ident.gap.logs import GapLog, from_contract_arrays, load_bag
     from auv_ident.gap.report import write_report
+    from auv_ident.limits import as_logged, describe
     from auv_sim.errors import ParameterError
     from auv_sim.params import load_vehicle
 
@@ -65,15 +70,31 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError('--holdout cannot hold out every bag')
         logs: list[GapLog] = []
         held_logs: list[int] = []
+        imports = []
         for i, b in enumerate(bags):
             say(f'reading {b}')
-            for piece in load_bag(b):
+            if args.map is not None:
+                from auv_ident.realog.importer import contract_arrays, import_log
+                from auv_ident.realog.mapping import load_map
+
+                imported = import_log(load_map(args.map), b)
+                imports.append(dict(imported.report))
+                pieces = from_contract_arrays(imported.name, contract_arrays(imported))
+            else:
+                pieces = load_bag(b)
+            for piece in pieces:
                 if i in held_bags:
                     held_logs.append(len(logs))
                 logs.append(piece)
+        unique = {id(lg.commands): lg.commands for lg in logs}
+        vehicle, limits = as_logged(vehicle, list(unique.values()))
+        for line in describe(limits):
+            say(line)
         diag = diagnose(vehicle, logs, window=args.window, held_out_logs=held_logs,
                         effects=args.effects, top=args.top, progress=say)
         path = write_report(diag, args.out, plots=not args.no_plots)
+        (path.parent / 'inputs.json').write_text(json.dumps(
+            {'logged_outside_limits': limits, 'imports': imports}, indent=2) + '\n')
     except (IdentError, ParameterError, ValueError) as exc:
         print(f'error: {exc}', file=sys.stderr)
         return 1

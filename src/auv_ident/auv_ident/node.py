@@ -10,6 +10,10 @@ outputs into the ``out`` directory. Fed the messages of a bag, it gives the offl
 coefficients. With ``estimate_period > 0`` it publishes the running estimate as JSON
 (std_msgs/String on ``~/estimate``) every so many seconds.
 
+With ``--map MAP --logs LOG...`` it first reads a real vehicle's original logs through the
+mapping file (:mod:`auv_ident.realog`, as ``auv ident --map`` does) into its buffers, as if
+their contract topics had been received, then goes on accumulating live topics.
+
 Parameters: ``base`` (vehicle file), ``out`` (output directory), ``source``
 (auto|forces|motion), ``fit_c0``, ``bounds``, ``errors`` (hac|ess|iid), ``equations``
 (list; empty: all), ``window`` [s], ``estimate_period`` [s], ``qos_depth`` (messages).
@@ -37,7 +41,6 @@ from auv_ident.motion import (
     STATE_FIELDS,
     STATE_TOPIC,
     WINDOW_S,
-    records_from_topics,
 )
 
 NODE_NAME = 'identifier'
@@ -60,6 +63,11 @@ class ColumnBuffer:
             self._data = grown
         self._data[self.size] = row
         self.size += 1
+
+    def extend(self, rows: np.ndarray) -> None:
+        """Add many rows (n x columns, same order as ``names``)."""
+        for row in np.asarray(rows, float):
+            self.append(row)
 
     def array(self) -> np.ndarray:
         """The rows so far as a structured array (float64 fields ``names``), a copy."""
@@ -85,6 +93,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--estimate-period', type=float, default=0.0,
                         help='publish the running estimate every S seconds (0: never)')
     parser.add_argument('--qos-depth', type=int, default=10000)
+    parser.add_argument('--map', default=None, metavar='MAP',
+                        help='mapping file of the logs given with --logs')
+    parser.add_argument('--logs', nargs='+', default=[], metavar='LOG',
+                        help='original logs read through --map at start')
 
 
 def _make_node(overrides: dict[str, Any]) -> Any:
@@ -96,7 +108,12 @@ def _make_node(overrides: dict[str, Any]) -> Any:
     from std_msgs.msg import String
     from std_srvs.srv import Trigger
 
-    from auv_ident.cli import DEFAULT_BASE, identify_and_report
+    from auv_ident.cli import (
+        DEFAULT_BASE,
+        identify_and_report,
+        records_as_logged,
+        unsupported_equations,
+    )
     from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
     from auv_sim.params import load_vehicle
 
@@ -143,6 +160,40 @@ def _make_node(overrides: dict[str, Any]) -> Any:
                 self.create_timer(period, self._publish_estimate)
             self._string = String
             self._identify_and_report = identify_and_report
+            self.imports: list[dict[str, Any]] = []
+
+        def preload(self, map_path: str, logs: Sequence[str]) -> None:
+            """Read original logs through a map into the buffers (contract arrays)."""
+            from auv_ident.realog.importer import contract_arrays, import_logs
+
+            _, imported = import_logs(map_path, logs)
+            for lg in imported:
+                arrays = contract_arrays(lg)
+                st = arrays[STATE_TOPIC]
+                self.state.extend(np.column_stack([st[f] for f in ('t', *STATE_FIELDS)]))
+                for topic, buf in self.commands.items():
+                    if topic in arrays:
+                        buf.extend(np.column_stack([arrays[topic]['t'],
+                                                    arrays[topic]['value']]))
+                self.imports.append(dict(lg.report))
+                self.get_logger().info(f'read {lg.name} through {map_path}: {len(lg.t)} state '
+                                       f'samples, {len(lg.segments)} segment(s)')
+
+        def _records(self, source: str, window: float) -> list[Any]:
+            limits: dict[str, Any] = {}
+            records = records_as_logged(self.arrays(), self.base, source, 'live', window,
+                                        limits)
+            for ch, r in limits.items():
+                self.get_logger().warning(
+                    f'{ch}: {r["count"]} logged commands outside the vehicle file\'s limits '
+                    f'(logged {r["min"]:.4g} .. {r["max"]:.4g}): used as logged')
+            return records
+
+        def _equations(self, requested: list[str]) -> list[str] | None:
+            eqs = [e for e in (requested or []) if e] or None
+            if self.imports:
+                eqs, _ = unsupported_equations(self.imports, eqs)
+            return eqs
 
         @staticmethod
         def _check(values: dict[str, Any]) -> str | None:
@@ -189,9 +240,8 @@ def _make_node(overrides: dict[str, Any]) -> Any:
             """Identify from everything received; writes the outputs; returns a summary."""
             p = {k: self.get_parameter(k).value for k in
                  ('out', 'source', 'fit_c0', 'bounds', 'errors', 'equations', 'window')}
-            equations = [e for e in (p['equations'] or []) if e] or None
-            records = records_from_topics(self.arrays(), self.base, p['source'],
-                                          name='live', window_s=p['window'])
+            equations = self._equations(p['equations'])
+            records = self._records(p['source'], p['window'])
 
             def log_info(text: str) -> None:
                 self.get_logger().info(text)
@@ -223,9 +273,8 @@ def _make_node(overrides: dict[str, Any]) -> Any:
                 p = {k: self.get_parameter(k).value for k in
                      ('source', 'fit_c0', 'errors', 'equations', 'window')}
                 from auv_ident.identify import identify
-                equations = [e for e in (p['equations'] or []) if e] or None
-                records = records_from_topics(self.arrays(), self.base, p['source'],
-                                              name='live', window_s=p['window'])
+                equations = self._equations(p['equations'])
+                records = self._records(p['source'], p['window'])
                 result = identify(records, self.base, equations=equations,
                                   fit_offsets=p['fit_c0'], errors=p['errors'])
                 text = json.dumps({'t': float(self.state.array()['t'][-1]),
@@ -263,6 +312,10 @@ def run(args: argparse.Namespace, ros_args: Sequence[str] | None = None) -> int:
     status = 0
     try:
         node = _make_node(overrides)
+        if args.map is not None:
+            node.preload(args.map, args.logs)
+        elif args.logs:
+            raise IdentError('--logs needs --map (the mapping file of those logs)')
         node.get_logger().info('identifier ready: call ~/identify (std_srvs/Trigger)')
         while not stop['signal'] and rclpy.ok():
             rclpy.spin_once(node, timeout_sec=0.1)

@@ -127,11 +127,17 @@ def load_bag(path: str | os.PathLike[str]) -> list[GapLog]:
         arrays = read_arrays(path, topics)
     except BagError as exc:
         raise GapError(str(exc)) from None
+    return from_contract_arrays(os.fspath(path), arrays)
+
+
+def from_contract_arrays(name: str, arrays: Mapping[str, np.ndarray]) -> list[GapLog]:
+    """Log pieces from a contract bag's topic arrays (as :func:`auv_ident.bag.read_arrays`
+    or :func:`auv_ident.realog.importer.contract_arrays` give them)."""
     st = arrays[STATE_TOPIC]
     state = np.column_stack([st[f] for f in STATE_FIELDS])
     commands = {ch: (arrays[tp]['t'], arrays[tp]['value'])
                 for ch, tp in COMMAND_TOPICS.items() if tp in arrays}
-    return from_arrays(os.fspath(path), st['t'], state, commands)
+    return from_arrays(name, st['t'], state, commands)
 
 
 @dataclasses.dataclass(frozen=True)
