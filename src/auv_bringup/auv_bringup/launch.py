@@ -5,12 +5,14 @@ caller's environment (``ROS_DOMAIN_ID`` etc.). The graph stops cleanly: when the
 reaches its ``stop_time`` (or on SIGINT/SIGTERM of ``auv launch``, or ``--duration`` wall
 seconds), the simulator and pilot get SIGINT, then the recorder gets SIGTERM so it closes its
 bag with every message it received; each stop has a deadline, after which the process is
-killed and the fact reported.
+killed and the fact reported. On Linux every node also gets SIGTERM from the kernel when
+``auv launch`` itself dies (even by SIGKILL), so no node outlives it.
 """
 from __future__ import annotations
 
 import argparse
 import contextlib
+import ctypes
 import dataclasses
 import os
 import pathlib
@@ -18,12 +20,29 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from auv_bringup.errors import LaunchError
 
 ROOT = pathlib.Path(__file__).resolve().parents[3]
 STOP_DEADLINE = 10.0  # s a node gets to exit after its signal
+PR_SET_PDEATHSIG = 1  # prctl(2) option: signal sent to this process when its parent dies
+
+
+def _die_with_parent() -> Callable[[], None] | None:
+    """A ``preexec_fn`` asking the kernel to SIGTERM the child when the launching process
+    dies (``prctl(PR_SET_PDEATHSIG)``, Linux); None elsewhere. The child checks its parent is
+    still the launcher after the call, in case the launcher died in between."""
+    if not sys.platform.startswith('linux'):
+        return None
+    prctl = ctypes.CDLL(None, use_errno=True).prctl
+    parent = os.getpid()
+
+    def preexec() -> None:
+        prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+        if os.getppid() != parent:
+            os.kill(os.getpid(), signal.SIGTERM)
+    return preexec
 
 
 @dataclasses.dataclass
@@ -39,7 +58,7 @@ class NodeProcess:
         # the log stays open for the life of the process it receives (closed in stop())
         out = open(self.log_path, 'wb') if self.log_path else subprocess.DEVNULL  # noqa: SIM115
         self.proc = subprocess.Popen(self.argv, env=env, stdout=out, stderr=subprocess.STDOUT,
-                                     start_new_session=True)
+                                     start_new_session=True, preexec_fn=_die_with_parent())
 
     def running(self) -> bool:
         return self.proc is not None and self.proc.poll() is None
@@ -92,6 +111,7 @@ class GraphConfig:
     depth_command: float | None = None  # published (and delivered) before the simulator starts
     mission: str | None = None  # an open-loop mission (auv mission) instead of the pilot
     sim_clock: bool = True  # simulated time and /clock; False: every node on the wall clock
+    foxglove: int | None = None  # serve the live topics on a Foxglove WebSocket on this port
 
 
 def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
@@ -120,6 +140,9 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
             weights=cfg.weights, water_speed=float(cfg.water_speed),
             realtime_priority=int(cfg.realtime_priority), use_sim_time=cfg.sim_clock)],
             log('pilot')))
+    if cfg.foxglove is not None:
+        nodes.append(NodeProcess('foxglove', [py, '-m', 'auv_bringup.foxglove_node', '--port',
+                                              str(cfg.foxglove)], log('foxglove')))
     nodes.append(NodeProcess('simulator', [py, '-m', 'auv_sim.node', *ros_params(
         vehicle_file=cfg.vehicle, effects_file=cfg.effects or '""', lockstep=cfg.lockstep,
         use_sim_clock=cfg.sim_clock,
@@ -237,6 +260,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--mission', default=None,
                         help='fly an open-loop mission (surge, pitch, yaw or a file) instead of '
                              'the pilot; start depth, speed and stop time come from it')
+    from auv_bringup.foxglove_node import DEFAULT_PORT
+
+    parser.add_argument('--foxglove', type=int, nargs='?', const=DEFAULT_PORT, default=None,
+                        metavar='PORT', help='serve the live topics on a Foxglove WebSocket '
+                        f'(ws://127.0.0.1:PORT, default port {DEFAULT_PORT}; see '
+                        'docs/foxglove.md)')
     parser.add_argument('--depth', type=float, default=None,
                         help='depth command [m] delivered to the pilot before the simulator '
                              'starts (for deterministic lockstep runs)')
@@ -268,6 +297,11 @@ def run(args: argparse.Namespace) -> int:
                           sim_clock=not args.wall_clock, depth_command=args.depth,
                           water_speed=args.water_speed,
                           realtime_priority=args.realtime_priority)
+    if args.foxglove is not None:
+        from auv_bringup.foxglove_node import check_port_free
+
+        check_port_free('127.0.0.1', args.foxglove)
+        cfg.foxglove = args.foxglove
     codes = run_graph(cfg, duration=args.duration)
     bad = {k: v for k, v in codes.items() if v not in (0, None, -2, 130)}
     if bad:

@@ -1,0 +1,421 @@
+"""The Foxglove bridge seen by a real Foxglove WebSocket client, and ``auv launch`` leaving no
+orphan node when it is SIGKILLed.
+
+The client speaks the Foxglove WebSocket protocol with the ``websockets`` package, offering the
+subprotocols ``foxglove.sdk.v1`` (the name the SDK's server accepts; the messages are those of
+``foxglove.websocket.v1``) and ``foxglove.websocket.v1``, as the Foxglove app does: it receives
+``serverInfo`` and ``advertise``, sends ``subscribe``, and decodes the binary message-data
+frames (opcode 0x01, subscription id u32, timestamp u64 ns, payload) against the schema the
+server advertised: ``ros2msg`` text through a rosbags typestore built from that text alone,
+``protobuf`` through the advertised FileDescriptorSet. The values are checked against physics
+and REP 103 (ENU/FLU) worked by hand, not against the bridge's own code.
+"""
+from __future__ import annotations
+
+import asyncio
+import base64
+import json
+import math
+import os
+import pathlib
+import queue
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+import websockets
+from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+SUBPROTOCOLS = ['foxglove.sdk.v1', 'foxglove.websocket.v1']
+SECTION = '=' * 80 + '\n'
+NS = 1_000_000_000
+DEPTH = 25.0   # m, NED z of the simulator's trimmed start
+SPEED = 1.8    # m/s, body surge of the simulator's trimmed start
+
+
+# ------------------------------------------------------------------------------------------
+# processes
+
+class LineReader:
+    """Lines of a process's stream, read by a thread, waited for with a deadline."""
+
+    def __init__(self, stream: Any) -> None:
+        self.lines: list[str] = []
+        self._queue: queue.Queue[str] = queue.Queue()
+        threading.Thread(target=self._read, args=(stream,), daemon=True).start()
+
+    def _read(self, stream: Any) -> None:
+        for line in stream:
+            self._queue.put(line)
+        self._queue.put('')     # end of the stream: the process has exited
+
+    def wait_for(self, needle: str, deadline: float) -> str:
+        end = time.monotonic() + deadline
+        while True:
+            try:
+                line = self._queue.get(timeout=max(0.0, min(0.2, end - time.monotonic())))
+                if not line:
+                    raise AssertionError(f'process ended before {needle!r}:\n'
+                                         + ''.join(self.lines))
+                self.lines.append(line)
+                if needle in line:
+                    return line
+            except queue.Empty:
+                if time.monotonic() > end:
+                    raise AssertionError(f'no {needle!r} within {deadline} s; got:\n'
+                                         + ''.join(self.lines)) from None
+
+
+def stop(proc: subprocess.Popen[str], deadline: float = 15.0) -> int:
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+    try:
+        return proc.wait(deadline)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(5.0)
+        raise AssertionError(f'process {proc.args} did not stop within {deadline} s') from None
+
+
+@pytest.fixture
+def bridge(ros_env: dict[str, str]) -> Iterator[tuple[int, subprocess.Popen[str], LineReader]]:
+    """The bridge on a free port; yields (port, process, its stderr lines) once it is ready."""
+    proc = subprocess.Popen([sys.executable, '-m', 'auv_bringup.foxglove_node', '--port', '0'],
+                            cwd=ROOT, env=ros_env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True)
+    reader = LineReader(proc.stderr)
+    try:
+        line = reader.wait_for('foxglove: serving', 60.0)
+        port = int(line.rsplit(':', 1)[1])
+        yield port, proc, reader
+    finally:
+        code = stop(proc)
+    assert code == 0, ''.join(reader.lines)
+
+
+# ------------------------------------------------------------------------------------------
+# the client
+
+
+def ros2msg_store(name: str, text: str) -> Any:
+    """A typestore knowing only the types of one advertised ``ros2msg`` schema."""
+    store = get_typestore(Stores.EMPTY)
+    sections = text.split(SECTION)
+    types = dict(get_types_from_msg(sections[0], name))
+    for section in sections[1:]:
+        head, _, body = section.partition('\n')
+        assert head.startswith('MSG: '), head
+        sub = head[5:].strip()
+        if sub.count('/') == 1:
+            sub = sub.replace('/', '/msg/')
+        types.update(get_types_from_msg(body, sub))
+    store.register(types)
+    return store
+
+
+def protobuf_class(name: str, schema_b64: str) -> Any:
+    """The message class of an advertised protobuf schema (base64 FileDescriptorSet)."""
+    fds = descriptor_pb2.FileDescriptorSet.FromString(base64.b64decode(schema_b64))
+    pool = descriptor_pool.DescriptorPool()
+    for file in fds.file:
+        pool.Add(file)
+    return message_factory.GetMessageClass(pool.FindMessageTypeByName(name))
+
+
+class Decoded:
+    """Messages received per topic: (websocket timestamp [ns], decoded message)."""
+
+    def __init__(self) -> None:
+        self.channels: dict[str, dict[str, Any]] = {}
+        self.messages: dict[str, list[tuple[int, Any]]] = {}
+
+
+async def receive(port: int, topics: list[str], done: Any, deadline: float,
+                  on_subscribed: Any = None) -> Decoded:
+    """Connect, subscribe ``topics``, decode messages until ``done(decoded)`` is true."""
+    out = Decoded()
+    end = time.monotonic() + deadline
+
+    async def recv(ws: Any) -> Any:
+        left = end - time.monotonic()
+        if left <= 0:
+            raise AssertionError(f'deadline {deadline} s passed; received '
+                                 f'{ {k: len(v) for k, v in out.messages.items()} }')
+        return await asyncio.wait_for(ws.recv(), left)
+
+    async with websockets.connect(f'ws://127.0.0.1:{port}', subprotocols=SUBPROTOCOLS,
+                                  max_size=None, open_timeout=deadline) as ws:
+        assert ws.subprotocol in SUBPROTOCOLS
+        info = json.loads(await recv(ws))
+        assert info['op'] == 'serverInfo', info
+        while not set(topics) <= set(out.channels):
+            msg = await recv(ws)
+            if isinstance(msg, str) and json.loads(msg)['op'] == 'advertise':
+                for chan in json.loads(msg)['channels']:
+                    out.channels[chan['topic']] = chan
+        subs = {}
+        decoders = {}
+        for sub_id, topic in enumerate(topics, start=1):
+            chan = out.channels[topic]
+            subs[sub_id] = topic
+            out.messages[topic] = []
+            if chan['encoding'] == 'cdr':
+                store = ros2msg_store(chan['schemaName'], chan['schema'])
+                decoders[sub_id] = (lambda s, n: lambda b: s.deserialize_cdr(b, n))(
+                    store, chan['schemaName'])
+            else:
+                assert chan['encoding'] == 'protobuf', chan
+                cls = protobuf_class(chan['schemaName'], chan['schema'])
+                decoders[sub_id] = cls.FromString
+        await ws.send(json.dumps({'op': 'subscribe', 'subscriptions': [
+            {'id': i, 'channelId': out.channels[t]['id']} for i, t in subs.items()]}))
+        if on_subscribed is not None:
+            on_subscribed()
+        while not done(out):
+            msg = await recv(ws)
+            if isinstance(msg, str):
+                continue
+            opcode, sub_id, stamp = struct.unpack_from('<BIQ', msg, 0)
+            if opcode != 0x01 or sub_id not in subs:
+                continue
+            out.messages[subs[sub_id]].append((stamp, decoders[sub_id](bytes(msg[13:]))))
+    return out
+
+
+# ------------------------------------------------------------------------------------------
+# tests
+
+
+def forward_axis_enu(q: Any) -> tuple[float, float, float]:
+    """The body x axis (FLU forward) rotated into the world frame by quaternion q (x, y, z, w)."""
+    x, y, z, w = q.x, q.y, q.z, q.w
+    return (1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y))
+
+
+def test_live_state_odometry_and_pose_decode_to_the_simulated_vehicle(
+        bridge: tuple[int, subprocess.Popen[str], LineReader], ros_env: dict[str, str],
+        tmp_path: pathlib.Path) -> None:
+    port, bridge_proc, _ = bridge
+    log = tmp_path / 'sim.log'
+    sim = subprocess.Popen([sys.executable, '-m', 'auv_sim.node', '--initial-depth', str(DEPTH),
+                            '--initial-speed', str(SPEED), '--initial-heading', '0.5',
+                            '--real-time-factor', '1'], cwd=ROOT, env=ros_env,
+                           stdout=subprocess.DEVNULL, stderr=log.open('w'))
+    topics = ['/auv/state', '/auv/odom', '/auv/pose', '/auv/tf', '/auv/hydrodynamic_forces']
+    try:
+        got = asyncio.run(receive(port, topics, lambda d: all(
+            len(d.messages[t]) >= 40 for t in topics), deadline=90.0))
+        assert sim.poll() is None, log.read_text()
+        assert bridge_proc.poll() is None
+    finally:
+        code = stop(sim)
+    assert code == 0, log.read_text()
+
+    chans = got.channels
+    assert (chans['/auv/state']['encoding'], chans['/auv/state']['schemaEncoding'],
+            chans['/auv/state']['schemaName']) == ('cdr', 'ros2msg', 'auv_msgs/msg/VehicleState')
+    assert chans['/auv/odom']['schemaName'] == 'nav_msgs/msg/Odometry'
+    assert chans['/auv/pose']['schemaName'] == 'foxglove.PoseInFrame'
+    assert chans['/auv/tf']['schemaName'] == 'foxglove.FrameTransform'
+
+    # state: stamps on the 50 Hz publish grid, increasing; the timestamp is the header stamp
+    states = {}
+    previous = -1
+    for stamp, msg in got.messages['/auv/state']:
+        ns = msg.header.stamp.sec * NS + msg.header.stamp.nanosec
+        assert stamp == ns
+        assert ns > previous and ns % 20_000_000 == 0, (previous, ns)
+        previous = ns
+        states[ns] = msg
+        # a trimmed start holds depth and speed over the first simulated seconds
+        assert abs(msg.z - DEPTH) < 0.5 and abs(msg.u - SPEED) < 0.1, (msg.z, msg.u)
+        assert abs(msg.psi - 0.5) < 1e-3 and abs(msg.phi) < 1e-3 and abs(msg.theta) < 0.2
+    # odometry (raw CDR) and the Foxglove pose are the same state in ENU/FLU (REP 103):
+    # ENU x = NED y (east), ENU y = NED x (north), ENU z = -NED z (up = -depth)
+    matched = 0
+    for topic in ('/auv/odom', '/auv/pose'):
+        for stamp, msg in got.messages[topic]:
+            if topic == '/auv/odom':
+                ns = msg.header.stamp.sec * NS + msg.header.stamp.nanosec
+                p, q = msg.pose.pose.position, msg.pose.pose.orientation
+                assert (msg.header.frame_id, msg.child_frame_id) == ('odom', 'base_link')
+            else:
+                ns = msg.timestamp.seconds * NS + msg.timestamp.nanos
+                p, q = msg.pose.position, msg.pose.orientation
+                assert msg.frame_id == 'odom'
+            assert stamp == ns
+            if ns not in states:
+                continue        # best effort: a sample of the other topic may be missing
+            s = states[ns]
+            assert (p.x, p.y, p.z) == pytest.approx((s.y, s.x, -s.z), abs=1e-9)
+            assert math.hypot(math.hypot(q.x, q.y), math.hypot(q.z, q.w)) \
+                == pytest.approx(1.0, abs=1e-9)
+            forward = forward_axis_enu(q)
+            c = math.cos(s.theta)
+            assert forward == pytest.approx(
+                (c * math.sin(s.psi), c * math.cos(s.psi), math.sin(s.theta)), abs=1e-9)
+            matched += 1
+    assert matched >= 40, 'too few odometry/pose samples share a stamp with a state'
+    for stamp, tf in got.messages['/auv/tf']:
+        assert (tf.parent_frame_id, tf.child_frame_id) == ('odom', 'base_link')
+        assert stamp == tf.timestamp.seconds * NS + tf.timestamp.nanos
+        if stamp in states:
+            assert tf.translation.z == pytest.approx(-states[stamp].z, abs=1e-9)
+    # forces: the restoring force of a trimmed, level vehicle is nearly vertical, and the
+    # stamps are those of the states
+    for stamp, f in got.messages['/auv/hydrodynamic_forces']:
+        assert stamp == f.header.stamp.sec * NS + f.header.stamp.nanosec
+        r = f.restoring.force
+        assert abs(r.x) <= abs(r.z) * 0.2 + 1e-6
+
+
+def test_a_bad_odometry_gives_no_pose_and_the_bridge_goes_on(
+        bridge: tuple[int, subprocess.Popen[str], LineReader]) -> None:
+    import rclpy
+    from nav_msgs.msg import Odometry
+    from rclpy.context import Context
+    from rclpy.signals import SignalHandlerOptions
+
+    port, bridge_proc, reader = bridge
+    context = Context()
+    rclpy.init(context=context, domain_id=int(os.environ['ROS_DOMAIN_ID']),
+               signal_handler_options=SignalHandlerOptions.NO)
+    node = rclpy.create_node('bad_odometry', context=context)
+    pub = node.create_publisher(Odometry, '/auv/odom', 10)
+    subscribed = threading.Event()
+    stop_publishing = threading.Event()
+
+    def odometry(sec: int, quaternion_w: float, x: float) -> Odometry:
+        msg = Odometry()
+        msg.header.stamp.sec = sec
+        msg.header.frame_id, msg.child_frame_id = 'odom', 'base_link'
+        msg.pose.pose.position.x = x
+        msg.pose.pose.orientation.w = quaternion_w
+        return msg
+
+    def publish() -> None:
+        end = time.monotonic() + 60.0
+        while pub.get_subscription_count() < 1 or not subscribed.is_set():
+            if time.monotonic() > end or stop_publishing.is_set():
+                return
+            time.sleep(0.05)
+        while not stop_publishing.is_set() and time.monotonic() < end:
+            pub.publish(odometry(1, 0.0, 1.0))          # zero quaternion: no orientation
+            pub.publish(odometry(2, 1.0, math.nan))     # position not finite
+            pub.publish(odometry(3, 1.0, 7.0))          # good
+            time.sleep(0.1)
+
+    publisher = threading.Thread(target=publish, daemon=True)
+    publisher.start()
+    try:
+        got = asyncio.run(receive(
+            port, ['/auv/odom', '/auv/pose'],
+            lambda d: {s for s, _ in d.messages['/auv/odom']} >= {1 * NS, 2 * NS, 3 * NS}
+            and len(d.messages['/auv/pose']) >= 3, deadline=60.0, on_subscribed=subscribed.set))
+    finally:
+        stop_publishing.set()
+        publisher.join(5.0)
+        node.destroy_node()
+        context.try_shutdown()
+    poses = got.messages['/auv/pose']
+    assert {s for s, _ in poses} == {3 * NS}, 'a pose was served from a bad odometry'
+    assert all(m.pose.position.x == 7.0 for _, m in poses)
+    assert bridge_proc.poll() is None
+    reader.wait_for('message skipped', 10.0)
+
+
+def occupied_port() -> tuple[socket.socket, int]:
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.bind(('127.0.0.1', 0))
+    sock.listen(1)
+    return sock, sock.getsockname()[1]
+
+
+@pytest.mark.parametrize('command', [['foxglove', '--port'], ['launch', '--foxglove']])
+def test_port_in_use_is_a_one_line_error(ros_env: dict[str, str], command: list[str]) -> None:
+    sock, port = occupied_port()
+    with sock:
+        proc = subprocess.run([sys.executable, '-m', 'auv_bringup.cli', *command, str(port)],
+                              cwd=ROOT, env=ros_env, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 1
+    assert proc.stderr.strip() == (f'error: Foxglove port {port} on 127.0.0.1 is in use '
+                                   '(another server? choose one with --foxglove PORT / --port '
+                                   'PORT)'), proc.stderr
+
+
+# ------------------------------------------------------------------------------------------
+# auv launch SIGKILLed leaves no orphan
+
+
+def children(pid: int) -> dict[int, str]:
+    """pid -> command line of the live processes whose parent is ``pid`` (Linux /proc)."""
+    out = {}
+    for entry in pathlib.Path('/proc').iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / 'stat').read_text()
+            cmdline = (entry / 'cmdline').read_bytes().replace(b'\0', b' ').decode()
+        except OSError:
+            continue
+        fields = stat.rsplit(')', 1)[1].split()
+        if int(fields[1]) == pid and fields[0] != 'Z':
+            out[int(entry.name)] = cmdline
+    return out
+
+
+def alive(pid: int) -> bool:
+    try:
+        stat = pathlib.Path(f'/proc/{pid}/stat').read_text()
+    except OSError:
+        return False
+    return stat.rsplit(')', 1)[1].split()[0] != 'Z'
+
+
+@pytest.mark.skipif(not sys.platform.startswith('linux'), reason='PR_SET_PDEATHSIG is Linux')
+def test_launch_sigkilled_leaves_no_orphan_node(ros_env: dict[str, str],
+                                                tmp_path: pathlib.Path) -> None:
+    logs = tmp_path / 'logs'
+    bag = tmp_path / 'bag'
+    launch = subprocess.Popen([sys.executable, '-m', 'auv_bringup.cli', 'launch', '--log-dir',
+                               str(logs), '--record', str(bag), '--initial-depth', '30'],
+                              cwd=ROOT, env=ros_env, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.PIPE, text=True)
+    modules = ('auv_bringup.record_node', 'auv_depth_lqr.node', 'auv_sim.node')
+    nodes: dict[int, str] = {}
+    try:
+        end = time.monotonic() + 60.0
+        while True:     # ready: the three nodes run their modules and the recorder records
+            assert launch.poll() is None, launch.communicate()[1]
+            nodes = children(launch.pid)
+            recording = (logs / 'recorder.log').is_file() and 'recording' in \
+                (logs / 'recorder.log').read_text()
+            if recording and all(any(m in c for c in nodes.values()) for m in modules):
+                break
+            assert time.monotonic() < end, f'graph not up within 60 s: {nodes}'
+            time.sleep(0.1)
+        launch.kill()
+        launch.wait(10.0)
+        end = time.monotonic() + 30.0
+        while any(alive(pid) for pid in nodes) and time.monotonic() < end:
+            time.sleep(0.1)
+        left = {pid: cmd for pid, cmd in nodes.items() if alive(pid)}
+    finally:
+        if launch.poll() is None:
+            launch.kill()
+            launch.wait(10.0)
+        for pid in nodes:
+            if alive(pid):
+                os.kill(pid, signal.SIGKILL)
+    assert not left, f'nodes left running after SIGKILL of auv launch: {left}'
+    # the recorder got SIGTERM, not SIGKILL: it closed its bag with its metadata
+    assert (bag / 'metadata.yaml').is_file()
