@@ -146,11 +146,11 @@ async def receive(port: int, topics: list[str], done: Any, deadline: float,
     end = time.monotonic() + deadline
 
     async def recv(ws: Any) -> Any:
-        left = end - time.monotonic()
-        if left <= 0:
+        try:
+            return await asyncio.wait_for(ws.recv(), max(0.0, end - time.monotonic()))
+        except TimeoutError:
             raise AssertionError(f'deadline {deadline} s passed; received '
-                                 f'{ {k: len(v) for k, v in out.messages.items()} }')
-        return await asyncio.wait_for(ws.recv(), left)
+                                 f'{ {k: len(v) for k, v in out.messages.items()} }') from None
 
     async with websockets.connect(f'ws://127.0.0.1:{port}', subprotocols=SUBPROTOCOLS,
                                   max_size=None, open_timeout=deadline) as ws:
@@ -280,10 +280,14 @@ def test_live_state_odometry_and_pose_decode_to_the_simulated_vehicle(
 
 def test_a_bad_odometry_gives_no_pose_and_the_bridge_goes_on(
         bridge: tuple[int, subprocess.Popen[str], LineReader]) -> None:
+    """Also: a best-effort publisher of a command topic (subscribed reliable) is followed."""
     import rclpy
     from nav_msgs.msg import Odometry
     from rclpy.context import Context
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rclpy.signals import SignalHandlerOptions
+
+    from auv_msgs.msg import ActuatorSetpoint
 
     port, bridge_proc, reader = bridge
     context = Context()
@@ -291,6 +295,8 @@ def test_a_bad_odometry_gives_no_pose_and_the_bridge_goes_on(
                signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node('bad_odometry', context=context)
     pub = node.create_publisher(Odometry, '/auv/odom', 10)
+    best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+    bar_pub = node.create_publisher(ActuatorSetpoint, '/auv/bar_command', best_effort)
     subscribed = threading.Event()
     stop_publishing = threading.Event()
 
@@ -312,15 +318,17 @@ def test_a_bad_odometry_gives_no_pose_and_the_bridge_goes_on(
             pub.publish(odometry(1, 0.0, 1.0))          # zero quaternion: no orientation
             pub.publish(odometry(2, 1.0, math.nan))     # position not finite
             pub.publish(odometry(3, 1.0, 7.0))          # good
+            bar_pub.publish(ActuatorSetpoint(value=0.125))
             time.sleep(0.1)
 
     publisher = threading.Thread(target=publish, daemon=True)
     publisher.start()
     try:
         got = asyncio.run(receive(
-            port, ['/auv/odom', '/auv/pose'],
+            port, ['/auv/odom', '/auv/pose', '/auv/bar_command'],
             lambda d: {s for s, _ in d.messages['/auv/odom']} >= {1 * NS, 2 * NS, 3 * NS}
-            and len(d.messages['/auv/pose']) >= 3, deadline=60.0, on_subscribed=subscribed.set))
+            and len(d.messages['/auv/pose']) >= 3 and len(d.messages['/auv/bar_command']) >= 1,
+            deadline=60.0, on_subscribed=subscribed.set))
     finally:
         stop_publishing.set()
         publisher.join(5.0)
@@ -329,6 +337,7 @@ def test_a_bad_odometry_gives_no_pose_and_the_bridge_goes_on(
     poses = got.messages['/auv/pose']
     assert {s for s, _ in poses} == {3 * NS}, 'a pose was served from a bad odometry'
     assert all(m.pose.position.x == 7.0 for _, m in poses)
+    assert all(m.value == 0.125 for _, m in got.messages['/auv/bar_command'])
     assert bridge_proc.poll() is None
     reader.wait_for('message skipped', 10.0)
 
@@ -350,6 +359,79 @@ def test_port_in_use_is_a_one_line_error(ros_env: dict[str, str], command: list[
     assert proc.stderr.strip() == (f'error: Foxglove port {port} on 127.0.0.1 is in use '
                                    '(another server? choose one with --foxglove PORT / --port '
                                    'PORT)'), proc.stderr
+
+
+def free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        sock.bind(('127.0.0.1', 0))
+        return int(sock.getsockname()[1])
+
+
+def wait_for_line(path: pathlib.Path, needle: str, proc: subprocess.Popen[str],
+                  deadline: float) -> None:
+    end = time.monotonic() + deadline
+    while not (path.is_file() and needle in path.read_text()):
+        assert proc.poll() is None, proc.communicate()[1]
+        assert time.monotonic() < end, f'no {needle!r} in {path} within {deadline} s'
+        time.sleep(0.1)
+
+
+def test_launch_foxglove_serves_the_commands_of_the_closed_loop(
+        ros_env: dict[str, str], tmp_path: pathlib.Path) -> None:
+    port = free_port()
+    logs = tmp_path / 'logs'
+    launch = subprocess.Popen([sys.executable, '-m', 'auv_bringup.cli', 'launch', '--foxglove',
+                               str(port), '--log-dir', str(logs), '--initial-depth', '40'],
+                              cwd=ROOT, env=ros_env, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.PIPE, text=True)
+    depth_cmd: list[subprocess.CompletedProcess[str]] = []
+
+    def command_depth() -> None:
+        depth_cmd.append(subprocess.run(
+            [sys.executable, '-m', 'auv_bringup.cli', 'depth', '35', '--min-subscribers', '2',
+             '--timeout', '30'], cwd=ROOT, env=ros_env, capture_output=True, text=True,
+            timeout=60))
+
+    def answered(d: Decoded) -> bool:
+        """1 s of the pilot holding 40 m, the command, then 2 s of its answer."""
+        if commander.ident is None and len(d.messages['/auv/bar_command']) >= 10:
+            commander.start()
+        commands = d.messages['/auv/depth_command']
+        return bool(commands) and sum(s > commands[0][0] + NS
+                                      for s, _ in d.messages['/auv/bar_command']) >= 10
+
+    commander = threading.Thread(target=command_depth, daemon=True)
+    topics = ['/auv/state', '/auv/bar_command', '/auv/depth_command']
+    try:
+        wait_for_line(logs / 'foxglove.log', 'foxglove: serving', launch, 60.0)
+        got = asyncio.run(receive(port, topics, answered, deadline=90.0))
+    finally:
+        launch.send_signal(signal.SIGINT)
+        try:
+            code = launch.wait(40.0)
+        except subprocess.TimeoutExpired:
+            launch.kill()
+            raise
+        if commander.is_alive():
+            commander.join(60.0)
+    assert code == 0, launch.communicate()[1]
+    assert depth_cmd and depth_cmd[0].returncode == 0, depth_cmd
+    assert got.channels['/auv/bar_command']['schemaName'] == 'auv_msgs/msg/ActuatorSetpoint'
+    assert got.channels['/auv/depth_command']['schemaName'] == 'std_msgs/msg/Float64'
+    (stamp, depth), = got.messages['/auv/depth_command'][:1]
+    assert depth.data == 35.0
+    # no header: placed at the graph's time (simulated, from 0) when it arrived
+    state_stamps = [s for s, _ in got.messages['/auv/state']]
+    assert 0 < stamp <= max(state_stamps) + NS
+    bar_max = math.radians(25.0)    # the a18m's plane travel (config/a18m.yaml)
+    bars = got.messages['/auv/bar_command']
+    assert all(abs(m.value) <= bar_max + 1e-12 for _, m in bars)
+    assert [s for s, _ in bars] == sorted(s for s, _ in bars)
+    assert all(s == m.header.stamp.sec * NS + m.header.stamp.nanosec for s, m in bars)
+    # climbing from 40 m to 35 m: the planes pitch the nose up (trailing edge up, BAR < trim)
+    before = [m.value for s, m in bars if s < stamp]
+    after = [m.value for s, m in bars if s > stamp + NS]
+    assert before and after and min(after) < min(before) - 0.01, (before, after)
 
 
 # ------------------------------------------------------------------------------------------

@@ -18,8 +18,14 @@ it has one (simulated time with ``/clock``, else wall time); for messages withou
 latest header or ``/clock`` stamp seen (so a depth command sits at the graph's current time);
 before any, the DDS receive time.
 
-Subscriptions are best effort (keep last 10): they match reliable and best-effort publishers
-and never hold a publisher back, so a viewer cannot slow a run. The node prints one line
+Quality of service: the streams (:data:`STREAM_TOPICS`: state, odometry, forces, clock) are
+subscribed best effort, keep last 10: they match reliable and best-effort publishers and never
+make a publisher resend, so a viewer cannot slow a run, and a sample lost on the way is lost to
+the viewer only. Commands are sent once or at a low rate and must not be lost: the depth
+command is subscribed as the depth pilot subscribes it (reliable, transient local, last 1: the
+latest command is received even if it was published before the bridge started), the other
+topics reliable, keep last 10. A reliable subscription does not match a best-effort publisher:
+when one appears on a topic, the bridge follows it best effort. The node prints one line
 ``foxglove: serving N topics on ws://HOST:PORT`` on stderr once its subscriptions exist and the
 server listens (with ``--port 0`` the port the system chose). SIGINT/SIGTERM stop it (exit 0).
 """
@@ -47,6 +53,11 @@ CLOCK_TOPIC = '/clock'
 POSE_TOPIC = '/auv/pose'
 TF_TOPIC = '/auv/tf'
 QUATERNION_NORM_TOLERANCE = 1e-3  # |1 - |q|| above which an orientation is rejected
+#: Topics subscribed best effort (high-rate streams; see the module docstring).
+STREAM_TOPICS = frozenset({'/auv/state', '/auv/odom', '/auv/hydrodynamic_forces', CLOCK_TOPIC})
+#: Topics subscribed reliable and transient local, as their subscribers in the graph do.
+LATCHED_TOPICS = frozenset({'/auv/depth_command'})
+GRAPH_POLL = 0.5  # s between looks at the graph (new topic types, best-effort publishers)
 WARN_PERIOD = 5.0  # s between two warnings about bad messages on one topic
 SPIN_SLICE = 0.1  # s, longest wait of the spin loop (a stop is seen this promptly)
 NS = 1_000_000_000
@@ -131,7 +142,8 @@ class Bridge:
         self._foxglove = foxglove
         self._store = typestore()
         self._channels: dict[str, Any] = {}
-        self._subscriptions: dict[str, Any] = {}
+        #: topic -> (subscription, its type, reliable)
+        self._subscriptions: dict[str, tuple[Any, str, bool]] = {}
         self._pending: list[str] = []
         self._last_stamp: int | None = None   # latest header/clock stamp seen [ns]
         self._warned: dict[str, float] = {}
@@ -145,27 +157,38 @@ class Bridge:
             if msgtype is None:
                 self._pending.append(name)
             else:
-                self._subscribe(name, msgtype)
+                self._subscribe(name, msgtype, reliable=name not in STREAM_TOPICS)
 
     @property
     def topic_count(self) -> int:
         """Topics served now (forwarded ones plus the derived pose topics)."""
         return len(self._channels) + (2 if self._pose is not None else 0)
 
-    def _subscribe(self, topic: str, msgtype: str) -> None:
-        from rclpy.qos import QoSProfile, ReliabilityPolicy
+    def _subscribe(self, topic: str, msgtype: str, reliable: bool) -> None:
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
         cls = message_class(msgtype)
-        definition, _ = self._store.generate_msgdef(msgtype, ros_version=2)
-        schema = self._foxglove.Schema(name=msgtype, encoding='ros2msg',
-                                       data=definition.encode())
-        self._channels[topic] = self._foxglove.Channel(topic, schema=schema,
-                                                       message_encoding='cdr')
+        if topic not in self._channels:
+            definition, _ = self._store.generate_msgdef(msgtype, ros_version=2)
+            schema = self._foxglove.Schema(name=msgtype, encoding='ros2msg',
+                                           data=definition.encode())
+            self._channels[topic] = self._foxglove.Channel(topic, schema=schema,
+                                                           message_encoding='cdr')
+        old = self._subscriptions.pop(topic, None)
+        if old is not None:
+            self.node.destroy_subscription(old[0])
+        if not reliable:
+            qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+        elif topic in LATCHED_TOPICS:
+            qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        else:
+            qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
         with_header = 'header' in cls.get_fields_and_field_types()
-        qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
-        self._subscriptions[topic] = self.node.create_subscription(
+        sub = self.node.create_subscription(
             cls, topic, functools.partial(self._on_message, topic, with_header, cls), qos,
             raw=True)
+        self._subscriptions[topic] = (sub, msgtype, reliable)
 
     def _on_message(self, topic: str, with_header: bool, cls: Any, data: bytes,
                     info: dict[str, int]) -> None:
@@ -217,17 +240,26 @@ class Bridge:
             self.node.get_logger().warning(text)
 
     def poll_graph(self) -> None:
-        """Subscribe requested topics whose type has appeared in the graph."""
-        if not self._pending:
-            return
-        types = dict(self.node.get_topic_names_and_types())
-        for topic in list(self._pending):
-            if types.get(topic):
-                try:
-                    self._subscribe(topic, types[topic][0])
-                except CliError as exc:
-                    self._warn(topic, f'{topic}: not served: {exc}')
-                self._pending.remove(topic)
+        """Subscribe requested topics whose type has appeared in the graph; follow
+        best-effort publishers on reliable subscriptions best effort."""
+        from rclpy.qos import ReliabilityPolicy
+
+        if self._pending:
+            types = dict(self.node.get_topic_names_and_types())
+            for topic in list(self._pending):
+                if types.get(topic):
+                    try:
+                        self._subscribe(topic, types[topic][0],
+                                        reliable=topic not in STREAM_TOPICS)
+                    except CliError as exc:
+                        self._warn(topic, f'{topic}: not served: {exc}')
+                    self._pending.remove(topic)
+        for topic, (_, msgtype, reliable) in list(self._subscriptions.items()):
+            if reliable and any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+                                for i in self.node.get_publishers_info_by_topic(topic)):
+                self.node.get_logger().warning(f'{topic}: best-effort publisher, following it '
+                                               'best effort')
+                self._subscribe(topic, msgtype, reliable=False)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -264,7 +296,7 @@ def run(args: argparse.Namespace) -> int:
             executor.spin_once(timeout_sec=SPIN_SLICE)
             if time.monotonic() >= next_poll:
                 bridge.poll_graph()
-                next_poll = time.monotonic() + 0.5
+                next_poll = time.monotonic() + GRAPH_POLL
         print(f'foxglove: forwarded {bridge.forwarded} messages, skipped {bridge.rejected}',
               file=sys.stderr, flush=True)
         executor.shutdown()

@@ -32,7 +32,9 @@ PR_SET_PDEATHSIG = 1  # prctl(2) option: signal sent to this process when its pa
 def _die_with_parent() -> Callable[[], None] | None:
     """A ``preexec_fn`` asking the kernel to SIGTERM the child when the launching process
     dies (``prctl(PR_SET_PDEATHSIG)``, Linux); None elsewhere. The child checks its parent is
-    still the launcher after the call, in case the launcher died in between."""
+    still the launcher after the call, in case the launcher died in between. The kernel sends
+    the signal when the *thread* that started the child ends: nodes are started from the main
+    thread (:func:`run_graph` installs signal handlers, which only the main thread can)."""
     if not sys.platform.startswith('linux'):
         return None
     prctl = ctypes.CDLL(None, use_errno=True).prctl
@@ -148,7 +150,8 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
         use_sim_clock=cfg.sim_clock,
         real_time_factor=cfg.real_time_factor, initial_depth=cfg.initial_depth,
         initial_speed=cfg.initial_speed, stop_time=cfg.stop_time,
-        start_subscribers=float(int(cfg.pilot or bool(cfg.mission)) + int(bool(cfg.record))),
+        start_subscribers=float(int(cfg.pilot or bool(cfg.mission)) + int(bool(cfg.record))
+                                + int(cfg.foxglove is not None)),
         control_period=1.0 / cfg.pilot_rate)], log('simulator')))
     return nodes
 
