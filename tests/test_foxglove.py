@@ -22,9 +22,11 @@ from collections.abc import Iterator
 from typing import Any
 
 import pytest
+import yaml
 from foxglove_client import Decoded, LineReader, receive
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
+A18M = ROOT / 'config' / 'a18m.yaml'
 NS = 1_000_000_000
 DEPTH = 25.0   # m, NED z of the simulator's trimmed start
 SPEED = 1.8    # m/s, body surge of the simulator's trimmed start
@@ -85,8 +87,9 @@ def test_live_state_odometry_and_pose_decode_to_the_simulated_vehicle(
                            stdout=subprocess.DEVNULL, stderr=log.open('w'))
     topics = ['/auv/state', '/auv/odom', '/auv/pose', '/auv/tf', '/auv/hydrodynamic_forces']
     try:
-        got = asyncio.run(receive(port, topics, lambda d: all(
-            len(d.messages[t]) >= 40 for t in topics), deadline=90.0))
+        got = asyncio.run(receive(port, [*topics, '/auv/hull'], lambda d: all(
+            len(d.messages[t]) >= 40 for t in topics) and len(d.messages['/auv/hull']) >= 1,
+            deadline=90.0))
         assert sim.poll() is None, log.read_text()
         assert bridge_proc.poll() is None
     finally:
@@ -143,6 +146,18 @@ def test_live_state_odometry_and_pose_decode_to_the_simulated_vehicle(
         assert stamp == tf.timestamp.seconds * NS + tf.timestamp.nanos
         if stamp in states:
             assert tf.translation.z == pytest.approx(-states[stamp].z, abs=1e-9)
+    # the hull: a cylinder of the vehicle file's length and diameter along the body x axis
+    geometry = yaml.safe_load(A18M.read_text())['geometry']
+    for stamp, update in got.messages['/auv/hull']:
+        entity, = update.entities
+        assert (entity.frame_id, entity.frame_locked) == ('base_link', True)
+        assert stamp == entity.timestamp.seconds * NS + entity.timestamp.nanos
+        cylinder, = entity.cylinders
+        assert (cylinder.size.x, cylinder.size.y, cylinder.size.z) == pytest.approx(
+            (geometry['diameter']['value'], geometry['diameter']['value'],
+             geometry['L_ref']['value']))
+        axis = forward_axis_enu(cylinder.pose.orientation)   # where the local x goes ...
+        assert axis == pytest.approx((0.0, 0.0, -1.0), abs=1e-9)  # ... so local z goes to +x
     # forces: the restoring force of a trimmed, level vehicle is nearly vertical, and the
     # stamps are those of the states
     for stamp, f in got.messages['/auv/hydrodynamic_forces']:

@@ -9,9 +9,12 @@ For the 3D panel the vehicle's pose is also served with Foxglove's own schemas (
 ``/auv/pose`` (``foxglove.PoseInFrame``, frame ``odom``) and ``/auv/tf``
 (``foxglove.FrameTransform``, ``odom`` -> ``base_link``), both taken from ``/auv/odom``, that is
 in ENU (world) / FLU (body) as REP 103 has it: z is up, so z = -depth (the NED z of
-``/auv/state``). An odometry sample whose position or orientation is not finite, or whose
-quaternion is far from unit norm, gives no pose (it is logged, throttled, and the node goes on);
-its raw message is still forwarded.
+``/auv/state``). ``/auv/hull`` (``foxglove.SceneUpdate``) draws the hull in ``base_link``: a
+cylinder of the vehicle file's ``L_ref`` [m] and ``diameter`` [m] along the body x axis, sent
+with the pose at most once a wall second (a client that connects later gets it within 1 s).
+An odometry sample whose position or orientation is not finite, or whose quaternion is far from
+unit norm, gives no pose (it is logged, throttled, and the node goes on); its raw message is
+still forwarded.
 
 Log time of every message sent (the timestamp Foxglove places it at): its header stamp [ns] when
 it has one (simulated time with ``/clock``, else wall time); for messages without a header, the
@@ -35,6 +38,7 @@ import argparse
 import errno
 import functools
 import math
+import pathlib
 import signal
 import socket
 import sys
@@ -46,12 +50,16 @@ from auv_bringup.cli import CliError, standalone
 from auv_bringup.errors import BridgeError
 from auv_bringup.record_node import KNOWN_TOPICS, header_stamp, message_class
 
+VEHICLE = pathlib.Path(__file__).resolve().parents[3] / 'config' / 'a18m.yaml'
 DEFAULT_PORT = 8765  # Foxglove's default WebSocket port
 DEFAULT_HOST = '127.0.0.1'
 ODOM_TOPIC = '/auv/odom'
 CLOCK_TOPIC = '/clock'
 POSE_TOPIC = '/auv/pose'
 TF_TOPIC = '/auv/tf'
+HULL_TOPIC = '/auv/hull'
+HULL_PERIOD = 1.0  # wall s between two hull updates
+HULL_COLOR = (0.95, 0.75, 0.1, 0.8)  # RGBA, a yellow hull
 QUATERNION_NORM_TOLERANCE = 1e-3  # |1 - |q|| above which an orientation is rejected
 #: Topics subscribed best effort (high-rate streams; see the module docstring).
 STREAM_TOPICS = frozenset({'/auv/state', '/auv/odom', '/auv/hydrodynamic_forces', CLOCK_TOPIC})
@@ -126,15 +134,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='topics to serve (default: %(default)s); types other than the '
                              "project's are taken from the graph when they appear")
     parser.add_argument('--no-pose', action='store_true',
-                        help=f'do not derive {POSE_TOPIC} and {TF_TOPIC} from {ODOM_TOPIC}')
+                        help=f'do not derive {POSE_TOPIC}, {TF_TOPIC} and {HULL_TOPIC} from '
+                             f'{ODOM_TOPIC}')
+    parser.add_argument('--vehicle', default=str(VEHICLE),
+                        help='vehicle file: the hull drawn in 3D (default: %(default)s)')
 
 
 class Bridge:
     """Raw DDS subscriptions forwarded to Foxglove channels (see the module docstring)."""
 
-    def __init__(self, node: Any, topics: list[str], pose: bool) -> None:
+    def __init__(self, node: Any, topics: list[str], pose: bool,
+                 hull: tuple[float, float] | None = None) -> None:
+        """``hull``: (length, diameter) [m] of the hull drawn in 3D; None: none drawn."""
         import foxglove
-        from foxglove.channels import FrameTransformChannel, PoseInFrameChannel
+        from foxglove.channels import (
+            FrameTransformChannel,
+            PoseInFrameChannel,
+            SceneUpdateChannel,
+        )
 
         from auv_ident.bag import typestore
 
@@ -151,6 +168,9 @@ class Bridge:
         self.rejected = 0
         self._pose = PoseInFrameChannel(POSE_TOPIC) if pose else None
         self._tf = FrameTransformChannel(TF_TOPIC) if pose else None
+        self._hull_size = hull
+        self._hull = SceneUpdateChannel(HULL_TOPIC) if pose and hull else None
+        self._hull_sent = -math.inf  # time.monotonic() of the last hull update
         for topic in topics:
             name = node.resolve_topic_name(topic)
             msgtype = KNOWN_TOPICS.get(name)
@@ -162,7 +182,8 @@ class Bridge:
     @property
     def topic_count(self) -> int:
         """Topics served now (forwarded ones plus the derived pose topics)."""
-        return len(self._channels) + (2 if self._pose is not None else 0)
+        derived = (self._pose, self._tf, self._hull)
+        return len(self._channels) + sum(c is not None for c in derived)
 
     def _subscribe(self, topic: str, msgtype: str, reliable: bool) -> None:
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -232,6 +253,36 @@ class Bridge:
         self._tf.log(FrameTransform(timestamp=stamp, parent_frame_id=pose.frame_id,
                                     child_frame_id=pose.child_frame_id, translation=position,
                                     rotation=orientation), log_time=pose.stamp_ns)
+        if self._hull is not None and time.monotonic() - self._hull_sent >= HULL_PERIOD:
+            self._hull_sent = time.monotonic()
+            self._publish_hull(stamp, pose)
+
+    def _publish_hull(self, stamp: Any, pose: Pose) -> None:
+        """The hull as a cylinder along the body x axis (a Foxglove cylinder's axis is its
+        local z: turned +90 deg about y), centred on the body origin, locked to the body."""
+        from foxglove.messages import (
+            Color,
+            CylinderPrimitive,
+            Quaternion,
+            SceneEntity,
+            SceneUpdate,
+            Vector3,
+        )
+        from foxglove.messages import Pose as FoxglovePose
+
+        if self._hull is None or self._hull_size is None:
+            return
+        length, diameter = self._hull_size
+        half = math.sqrt(0.5)
+        r, g, b, a = HULL_COLOR
+        cylinder = CylinderPrimitive(
+            pose=FoxglovePose(position=Vector3(), orientation=Quaternion(x=0.0, y=half, z=0.0,
+                                                                         w=half)),
+            size=Vector3(x=diameter, y=diameter, z=length), bottom_scale=1.0, top_scale=1.0,
+            color=Color(r=r, g=g, b=b, a=a))
+        entity = SceneEntity(timestamp=stamp, frame_id=pose.child_frame_id, id='hull',
+                             frame_locked=True, cylinders=[cylinder])
+        self._hull.log(SceneUpdate(entities=[entity]), log_time=pose.stamp_ns)
 
     def _warn(self, topic: str, text: str) -> None:
         now = time.monotonic()
@@ -265,6 +316,9 @@ class Bridge:
 def run(args: argparse.Namespace) -> int:
     """Serve until SIGINT/SIGTERM; returns the exit status."""
     check_port_free(args.host, args.port)
+    from auv_sim.params import load_vehicle
+
+    vehicle = load_vehicle(args.vehicle)
     import foxglove
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
@@ -280,7 +334,8 @@ def run(args: argparse.Namespace) -> int:
     server = None
     try:
         node = rclpy.create_node('auv_foxglove')
-        bridge = Bridge(node, list(dict.fromkeys(args.topics)), pose=not args.no_pose)
+        bridge = Bridge(node, list(dict.fromkeys(args.topics)), pose=not args.no_pose,
+                        hull=(vehicle.L_ref, vehicle.diameter))
         try:
             server = foxglove.start_server(name='auv', host=args.host, port=args.port)
         except RuntimeError as exc:  # the SDK's FoxgloveError (e.g. the port was taken since)

@@ -144,7 +144,8 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
             log('pilot')))
     if cfg.foxglove is not None:
         nodes.append(NodeProcess('foxglove', [py, '-m', 'auv_bringup.foxglove_node', '--port',
-                                              str(cfg.foxglove)], log('foxglove')))
+                                              str(cfg.foxglove), '--vehicle', cfg.vehicle],
+                                 log('foxglove')))
     nodes.append(NodeProcess('simulator', [py, '-m', 'auv_sim.node', *ros_params(
         vehicle_file=cfg.vehicle, effects_file=cfg.effects or '""', lockstep=cfg.lockstep,
         use_sim_clock=cfg.sim_clock,
