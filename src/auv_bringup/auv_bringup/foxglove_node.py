@@ -302,7 +302,7 @@ class Bridge:
                     try:
                         self._subscribe(topic, types[topic][0],
                                         reliable=topic not in STREAM_TOPICS)
-                    except CliError as exc:
+                    except Exception as exc:  # type not importable or not describable
                         self._warn(topic, f'{topic}: not served: {exc}')
                     self._pending.remove(topic)
         for topic, (_, msgtype, reliable) in list(self._subscriptions.items()):
