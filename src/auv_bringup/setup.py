@@ -21,6 +21,7 @@ setup(
             'auv = auv_bringup.cli:main',
             'recorder = auv_bringup.record_node:main',
             'player = auv_bringup.play_node:main',
+            'foxglove = auv_bringup.foxglove_node:main',
         ],
     },
 )

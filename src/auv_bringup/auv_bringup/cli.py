@@ -32,6 +32,7 @@ SUBCOMMANDS: dict[str, Subcommand] = {
     'ident-node': Subcommand('auv_ident.node', 'identification node fitting from live topics'),
     'launch': Subcommand('auv_bringup.launch', 'start the node graph as processes'),
     'record': Subcommand('auv_bringup.record_node', 'record topics to an MCAP bag'),
+    'foxglove': Subcommand('auv_bringup.foxglove_node', 'live topics on a Foxglove WebSocket'),
     'play': Subcommand('auv_bringup.play_node', 'replay a bag on its topics'),
     'depth': Subcommand('auv_bringup.depth', 'publish one depth command (m, positive down)'),
     'run': Subcommand('auv_bringup.run', 'offline batch run written as a bag'),

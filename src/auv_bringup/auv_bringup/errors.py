@@ -11,3 +11,8 @@ class LaunchError(AuvBringupError, RuntimeError):
 
 class RunError(AuvBringupError, ValueError):
     """An offline run or the demo was given bad input."""
+
+
+class BridgeError(AuvBringupError, ValueError):
+    """A message the Foxglove bridge cannot turn into what it serves (e.g. a non-unit
+    quaternion)."""

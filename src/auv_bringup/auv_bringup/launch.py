@@ -5,7 +5,8 @@ caller's environment (``ROS_DOMAIN_ID`` etc.). The graph stops cleanly: when the
 reaches its ``stop_time`` (or on SIGINT/SIGTERM of ``auv launch``, or ``--duration`` wall
 seconds), the simulator and pilot get SIGINT, then the recorder gets SIGTERM so it closes its
 bag with every message it received; each stop has a deadline, after which the process is
-killed and the fact reported.
+killed and the fact reported. On Linux every node also gets SIGTERM from the kernel when
+``auv launch`` itself dies (even by SIGKILL), so no node outlives it.
 
 Namespaces: every node's topics are relative to its namespace, ``/auv`` by default. With
 ``namespace`` (``auv launch --namespace auv1``) every node of the graph runs in ``/auv1``
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import ctypes
 import dataclasses
 import os
 import pathlib
@@ -24,12 +26,31 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from auv_bringup.errors import LaunchError
 
 ROOT = pathlib.Path(__file__).resolve().parents[3]
 STOP_DEADLINE = 10.0  # s a node gets to exit after its signal
+PR_SET_PDEATHSIG = 1  # prctl(2) option: signal sent to this process when its parent dies
+
+
+def _die_with_parent() -> Callable[[], None] | None:
+    """A ``preexec_fn`` asking the kernel to SIGTERM the child when the launching process
+    dies (``prctl(PR_SET_PDEATHSIG)``, Linux); None elsewhere. The child checks its parent is
+    still the launcher after the call, in case the launcher died in between. The kernel sends
+    the signal when the *thread* that started the child ends: nodes are started from the main
+    thread (:func:`run_graph` installs signal handlers, which only the main thread can)."""
+    if not sys.platform.startswith('linux'):
+        return None
+    prctl = ctypes.CDLL(None, use_errno=True).prctl
+    parent = os.getpid()
+
+    def preexec() -> None:
+        prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+        if os.getppid() != parent:
+            os.kill(os.getpid(), signal.SIGTERM)
+    return preexec
 
 
 @dataclasses.dataclass
@@ -45,7 +66,7 @@ class NodeProcess:
         # the log stays open for the life of the process it receives (closed in stop())
         out = open(self.log_path, 'wb') if self.log_path else subprocess.DEVNULL  # noqa: SIM115
         self.proc = subprocess.Popen(self.argv, env=env, stdout=out, stderr=subprocess.STDOUT,
-                                     start_new_session=True)
+                                     start_new_session=True, preexec_fn=_die_with_parent())
 
     def running(self) -> bool:
         return self.proc is not None and self.proc.poll() is None
@@ -121,6 +142,7 @@ class GraphConfig:
     sim_clock: bool = True  # simulated time and /clock; False: every node on the wall clock
     namespace: str = ''  # the nodes' namespace ('' = /auv); with sim_clock also its own clock
     pilot_state: str = 'vehicle_state'  # the pilot's state input: vehicle_state or odometry
+    foxglove: int | None = None  # serve the live topics on a Foxglove WebSocket on this port
 
 
 def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
@@ -152,12 +174,17 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
             realtime_priority=int(cfg.realtime_priority), use_sim_time=cfg.sim_clock,
             state_source=cfg.pilot_state),
             *remaps(cfg)], log('pilot')))
+    if cfg.foxglove is not None:
+        nodes.append(NodeProcess('foxglove', [py, '-m', 'auv_bringup.foxglove_node', '--port',
+                                              str(cfg.foxglove), '--vehicle', cfg.vehicle],
+                                 log('foxglove')))
     nodes.append(NodeProcess('simulator', [py, '-m', 'auv_sim.node', *ros_params(
         vehicle_file=cfg.vehicle, effects_file=cfg.effects or '""', lockstep=cfg.lockstep,
         use_sim_clock=cfg.sim_clock,
         real_time_factor=cfg.real_time_factor, initial_depth=cfg.initial_depth,
         initial_speed=cfg.initial_speed, stop_time=cfg.stop_time,
-        start_subscribers=float(int(cfg.pilot or bool(cfg.mission)) + int(bool(cfg.record))),
+        start_subscribers=float(int(cfg.pilot or bool(cfg.mission)) + int(bool(cfg.record))
+                                + int(cfg.foxglove is not None)),
         control_period=1.0 / cfg.pilot_rate), *remaps(cfg)], log('simulator')))
     return nodes
 
@@ -280,6 +307,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the pilot's state input: the simulator's state (VehicleState, "
                              'NED/FRD) or its odom (nav_msgs/Odometry, ENU/FLU), as from a '
                              "vehicle's navigation solution")
+
+    from auv_bringup.foxglove_node import DEFAULT_PORT
+
+    parser.add_argument('--foxglove', type=int, nargs='?', const=DEFAULT_PORT, default=None,
+                        metavar='PORT', help='serve the live topics on a Foxglove WebSocket '
+                        f'(ws://127.0.0.1:PORT, default port {DEFAULT_PORT}; see '
+                        'docs/foxglove.md)')
     parser.add_argument('--depth', type=float, default=None,
                         help='depth command [m] delivered to the pilot before the simulator '
                              'starts (for deterministic lockstep runs)')
@@ -317,6 +351,14 @@ def run(args: argparse.Namespace) -> int:
                           water_speed=args.water_speed,
                           realtime_priority=args.realtime_priority, namespace=args.namespace,
                           pilot_state=args.pilot_state)
+    if args.foxglove is not None:
+        from auv_bringup.foxglove_node import check_port_free
+
+        if args.namespace:
+            raise LaunchError('--foxglove serves the /auv topics; it does not follow --namespace '
+                              f'{args.namespace} (run auv foxglove with remapped topics)')
+        check_port_free('127.0.0.1', args.foxglove)
+        cfg.foxglove = args.foxglove
     codes = run_graph(cfg, duration=args.duration)
     bad = {k: v for k, v in codes.items() if v not in (0, None, -2, 130)}
     if bad:
