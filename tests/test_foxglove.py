@@ -276,7 +276,9 @@ def test_launch_foxglove_serves_the_commands_of_the_closed_loop(
 
     def command_depth() -> None:
         depth_cmd.append(subprocess.run(
-            [sys.executable, '-m', 'auv_bringup.cli', 'depth', '35', '--min-subscribers', '2',
+            # the pilot's three depth-command subscriptions (latched, volatile, best effort)
+            # and the bridge's
+            [sys.executable, '-m', 'auv_bringup.cli', 'depth', '35', '--min-subscribers', '4',
              '--timeout', '30'], cwd=ROOT, env=ros_env, capture_output=True, text=True,
             timeout=60))
 

@@ -48,7 +48,7 @@ from typing import Any, NamedTuple
 
 from auv_bringup.cli import CliError, standalone
 from auv_bringup.errors import BridgeError
-from auv_bringup.record_node import KNOWN_TOPICS, header_stamp, message_class
+from auv_bringup.record_node import KNOWN_TOPICS, NAMESPACE, header_stamp, message_class
 
 VEHICLE = pathlib.Path(__file__).resolve().parents[3] / 'config' / 'a18m.yaml'
 DEFAULT_PORT = 8765  # Foxglove's default WebSocket port
@@ -333,7 +333,7 @@ def run(args: argparse.Namespace) -> int:
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     server = None
     try:
-        node = rclpy.create_node('auv_foxglove')
+        node = rclpy.create_node('auv_foxglove', namespace=NAMESPACE)
         bridge = Bridge(node, list(dict.fromkeys(args.topics)), pose=not args.no_pose,
                         hull=(vehicle.L_ref, vehicle.diameter))
         try:
