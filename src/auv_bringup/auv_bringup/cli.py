@@ -39,6 +39,7 @@ SUBCOMMANDS: dict[str, Subcommand] = {
     'design': Subcommand('auv_depth_lqr.cli', 'trim, linearisation and LQR gains as JSON'),
     'ident': Subcommand('auv_ident.cli', 'identify coefficients from bags'),
     'gap': Subcommand('auv_ident.gap_cli', 'sim-to-real gap diagnosis'),
+    'campaign': Subcommand('auv_ident.campaign.cli', 'ident/gap over many logs, Monte Carlo'),
     'demo': Subcommand('auv_bringup.demo', 'the end-to-end demonstration'),
 }
 
