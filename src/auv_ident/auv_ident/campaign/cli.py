@@ -180,7 +180,8 @@ def _logs_campaign(args: argparse.Namespace, say: Any) -> int:
             if effect_set:
                 say(f'second pass: {"+".join(effect_set)} in every mission')
                 s2 = {**settings, 'effect_set': effect_set,
-                      'key_settings': {**settings['key_settings'], 'effect_set': effect_set}}
+                      'key_settings': {**settings['key_settings'], 'effect_set': effect_set,
+                                       'fit': 'joint equation error'}}
                 ok = [m for m, r in zip(missions, records) if r['status'] == 'ok']
                 refit_ok = run_missions(c, kind, ok, s2, retries=args.retries, progress=say,
                                         label='-refit')
@@ -223,7 +224,7 @@ def _montecarlo(args: argparse.Namespace, say: Any) -> int:
                    for k, ch in zip(keys, chunks)]
         results: dict[str, list[dict[str, Any]]] = {}
         failed_tasks = []
-        for n, fut in enumerate(dist.as_completed(futures), 1):
+        for n, fut in enumerate(dist.as_completed(futures, loop=c.loop), 1):
             try:
                 results[fut.key] = fut.result()
             except Exception as exc:

@@ -1,7 +1,9 @@
 """Which logs a campaign runs on: bags, directories of bags, globs and list files.
 
-A *bag* is a ``.mcap`` file or a bag directory (one with a ``metadata.yaml`` or ``.mcap``
-files). A directory that is not a bag is searched (recursively) for bags. A ``.txt`` or
+A *bag* is a ``.mcap`` file or a bag directory: one with a ``metadata.yaml``, or without one
+(a recorder that crashed) whose ``.mcap`` files are all named as rosbag2 splits them,
+``<directory name>_<N>.mcap``. Any other directory is searched (recursively) for bags, so a
+directory of ``.mcap`` files is a directory of single-file bags. A ``.txt`` or
 ``.list`` file names one log per line (blank lines and ``#`` comments skipped; relative paths
 are relative to the list file). Anything else is a glob pattern.
 """
@@ -9,6 +11,7 @@ from __future__ import annotations
 
 import glob
 import pathlib
+import re
 from collections.abc import Sequence
 
 from auv_ident.campaign.errors import CampaignError
@@ -17,11 +20,16 @@ LIST_SUFFIXES = ('.txt', '.list')
 
 
 def is_bag(path: pathlib.Path) -> bool:
-    """True for a ``.mcap`` file or a directory holding ``metadata.yaml`` or ``.mcap`` files."""
+    """True for a ``.mcap`` file or a bag directory (see the module docstring)."""
     if path.is_file():
         return path.suffix == '.mcap'
-    return path.is_dir() and ((path / 'metadata.yaml').is_file()
-                              or any(path.glob('*.mcap')))
+    if not path.is_dir():
+        return False
+    if (path / 'metadata.yaml').is_file():
+        return True
+    files = list(path.glob('*.mcap'))
+    return bool(files) and all(re.fullmatch(re.escape(path.name) + r'_\d+\.mcap', f.name)
+                               for f in files)
 
 
 def _bags_under(directory: pathlib.Path) -> list[pathlib.Path]:

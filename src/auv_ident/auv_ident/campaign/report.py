@@ -209,8 +209,9 @@ def _markdown(doc: Mapping[str, Any]) -> str:
     lines += ['## Drift and steps', '']
     if doc['series_from'] == 'refit':
         lines += ['Series from a second pass that fitted the effects named in any mission '
-                  f'(`{"+".join(doc["effect_set"])}`) in every mission, so that each '
-                  'quantity has a value (with its interval) in every mission.', '']
+                  f'(`{"+".join(doc["effect_set"])}`) jointly to every mission (the '
+                  "diagnosis' equation-error fit on its training windows), so that each "
+                  'quantity has a value with its interval in every mission.', '']
     elif doc['kind'] == 'gap':
         lines += ['Series from the best effect set of each mission: a quantity is missing '
                   'from the missions whose best set lacks its effect.', '']

@@ -46,7 +46,7 @@ def run_missions(client: Any, kind: str, missions: Sequence[tuple[str, str]],
     records: list[dict[str, Any] | None] = [None] * len(futures)
     t0 = time.perf_counter()
     width = len(str(len(futures)))
-    for done, fut in enumerate(dist.as_completed(futures), 1):
+    for done, fut in enumerate(dist.as_completed(futures, loop=client.loop), 1):
         i = index[fut.key]
         name, log = missions[i]
         try:

@@ -62,9 +62,6 @@ def _tool_args(kind: str, bag: str, out: str, settings: Mapping[str, Any]
     if kind == 'gap':
         gap_cli.add_arguments(parser)
         argv = [bag, '--model', str(settings['model']), '--out', out, '--quiet']
-        if settings.get('effect_set'):
-            argv += ['--effects', *settings['effect_set'],
-                     '--top', str(len(settings['effect_set']))]
     else:
         cli.add_arguments(parser)
         argv = [bag, '--base', str(settings['model']), '--out', out]
@@ -96,42 +93,23 @@ def _interval(ci: Any) -> list[float] | None:
     return [lo, hi] if math.isfinite(lo) and math.isfinite(hi) else None
 
 
-def gap_quantities(report: Mapping[str, Any], details: Mapping[str, Any],
-                   effect_set: Sequence[str] = ()) -> dict[str, dict[str, Any]]:
-    """Effect parameters ``effect.param`` -> value, 95 % interval, unit, from a gap report.
-
-    Without ``effect_set``: those of the best candidate. With it: those of the candidate
-    whose effects are exactly ``effect_set`` when the diagnosis fitted it, else, per effect,
-    those of the highest-scoring candidate that contains the effect.
-    """
-    cands = list(report.get('candidates') or [])
-    units = {c['effect']: c.get('units', {}) for c in details.get('candidates') or []}
-
-    def take(entry: Mapping[str, Any], only: str | None = None) -> dict[str, dict[str, Any]]:
-        names = entry['effect'].split('+')
-        out = {}
-        for key, value in entry['params'].items():
-            full = key if '.' in key else f'{names[0]}.{key}'
-            if only is not None and full.split('.')[0] != only:
-                continue
-            out[full] = {'value': None if value is None else float(value),
-                         'ci95': _interval(entry.get('ci95', {}).get(key)),
-                         'unit': units.get(entry['effect'], {}).get(key, '')}
-        return out
-
-    if not effect_set:
-        best = report.get('best')
-        entry = next((c for c in cands if c['effect'] == best), None)
-        return take(entry) if entry is not None else {}
-    wanted = set(effect_set)
-    exact = next((c for c in cands if set(c['effect'].split('+')) == wanted), None)
-    if exact is not None:
-        return take(exact)
-    out: dict[str, dict[str, Any]] = {}
-    for effect in effect_set:
-        entry = next((c for c in cands if effect in c['effect'].split('+')), None)
-        if entry is not None:
-            out.update(take(entry, effect))
+def gap_quantities(report: Mapping[str, Any], details: Mapping[str, Any]
+                   ) -> dict[str, dict[str, Any]]:
+    """Effect parameters ``effect.param`` -> value, 95 % interval, unit, of the best candidate
+    of a gap report (empty when the verdict names none)."""
+    best = report.get('best')
+    entry = next((c for c in report.get('candidates') or [] if c['effect'] == best), None)
+    if entry is None:
+        return {}
+    units: Mapping[str, str] = next((c.get('units', {}) for c in details.get('candidates') or []
+                  if c['effect'] == best), {})
+    names = entry['effect'].split('+')
+    out = {}
+    for key, value in entry['params'].items():
+        full = key if '.' in key else f'{names[0]}.{key}'
+        out[full] = {'value': None if value is None else float(value),
+                     'ci95': _interval(entry.get('ci95', {}).get(key)),
+                     'unit': units.get(key, '')}
     return out
 
 
@@ -156,7 +134,35 @@ def _run_gap(bag: str, out: pathlib.Path, settings: Mapping[str, Any]) -> dict[s
     return {'verdict': report['verdict'], 'best': report['best'],
             'ambiguous_with': list(report.get('ambiguous_with') or []),
             'held_out_shrink': report.get('held_out', {}).get('shrink'),
-            'quantities': gap_quantities(report, details, settings.get('effect_set') or ())}
+            'quantities': gap_quantities(report, details)}
+
+
+def _run_gap_joint(bag: str, out: pathlib.Path, settings: Mapping[str, Any]
+                   ) -> dict[str, Any]:
+    """The campaign's effect set fitted jointly to one log by the diagnosis' own
+    equation-error fit (:class:`auv_ident.gap.fit.EquationFit`, training windows, its 95 %
+    cluster-robust intervals), written to ``out/joint.json``."""
+    from auv_ident.gap.fit import EquationFit
+    from auv_ident.gap.logs import load_bag
+    from auv_ident.gap.problem import EffectSet, Problem
+    from auv_sim.params import load_vehicle
+
+    args = _tool_args('gap', bag, str(out), settings)
+    vehicle = load_vehicle(args.model)
+    problem = Problem(vehicle, load_bag(bag), window=args.window)
+    effects = EffectSet(list(settings['effect_set']), vehicle)
+    fit = EquationFit(problem).fit(effects)
+    quantities = {}
+    for (effect, p), v, lo, hi, active in zip(effects.params, fit.values, fit.lo95, fit.hi95,
+                                             fit.active):
+        quantities[f'{effect}.{p.name}'] = {
+            'value': float(v), 'ci95': _interval([lo, hi]) if active else None,
+            'unit': p.unit, 'identified': bool(active)}
+    out.mkdir(parents=True, exist_ok=True)
+    (out / 'joint.json').write_text(json.dumps({'effects': effects.label,
+                                                'quantities': quantities}, indent=1) + '\n')
+    return {'verdict': 'joint_fit', 'best': effects.label, 'ambiguous_with': [],
+            'quantities': quantities}
 
 
 def _run_ident(bag: str, out: pathlib.Path, settings: Mapping[str, Any]) -> dict[str, Any]:
@@ -181,7 +187,7 @@ def run_mission(kind: str, name: str, bag: str, settings: Mapping[str, Any]
     ``settings``: ``model`` (vehicle file), ``options`` (pass-through options of the tool),
     ``out`` (campaign directory; the tool writes into ``out/missions/<name>[-refit]``),
     ``cache`` (cache directory or None), ``key_settings`` (what the cache key covers),
-    ``effect_set`` (gap only: refit this set of effects in every mission).
+    ``effect_set`` (gap only: fit this set of effects jointly, see :func:`_run_gap_joint`).
     """
     t0 = time.perf_counter()
     start, end = log_span(bag)
@@ -205,7 +211,9 @@ def run_mission(kind: str, name: str, bag: str, settings: Mapping[str, Any]
     sub = 'missions-refit' if settings.get('effect_set') else 'missions'
     out = pathlib.Path(settings['out']) / sub / name
     try:
-        result = (_run_gap if kind == 'gap' else _run_ident)(bag, out, settings)
+        run = _run_ident if kind == 'ident' else \
+            _run_gap_joint if settings.get('effect_set') else _run_gap
+        result = run(bag, out, settings)
     except _ToolFailed as exc:
         return {**record, 'status': 'failed', 'reason': str(exc),
                 'elapsed_s': time.perf_counter() - t0}
@@ -214,7 +222,7 @@ def run_mission(kind: str, name: str, bag: str, settings: Mapping[str, Any]
         return {**record, 'status': 'failed', 'reason': reason,
                 'elapsed_s': time.perf_counter() - t0}
     record.update(result)
-    record['report'] = str(out / 'report.md')
+    record['report'] = str(out / ('joint.json' if settings.get('effect_set') else 'report.md'))
     record['elapsed_s'] = time.perf_counter() - t0
     if cache is not None:
         cache.put(key, record)
