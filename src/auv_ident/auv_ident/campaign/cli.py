@@ -50,7 +50,8 @@ def _logs(p: argparse.ArgumentParser) -> None:
     p.add_argument('logs', nargs='+', metavar='LOG',
                    help='bags, directories of bags, globs or list files (.txt, .list)')
     p.add_argument('--options', default='', metavar="'OPTS'",
-                   help='options passed to the single-log tool, e.g. "--window 60"')
+                   help='options passed to the single-log tool, as one word: '
+                        '--options="--window 60"')
     p.add_argument('--cache', default=None, metavar='DIR',
                    help='cache directory (default DIR/cache)')
     p.add_argument('--no-cache', action='store_true', help='neither read nor write the cache')

@@ -99,9 +99,9 @@ def describe(c: Any) -> dict[str, Any]:
 
 
 def task_history(c: Any, keys: list[str]) -> dict[str, dict[str, int]]:
-    """Per task key: ``worker_deaths`` (times the worker running it died, so it was run
-    again) and ``retries_left`` (of the ``retries=`` given at submission), asked of the
-    scheduler while the tasks are still held."""
+    """Per task key: ``worker_deaths`` (times a worker holding it, running it or with it
+    queued, died, so it was run elsewhere) and ``retries_left`` (of the ``retries=`` given
+    at submission), asked of the scheduler while the tasks are still held."""
     def _ask(dask_scheduler: Any, keys: list[str] = keys) -> dict[str, dict[str, int]]:
         out = {}
         for k in keys:
