@@ -218,6 +218,7 @@ def _montecarlo(args: argparse.Namespace, say: Any) -> int:
     t0 = time.perf_counter()
     with engine.client(args.workers, args.scheduler, args.timeout) as c:
         cluster = engine.describe(c)
+        t_tasks = time.perf_counter()
         say(f'montecarlo: {draw.runs} runs in {len(chunks)} task(s) on '
             f'{cluster["workers"]} worker(s)')
         keys = [f'montecarlo-{i:05d}' for i in range(len(chunks))]
@@ -231,6 +232,7 @@ def _montecarlo(args: argparse.Namespace, say: Any) -> int:
             except Exception as exc:
                 failed_tasks.append({'task': fut.key, 'reason': f'{type(exc).__name__}: {exc}'})
             say(f'[{n}/{len(futures)}] {time.perf_counter() - t0:7.1f} s  {fut.key}')
+        tasks_wall = time.perf_counter() - t_tasks
         history = engine.task_history(c, keys)
         del futures
     wall = time.perf_counter() - t0
@@ -241,8 +243,11 @@ def _montecarlo(args: argparse.Namespace, say: Any) -> int:
              for k, h in history.items() if h['worker_deaths'] or h['retries_left'] < args.retries]
     doc = {'draw': {**vars(draw), 'spreads': dict(draw.spreads),
                     'effects': {e: dict(f) for e, f in draw.effects.items()}},
-           'cluster': cluster, 'wall_s': wall, 'chunks': len(chunks),
+           'cluster': cluster, 'wall_s': wall, 'tasks_wall_s': tasks_wall,
+           'chunks': len(chunks),
            'vehicle_steps_per_s': summary['vehicle_steps'] / wall if wall > 0 else None,
+           'vehicle_steps_per_s_tasks': summary['vehicle_steps'] / tasks_wall
+           if tasks_wall > 0 else None,
            'summary': summary, 'failed_tasks': failed_tasks, 'rerun': rerun, 'runs': runs}
     (out / 'montecarlo.json').write_text(json.dumps(report.clean(doc), indent=1) + '\n')
     _write_csv(out / 'runs.csv', runs)

@@ -184,6 +184,9 @@ def write(out: str | pathlib.Path, kind: str, records: Sequence[Mapping[str, Any
                    'rerun_tasks': len(rerun)},
         'failed': [{'name': r['name'], 'log': r['log'], 'reason': r['reason']} for r in failed],
         'rerun': rerun,
+        'worker_peak_rss_mb': max((float(r['worker_peak_rss_mb']) for r in all_recs
+                                   if r.get('worker_peak_rss_mb') and not r.get('cached')),
+                                  default=None),
         'series_from': 'refit' if refit is not None else 'missions',
         'effect_set': list(effect_set),
         'series': ser, 'trends': tst, 'figures': figures,

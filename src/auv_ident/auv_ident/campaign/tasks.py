@@ -53,6 +53,13 @@ def log_span(path: str | os.PathLike[str]) -> tuple[float | None, float | None]:
     return min(starts) * 1e-9, max(ends) * 1e-9
 
 
+def peak_rss_mb() -> float:
+    """Peak resident memory of this (worker) process so far [MiB]."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
 def _tool_args(kind: str, bag: str, out: str, settings: Mapping[str, Any]
                ) -> argparse.Namespace:
     """The single-log tool's parsed arguments for one bag (its own parser, its defaults)."""
@@ -224,6 +231,7 @@ def run_mission(kind: str, name: str, bag: str, settings: Mapping[str, Any]
     record.update(result)
     record['report'] = str(out / ('joint.json' if settings.get('effect_set') else 'report.md'))
     record['elapsed_s'] = time.perf_counter() - t0
+    record['worker_peak_rss_mb'] = peak_rss_mb()
     if cache is not None:
         cache.put(key, record)
     return record
