@@ -217,3 +217,20 @@ def test_montecarlo_through_engine_equals_bare_runs(tmp_path: pathlib.Path) -> N
     assert np.all(np.isfinite([r['settling_time'] for r in bare]))
     csv_rows = (tmp_path / 'runs.csv').read_text().splitlines()
     assert len(csv_rows) == 7 and 'factor.CMuq' in csv_rows[0]
+
+
+def test_mission_time_from_summary_and_from_a_cut_bag(tmp_path: pathlib.Path) -> None:
+    from auv_ident.campaign.synthetic import short_scenario
+    from auv_ident.campaign.tasks import log_span
+    from auv_ident.gap import synth
+
+    t0_ns = 1_700_000_000 * 10**9
+    log = synth.simulate(load_vehicle(A18M), None, short_scenario(30.0), seed=1)
+    synth.write_bag(tmp_path / 'a.mcap', log, t0_ns=t0_ns)
+    assert log_span(tmp_path / 'a.mcap') == pytest.approx((1.7e9, 1.7e9 + 30.0))
+    data = (tmp_path / 'a.mcap').read_bytes()
+    (tmp_path / 'cut.mcap').write_bytes(data[:len(data) // 2])   # no summary: a crash
+    start, end = log_span(tmp_path / 'cut.mcap')
+    assert start == pytest.approx(1.7e9) and end is not None and 1.7e9 < end < 1.7e9 + 30.0
+    (tmp_path / 'junk.mcap').write_bytes(b'junk')
+    assert log_span(tmp_path / 'junk.mcap') == (None, None)

@@ -32,20 +32,27 @@ MissionTask = Callable[[str, str, str, Mapping[str, Any]], dict[str, Any]]
 
 
 def log_span(path: str | os.PathLike[str]) -> tuple[float | None, float | None]:
-    """Log time of the first and last message of a bag [s since the Unix epoch], from the
-    MCAP summaries (None, None when a file has no summary, e.g. after a recorder crash)."""
+    """Log time of the first and last message of a bag [s since the Unix epoch]: from the
+    MCAP summaries, or, for a file without one (a recorder that crashed), from the log times
+    of the ``/auv/state`` messages read up to any damage. (None, None) when neither can be
+    read: the single-log tool then says what is wrong with the bag."""
     from mcap.reader import make_reader
 
-    from auv_ident.bag import bag_files
+    from auv_ident.bag import bag_files, read_arrays
 
     starts, ends = [], []
     try:
         for f in bag_files(path):
             with open(f, 'rb') as fh:
-                summary = make_reader(fh).get_summary()
+                try:
+                    summary = make_reader(fh).get_summary()
+                except Exception:  # no summary section or a cut-off file
+                    summary = None
             if summary is None or summary.statistics is None \
                     or summary.statistics.message_count == 0:
-                return None, None
+                t_log = read_arrays(path, ['/auv/state'], allow_truncated=True
+                                    )['/auv/state']['t_log']
+                return (float(t_log.min()), float(t_log.max())) if t_log.size else (None, None)
             starts.append(summary.statistics.message_start_time)
             ends.append(summary.statistics.message_end_time)
     except Exception:  # a damaged bag: the tool itself says what is wrong
