@@ -234,3 +234,26 @@ def test_mission_time_from_summary_and_from_a_cut_bag(tmp_path: pathlib.Path) ->
     assert start == pytest.approx(1.7e9) and end is not None and 1.7e9 < end < 1.7e9 + 30.0
     (tmp_path / 'junk.mcap').write_bytes(b'junk')
     assert log_span(tmp_path / 'junk.mcap') == (None, None)
+
+
+def test_ident_campaign_pitch_coefficients(logs: tuple[pathlib.Path, list[Any]],
+                                           tmp_path: pathlib.Path) -> None:
+    """``auv ident`` on each log of the missions without the plane bias: the pitch
+    coefficients' intervals hold the vehicle file's values (the simulator's truth; a buoyancy
+    error acts at the centre of buoyancy, the body origin, so it adds no pitch moment)."""
+    _, missions = logs
+    out = tmp_path / 'ident'
+    proc = _auv('campaign', 'ident', str(missions[0].path), str(missions[1].path),
+                '--out', str(out), '--workers', '1',
+                '--options=--no-nelder-mead --equations heave pitch')
+    assert proc.returncode == 0, proc.stderr
+    doc = json.loads((out / 'campaign.json').read_text())
+    assert doc['counts'] == {'missions': 2, 'ok': 2, 'failed': 0, 'cached': 0,
+                             'rerun_tasks': 0}
+    truth = load_vehicle(A18M)
+    for m in doc['missions']:
+        assert set(m['quantities']) == {'CZuw', 'CZuq', 'CMuw', 'CMuq'}
+        for name in ('CMuw', 'CMuq'):
+            assert _inside(m['quantities'][name], truth.values[name]), (m['name'], name)
+    assert set(doc['trends']) == {'CZuw', 'CZuq', 'CMuw', 'CMuq'}
+    assert all(t['verdict'] == 'too_few' for t in doc['trends'].values())   # 2 missions
