@@ -257,3 +257,18 @@ def test_ident_campaign_pitch_coefficients(logs: tuple[pathlib.Path, list[Any]],
             assert _inside(m['quantities'][name], truth.values[name]), (m['name'], name)
     assert set(doc['trends']) == {'CZuw', 'CZuq', 'CMuw', 'CMuq'}
     assert all(t['verdict'] == 'too_few' for t in doc['trends'].values())   # 2 missions
+
+
+def test_montecarlo_on_an_existing_scheduler(tmp_path: pathlib.Path) -> None:
+    """``--scheduler``: the command runs on a cluster it did not start (here one held by this
+    test process) and leaves it running."""
+    with engine.client(workers=1) as c:
+        address = c.scheduler.address
+        proc = _auv('campaign', 'montecarlo', '--out', str(tmp_path), '--runs', '3',
+                    '--chunk', '2', '--duration', '20', '--step', '2:4',
+                    '--scheduler', address, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        assert c.submit(abs, -3, pure=False).result(timeout=60) == 3   # still serving
+    doc = json.loads((tmp_path / 'montecarlo.json').read_text())
+    assert doc['cluster']['scheduler'] == address and doc['cluster']['workers'] == 1
+    assert doc['summary']['flown'] == 3 and doc['chunks'] == 2

@@ -61,8 +61,7 @@ def client(workers: int | None = None, scheduler: str | None = None,
     if not (timeout > 0):
         raise CampaignError(f'scheduler timeout must be > 0 s, got {timeout}')
     quiet = {'distributed.scheduler.allowed-failures': int(allowed_failures),
-             'distributed.worker.daemon': False,
-             'distributed.admin.tick.limit': '1h'}
+             'distributed.admin.tick.limit': '1h'}   # long numba/numpy tasks hold the GIL
     if scheduler is not None:
         with dask.config.set({'distributed.comm.timeouts.connect': f'{timeout}s'}):
             try:
