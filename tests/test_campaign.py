@@ -135,6 +135,33 @@ def test_worker_killed_mid_task_is_rerun_and_reported(logs: tuple[pathlib.Path, 
     assert '## Tasks run again' in md and f'| {killed} | 1 |' in md
 
 
+def _fault_once(kind: str, name: str, log: str, settings: Mapping[str, Any]) -> dict[str, Any]:
+    """The campaign task, but its first attempt fails with a fault (not a rejected log)."""
+    marker = pathlib.Path(settings['out']) / f'fault-{name}'
+    if not marker.exists():
+        marker.write_text('1')
+        raise RuntimeError('transient fault')
+    return run_mission(kind, name, log, settings)
+
+
+def test_task_that_raises_is_retried_and_reported(logs: tuple[pathlib.Path, list[Any]],
+                                                  tmp_path: pathlib.Path) -> None:
+    _, missions = logs
+    settings = {'model': str(A18M), 'options': ['--no-plots', '--effects', 'buoyancy_offset',
+                                                '--top', '1'],
+                'out': str(tmp_path), 'cache': None, 'key_settings': {}}
+    chosen = [('mission_001', str(missions[1].path))]
+    with engine.client(workers=1) as c:
+        (ok,) = run_missions(c, 'gap', chosen, settings, task=_fault_once, retries=2)
+        (failed,) = run_missions(c, 'gap', [('mission_002', str(missions[2].path))],
+                                 settings, task=_fault_once, retries=0, label='-again')
+    assert ok['status'] == 'ok' and ok['retries'] == 1 and ok['worker_deaths'] == 0
+    assert _inside(ok['quantities']['buoyancy_offset.dB'], 20.0)
+    # no retry left: a failed mission with the fault as its reason, the campaign goes on
+    assert failed['status'] == 'failed'
+    assert failed['reason'] == 'RuntimeError: transient fault'
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(('127.0.0.1', 0))
