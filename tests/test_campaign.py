@@ -89,7 +89,7 @@ def test_gap_campaign_report_cache_and_failed_mission(logs: tuple[pathlib.Path, 
     assert set(doc['trends']) == {'bar_bias.bias', 'buoyancy_offset.dB'}
     assert (out / 'plots' / 'bar_bias.bias.png').stat().st_size > 1000
     md = (out / 'campaign.md').read_text()
-    assert '| broken |' in md and 'mission_003' in md
+    assert '| broken |' in md and 'mission_003' in md and '| joint fit [95 % interval] |' in md
     # again: every mission from the cache, same numbers
     proc = _auv('campaign', 'gap', str(d), '--model', str(A18M), '--out', str(out),
                 '--workers', '1', '--options=--no-plots')

@@ -237,9 +237,12 @@ def _markdown(doc: Mapping[str, Any]) -> str:
             f'[{_g(lo, 3)}, {_g(hi, 3)}] /{t["slope_per"]} | {_g(t["p_trend"], 2)} | {step} | '
             f'{_g(t["before"]["mean"])} -> {_g(t["after"]["mean"])} | {_g(t["p_step"], 2)} |')
     lines += ['', 'Step location in parentheses: the most likely change point of a quantity '
-              'not found to step.', '', '## Missions', '',
-              '| mission | start (UTC) | duration [s] | verdict | values [95 % interval] | '
-              'report |', '| --- | --- | --- | --- | --- | --- |']
+              'not found to step.', '', '## Missions', '']
+    joint = {r['name']: r for r in doc.get('refit') or []}
+    head = '| mission | start (UTC) | duration [s] | verdict | values [95 % interval] |'
+    if joint:
+        head += ' joint fit [95 % interval] |'
+    lines += [head + ' report |', '|' + ' --- |' * (head.count('|'))]
     for r in doc['missions']:
         if r['status'] != 'ok':
             continue
@@ -251,8 +254,14 @@ def _markdown(doc: Mapping[str, Any]) -> str:
         qs = '<br>'.join(f'{k} = {_fmt_q(q)}' for k, q in r.get('quantities', {}).items())
         rel = pathlib.Path(r['report']).relative_to(doc['out']) if r.get('report') and \
             str(r['report']).startswith(str(doc['out'])) else r.get('report', '')
-        lines.append(f'| {r["name"]} | {_utc(r.get("start_time"))} | '
-                     f'{_g(r.get("duration_s"), 5)} | {verdict} | {qs or "-"} | {rel} |')
+        row = (f'| {r["name"]} | {_utc(r.get("start_time"))} | '
+               f'{_g(r.get("duration_s"), 5)} | {verdict} | {qs or "-"} |')
+        if joint:
+            j = joint.get(r['name'], {})
+            row += ' ' + ('<br>'.join(f'{k} = {_fmt_q(q)}' for k, q in
+                                      j.get('quantities', {}).items())
+                          if j.get('status') == 'ok' else j.get('reason') or '-') + ' |'
+        lines.append(f'{row} {rel} |')
     if doc['failed']:
         lines += ['', '## Failed missions', '', '| mission | log | reason |',
                   '| --- | --- | --- |']
