@@ -100,6 +100,13 @@ def test_gap_campaign_report_cache_and_failed_mission(logs: tuple[pathlib.Path, 
         [m['quantities'] for m in doc['refit'] if m['status'] == 'ok']
 
 
+def _quick_gap_settings(out: pathlib.Path) -> dict[str, Any]:
+    """Task settings of a fast diagnosis (one effect tried, no plots, no cache)."""
+    return {'model': str(A18M), 'options': ['--no-plots', '--effects', 'buoyancy_offset',
+                                            '--top', '1'],
+            'out': str(out), 'cache': None, 'key_settings': {}}
+
+
 def _kill_worker_once(kind: str, name: str, log: str, settings: Mapping[str, Any]
                       ) -> dict[str, Any]:
     """The campaign task, but the first task to start kills its own worker process."""
@@ -113,9 +120,7 @@ def _kill_worker_once(kind: str, name: str, log: str, settings: Mapping[str, Any
 def test_worker_killed_mid_task_is_rerun_and_reported(logs: tuple[pathlib.Path, list[Any]],
                                                       tmp_path: pathlib.Path) -> None:
     _, missions = logs
-    settings = {'model': str(A18M), 'options': ['--no-plots', '--effects', 'buoyancy_offset',
-                                                '--top', '1'],
-                'out': str(tmp_path), 'cache': None, 'key_settings': {}}
+    settings = _quick_gap_settings(tmp_path)
     chosen = [('mission_000', str(missions[0].path)), ('mission_001', str(missions[1].path))]
     with engine.client(workers=1) as c:
         records = run_missions(c, 'gap', chosen, settings, task=_kill_worker_once)
@@ -147,9 +152,7 @@ def _fault_once(kind: str, name: str, log: str, settings: Mapping[str, Any]) -> 
 def test_task_that_raises_is_retried_and_reported(logs: tuple[pathlib.Path, list[Any]],
                                                   tmp_path: pathlib.Path) -> None:
     _, missions = logs
-    settings = {'model': str(A18M), 'options': ['--no-plots', '--effects', 'buoyancy_offset',
-                                                '--top', '1'],
-                'out': str(tmp_path), 'cache': None, 'key_settings': {}}
+    settings = _quick_gap_settings(tmp_path)
     chosen = [('mission_001', str(missions[1].path))]
     with engine.client(workers=1) as c:
         (ok,) = run_missions(c, 'gap', chosen, settings, task=_fault_once, retries=2)
