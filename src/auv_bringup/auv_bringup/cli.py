@@ -42,6 +42,7 @@ SUBCOMMANDS: dict[str, Subcommand] = {
     'gap': Subcommand('auv_ident.gap_cli', 'sim-to-real gap diagnosis'),
     'import': Subcommand('auv_ident.import_cli', 'real logs through a map -> contract bag'),
     'vehicle-init': Subcommand('auv_ident.vehicle_init', 'starting vehicle file from L, D, m'),
+    'campaign': Subcommand('auv_ident.campaign.cli', 'ident/gap over many logs, Monte Carlo'),
     'demo': Subcommand('auv_bringup.demo', 'the end-to-end demonstration'),
 }
 
