@@ -3,13 +3,13 @@
 One hour of VehicleState at 50 Hz (180 000 messages) is written to a bag, then read into
 numpy arrays by two paths over the same file scan:
 
-* ``vectorised``: :func:`auv_ident.bag.read_arrays` (fields gathered from the CDR bytes);
+* ``vectorised``: :func:`auv_bag.read_arrays` (fields gathered from the CDR bytes);
 * ``rosbags``: the same with ``fast=False``, which deserializes every message with
   ``typestore.deserialize_cdr`` and copies its fields into the arrays.
 
 Both must give identical arrays (asserted). The paths run ``repeats`` times each, alternating;
 the median wall time is reported (and the minimum), in messages per second. Both share the
-file scan, decompression and CRC check (done by :func:`auv_ident.bag.default_workers` threads
+file scan, decompression and CRC check (done by :func:`auv_bag.default_workers` threads
 ahead of the decoding), which bounds the ratio. Run as a script to write
 ``bench/results/bag.json``; the CPU count and the 1-minute load average at the start of the
 measurement are recorded with the figures, since a busy machine lowers the ratio.
@@ -32,7 +32,7 @@ import time
 import numpy as np
 from timing import save_figures
 
-from auv_ident import bag
+import auv_bag as bag
 
 STATE = '/auv/state'
 
