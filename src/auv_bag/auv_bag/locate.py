@@ -14,8 +14,7 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Sequence
-from io import BytesIO
-from typing import NamedTuple
+from typing import IO, NamedTuple, cast
 
 import numpy as np
 from mcap.data_stream import ReadDataStream
@@ -59,12 +58,27 @@ class UnreadableRecord(Exception):
     """A schema or channel record whose fields do not fit in it (internal)."""
 
 
-class RecordBody(ReadDataStream):
-    """One record body as ``mcap``'s record parsers read it; a field running past the end of
-    the body raises :class:`mcap.exceptions.EndOfFile` (the stock stream returns it short)."""
+class _View:
+    """A read-only file over a buffer whose reads are memoryview slices (no copy)."""
 
-    def __init__(self, body: bytes | memoryview) -> None:
-        super().__init__(BytesIO(body))
+    def __init__(self, body: bytes | bytearray | memoryview) -> None:
+        self._view = memoryview(body)
+        self._pos = 0
+
+    def read(self, length: int) -> memoryview:
+        out = self._view[self._pos:self._pos + length]
+        self._pos += len(out)
+        return out
+
+
+class RecordBody(ReadDataStream):
+    """One record body as ``mcap``'s record parsers read it, without copying: byte fields
+    (a chunk's data, a message's data) are memoryviews of the body; a field running past the
+    end of the body raises :class:`mcap.exceptions.EndOfFile` (the stock stream returns it
+    short)."""
+
+    def __init__(self, body: bytes | bytearray | memoryview) -> None:
+        super().__init__(cast(IO[bytes], _View(body)))
 
     def read(self, length: int) -> bytes:
         data = super().read(length)
@@ -90,7 +104,7 @@ class Definitions:
         try:
             if op == Opcode.SCHEMA:
                 schema = Schema.read(stream)
-                self.schemas[schema.id] = (schema.name, schema.encoding, schema.data.decode())
+                self.schemas[schema.id] = (schema.name, schema.encoding, str(schema.data, 'utf-8'))
             else:
                 chan = Channel.read(stream)
                 self.channels[chan.id] = ChannelInfo(chan.topic, chan.schema_id,

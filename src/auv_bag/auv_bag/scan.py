@@ -65,6 +65,7 @@ class _Pending(NamedTuple):
     inflated: Future[bytes] | None
     pos: int  # file offset of the chunk record
     indexes: list[bytes]  # message index record bodies of the chunk
+    buffer: bytearray | None  # holding the chunk record, reused once it is inflated
 
 
 class Scanner:
@@ -85,6 +86,7 @@ class Scanner:
         self.size = 0
         self.workers = default_workers() if workers is None else max(1, int(workers))
         self._pool: ThreadPoolExecutor | None = None
+        self._spare: list[bytearray] = []  # read buffers free for the next chunk records
 
     def blocks(self) -> Iterator[Block]:
         """Blocks of whole messages, in file order; raises :class:`~auv_bag.damage.Damage`
@@ -151,10 +153,11 @@ class Scanner:
                 loose.append(self._read(Message.read, fh.read(length), pos, length))
             elif op == Opcode.CHUNK:
                 yield from self._take(loose, chunk, pending, ahead)
-                record: Chunk = self._read(Chunk.read, fh.read(length), pos)
+                buffer, view = self._read_into(fh, length)
+                record: Chunk = self._read(Chunk.read, view, pos)
                 inflated = (self._pool.submit(self._inflate, record, pos) if self._pool
                             else _done(self._inflate, record, pos))
-                chunk.append(_Pending(None, inflated, pos, []))
+                chunk.append(_Pending(None, inflated, pos, [], buffer))
             elif op == Opcode.MESSAGE_INDEX and chunk:
                 chunk[0].indexes.append(fh.read(length))
             elif op in (Opcode.SCHEMA, Opcode.CHANNEL):
@@ -181,7 +184,18 @@ class Scanner:
             if self.progress and op == Opcode.CHUNK:
                 self.progress(pos, size)
 
-    def _read(self, parse: Callable[..., Any], body: bytes, pos: int, *args: Any) -> Any:
+    def _read_into(self, fh: IO[bytes], length: int) -> tuple[bytearray, memoryview]:
+        """Read ``length`` bytes into a spare buffer (fresh memory costs page faults): the
+        buffer and a view of what was read (shorter if the file shrank meanwhile)."""
+        buffer = self._spare.pop() if self._spare else bytearray()
+        if len(buffer) < length:
+            buffer = bytearray(length)
+        view = memoryview(buffer)[:length]
+        got = fh.readinto(view)  # type: ignore[attr-defined]
+        return buffer, view[:got or 0]
+
+    def _read(self, parse: Callable[..., Any], body: bytes | memoryview, pos: int,
+              *args: Any) -> Any:
         """A record body parsed by ``mcap`` (``parse(stream, *args)``); a field that runs past
         the body is damage (a record may be longer than its fields: the rest is skipped)."""
         try:
@@ -194,7 +208,7 @@ class Scanner:
         """Queue the messages read so far (loose ones, then the last chunk) and hand out the
         oldest queued blocks until at most ``keep`` chunks remain in flight."""
         if loose:
-            pending.append(_Pending(loose_block(loose), None, 0, []))
+            pending.append(_Pending(loose_block(loose), None, 0, [], None))
             loose.clear()
         if chunk:
             pending.append(chunk.pop())
@@ -211,6 +225,8 @@ class Scanner:
                         rest.inflated.cancel()
                 pending.clear()
                 raise
+            if item.buffer is not None:
+                self._spare.append(item.buffer)
             yield self._locate(data, item.pos, item.indexes)
 
     def _inflate(self, chunk: Chunk, pos: int) -> bytes:
@@ -257,10 +273,10 @@ def _done(fn: Callable[..., bytes], *args: Any) -> Future[bytes]:
     return fut
 
 
-def _decompress(data: bytes, comp: str, usize: int) -> bytes:
-    """A chunk's data decompressed (``''``: stored as it is), at most ``usize`` bytes."""
+def _decompress(data: bytes | memoryview, comp: str, usize: int) -> bytes:
+    """A chunk's data decompressed (``''``: a copy of it), at most ``usize`` bytes."""
     if comp == '':
-        return data
+        return bytes(data)
     if comp == 'zstd':
         import zstandard
 
