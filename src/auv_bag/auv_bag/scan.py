@@ -150,11 +150,18 @@ class Scanner:
                                    f'a record of {length} bytes runs past the end of the file '
                                    f'({size} bytes)')
             if op == Opcode.MESSAGE:
-                loose.append(self._read(Message.read, fh.read(length), pos, length))
+                message = self._read(Message.read, fh.read(length), length)
+                if message is None:
+                    yield from self._take(loose, chunk, pending, 0)
+                    raise self._damage('corrupt', pos, 'unreadable message record')
+                loose.append(message)
             elif op == Opcode.CHUNK:
                 yield from self._take(loose, chunk, pending, ahead)
                 buffer, view = self._read_into(fh, length)
-                record: Chunk = self._read(Chunk.read, view, pos)
+                record = self._read(Chunk.read, view)
+                if record is None:
+                    yield from self._take(loose, chunk, pending, 0)
+                    raise self._damage('corrupt', pos, 'unreadable chunk header')
                 inflated = (self._pool.submit(self._inflate, record, pos) if self._pool
                             else _done(self._inflate, record, pos))
                 chunk.append(_Pending(None, inflated, pos, [], buffer))
@@ -194,14 +201,14 @@ class Scanner:
         got = fh.readinto(view)  # type: ignore[attr-defined]
         return buffer, view[:got or 0]
 
-    def _read(self, parse: Callable[..., Any], body: bytes | memoryview, pos: int,
-              *args: Any) -> Any:
-        """A record body parsed by ``mcap`` (``parse(stream, *args)``); a field that runs past
-        the body is damage (a record may be longer than its fields: the rest is skipped)."""
+    @staticmethod
+    def _read(parse: Callable[..., Any], body: bytes | memoryview, *args: Any) -> Any:
+        """A record body parsed by ``mcap`` (``parse(stream, *args)``), or None when a field
+        runs past the body (a record may be longer than its fields: the rest is skipped)."""
         try:
             return parse(RecordBody(body), *args)
-        except (McapError, struct.error, UnicodeDecodeError) as exc:
-            raise self._damage('corrupt', pos, f'unreadable record ({exc})') from None
+        except (McapError, struct.error, UnicodeDecodeError):
+            return None
 
     def _take(self, loose: list[Message], chunk: list[_Pending], pending: deque[_Pending],
               keep: int) -> Iterator[Block]:
