@@ -10,6 +10,10 @@ numpy arrays by two paths over the same file scan:
   (``rosbags.rosbag2.Reader``) and ``deserialize_cdr`` per message, fields copied into the
   same arrays (the peer a user would otherwise call).
 
+Also timed, to show why ``auv_bag`` keeps its own record framing: walking the same file's
+records with ``mcap``'s ``StreamReader(emit_chunks=True)`` (no decompression, no decoding),
+as ``mcap_stream_walk_s``.
+
 All three must give identical arrays (asserted). The paths run ``repeats`` times each, alternating;
 the median wall time is reported (and the minimum), in messages per second. Both share the
 file scan, decompression and CRC check (done by :func:`auv_bag.default_workers` threads
@@ -79,6 +83,14 @@ def rosbags_reader_arrays(path: pathlib.Path, names: tuple[str, ...]) -> np.ndar
     return np.array(rows, dtype=dtype)
 
 
+def mcap_stream_walk(path: pathlib.Path) -> int:
+    """Records of ``path`` walked by ``mcap``'s StreamReader, chunks left compressed."""
+    from mcap.stream_reader import StreamReader
+
+    with open(path, 'rb') as fh:
+        return sum(1 for _ in StreamReader(fh, emit_chunks=True).records)
+
+
 def _timed(fn) -> tuple[float, object]:  # type: ignore[no-untyped-def]
     t0 = time.perf_counter()
     result = fn()
@@ -97,7 +109,7 @@ def run(n: int = 180_000, repeats: int = 5) -> dict[str, object]:
         load = os.getloadavg()[0]
         # The two paths alternate, so that both see the same load on a shared machine.
         names = bag.read_arrays(path, [STATE])[STATE].dtype.names[2:]
-        fast_times, slow_times, peer_times = [], [], []
+        fast_times, slow_times, peer_times, walk_times = [], [], [], []
         for _ in range(repeats):
             t, fast = _timed(lambda: bag.read_arrays(path, [STATE]))
             fast_times.append(t)
@@ -105,6 +117,8 @@ def run(n: int = 180_000, repeats: int = 5) -> dict[str, object]:
             slow_times.append(t)
             t, peer = _timed(lambda: rosbags_reader_arrays(path, names))
             peer_times.append(t)
+            t, _ = _timed(lambda: mcap_stream_walk(path / 'state_0.mcap'))
+            walk_times.append(t)
         t_fast, t_slow = statistics.median(fast_times), statistics.median(slow_times)
         t_peer = statistics.median(peer_times)
     a, b = fast[STATE], slow[STATE]  # type: ignore[index]
@@ -126,6 +140,7 @@ def run(n: int = 180_000, repeats: int = 5) -> dict[str, object]:
         'rosbags_reader_s': round(t_peer, 4),
         'rosbags_reader_msgs_per_s': round(n / t_peer),
         'speedup_vs_rosbags_reader': round(t_peer / t_fast, 1),
+        'mcap_stream_walk_s': round(statistics.median(walk_times), 4),
         'repeats': repeats,
         'workers': bag.default_workers(),
         'cpus': os.cpu_count(),

@@ -6,45 +6,12 @@ from __future__ import annotations
 
 import warnings
 
-from auv_bag import (
-    DEFAULT_QOS_DEPTH,
-    BagArrays,
-    BagError,
-    BagMessage,
-    BagWriter,
-    ProgressCallback,
-    bag_files,
-    bag_topics,
-    default_workers,
-    msg_dir,
-    normalize_msgtype,
-    qos_profiles_yaml,
-    read_arrays,
-    read_messages,
-    typestore,
-)
+from auv_bag import *  # noqa: F403  (the whole public API, as before)
+from auv_bag import __all__ as _public
 from auv_bag.columnar import layout_of as _layout
 from auv_bag.typestore import types_from_schema as _types_from_schema
 
-__all__ = [
-    'DEFAULT_QOS_DEPTH',
-    'BagArrays',
-    'BagError',
-    'BagMessage',
-    'BagWriter',
-    'ProgressCallback',
-    '_layout',
-    '_types_from_schema',
-    'bag_files',
-    'bag_topics',
-    'default_workers',
-    'msg_dir',
-    'normalize_msgtype',
-    'qos_profiles_yaml',
-    'read_arrays',
-    'read_messages',
-    'typestore',
-]
+__all__ = [*_public, '_layout', '_types_from_schema']
 
 warnings.warn('auv_ident.bag is deprecated: import from auv_bag', DeprecationWarning,
               stacklevel=2)
