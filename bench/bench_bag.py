@@ -21,10 +21,11 @@ ahead of the decoding), which bounds the ratio. Run as a script to write
 ``bench/results/bag.json``; the CPU count and the 1-minute load average at the start of the
 measurement are recorded with the figures, since a busy machine lowers the ratio.
 
-Figures on a 2-core x86_64 machine (Python 3.11) with about one core taken by other work
-(1-minute load 2 to 3): vectorised 0.045 s median (4.0 M msg/s), rosbags 0.91 s, 20x (21x of
-minima); ``bench/results/bag.json`` holds the latest run. More than half of the vectorised
-path's CPU time is zstd decompression and the CRC check, which a second free core shares.
+Figures on a 2-core x86_64 machine shared with other work (1-minute load 10.9): vectorised
+0.111 s median (1.6 M msg/s), rosbags over the same scan 1.97 s (17.8x), rosbags end to end
+2.85 s (25.6x), mcap's StreamReader walk alone 0.20 s; ``bench/results/bag.json`` holds the
+latest run. More than half of the vectorised path's CPU time is zstd decompression and the
+CRC check, which a second free core shares.
 """
 from __future__ import annotations
 
