@@ -3,21 +3,30 @@
 One hour of VehicleState at 50 Hz (180 000 messages) is written to a bag, then read into
 numpy arrays by two paths over the same file scan:
 
-* ``vectorised``: :func:`auv_ident.bag.read_arrays` (fields gathered from the CDR bytes);
+* ``vectorised``: :func:`auv_bag.read_arrays` (fields gathered from the CDR bytes);
 * ``rosbags``: the same with ``fast=False``, which deserializes every message with
-  ``typestore.deserialize_cdr`` and copies its fields into the arrays.
+  ``typestore.deserialize_cdr`` and copies its fields into the arrays;
+* ``rosbags_reader``: rosbags end to end, its own container reader
+  (``rosbags.rosbag2.Reader``) and ``deserialize_cdr`` per message, fields copied into the
+  same arrays (the peer a user would otherwise call).
 
-Both must give identical arrays (asserted). The paths run ``repeats`` times each, alternating;
+Also timed, to show why ``auv_bag`` keeps its own record framing: walking the same file's
+records with ``mcap``'s ``StreamReader(emit_chunks=True)`` (no decompression, no decoding),
+as ``mcap_stream_walk_s``.
+
+All three must give identical arrays (asserted). The paths run ``repeats`` times each, alternating;
 the median wall time is reported (and the minimum), in messages per second. Both share the
-file scan, decompression and CRC check (done by :func:`auv_ident.bag.default_workers` threads
+file scan, decompression and CRC check (done by :func:`auv_bag.default_workers` threads
 ahead of the decoding), which bounds the ratio. Run as a script to write
 ``bench/results/bag.json``; the CPU count and the 1-minute load average at the start of the
 measurement are recorded with the figures, since a busy machine lowers the ratio.
 
-Figures on a 2-core x86_64 machine (Python 3.11) with about one core taken by other work
-(1-minute load 2 to 3): vectorised 0.045 s median (4.0 M msg/s), rosbags 0.91 s, 20x (21x of
-minima); ``bench/results/bag.json`` holds the latest run. More than half of the vectorised
-path's CPU time is zstd decompression and the CRC check, which a second free core shares.
+Figures on a 2-core x86_64 machine shared with other work (1-minute load 10.9): vectorised
+0.111 s median (1.6 M msg/s), rosbags over the same scan 1.97 s (17.8x), rosbags end to end
+2.85 s (25.6x), mcap's StreamReader walk alone 0.20 s; ``bench/results/bag.json`` holds the
+latest run. More than half of the vectorised path's time in one thread is the file scan (zstd
+decompression, CRC check, locating the messages: 0.073 s of 0.124 s, minima at load 12),
+whose decompression and CRC check a second free core shares.
 """
 from __future__ import annotations
 
@@ -32,7 +41,7 @@ import time
 import numpy as np
 from timing import save_figures
 
-from auv_ident import bag
+import auv_bag as bag
 
 STATE = '/auv/state'
 
@@ -57,6 +66,33 @@ def write_state_bag(path: pathlib.Path, n: int, rate_hz: float = 50.0) -> None:
                          log_time_ns=t_ns + 1000)
 
 
+def rosbags_reader_arrays(path: pathlib.Path, names: tuple[str, ...]) -> np.ndarray:
+    """``/auv/state`` read by rosbags alone: fields ``t`` (header stamp, s), ``t_log`` (log
+    time, s) and then ``names``, attributes of the message (flat VehicleState fields)."""
+    from rosbags.rosbag2 import Reader
+
+    ts = bag.typestore()
+    rows = []
+    with Reader(path) as reader:
+        conns = [c for c in reader.connections if c.topic == STATE]
+        for conn, log_ns, raw in reader.messages(connections=conns):
+            msg = ts.deserialize_cdr(raw, conn.msgtype)
+            stamp = msg.header.stamp
+            sec, nsec = divmod(log_ns, 1_000_000_000)
+            rows.append((stamp.sec + stamp.nanosec * 1e-9, sec + nsec * 1e-9,
+                         *(getattr(msg, n) for n in names)))
+    dtype = np.dtype([(n, '<f8') for n in ('t', 't_log', *names)])
+    return np.array(rows, dtype=dtype)
+
+
+def mcap_stream_walk(path: pathlib.Path) -> int:
+    """Records of ``path`` walked by ``mcap``'s StreamReader, chunks left compressed."""
+    from mcap.stream_reader import StreamReader
+
+    with open(path, 'rb') as fh:
+        return sum(1 for _ in StreamReader(fh, emit_chunks=True).records)
+
+
 def _timed(fn) -> tuple[float, object]:  # type: ignore[no-untyped-def]
     t0 = time.perf_counter()
     result = fn()
@@ -74,16 +110,23 @@ def run(n: int = 180_000, repeats: int = 5) -> dict[str, object]:
         bag.read_arrays(path, [STATE])  # warm-up: imports, typestore, page cache
         load = os.getloadavg()[0]
         # The two paths alternate, so that both see the same load on a shared machine.
-        fast_times, slow_times = [], []
+        names = bag.read_arrays(path, [STATE])[STATE].dtype.names[2:]
+        fast_times, slow_times, peer_times, walk_times = [], [], [], []
         for _ in range(repeats):
             t, fast = _timed(lambda: bag.read_arrays(path, [STATE]))
             fast_times.append(t)
             t, slow = _timed(lambda: bag.read_arrays(path, [STATE], fast=False))
             slow_times.append(t)
+            t, peer = _timed(lambda: rosbags_reader_arrays(path, names))
+            peer_times.append(t)
+            t, _ = _timed(lambda: mcap_stream_walk(path / 'state_0.mcap'))
+            walk_times.append(t)
         t_fast, t_slow = statistics.median(fast_times), statistics.median(slow_times)
+        t_peer = statistics.median(peer_times)
     a, b = fast[STATE], slow[STATE]  # type: ignore[index]
     assert len(a) == n and a.dtype == b.dtype
     np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(a, peer)
     return {
         'messages': n,
         'bag_bytes': size,
@@ -96,6 +139,10 @@ def run(n: int = 180_000, repeats: int = 5) -> dict[str, object]:
         'vectorised_min_s': round(min(fast_times), 4),
         'rosbags_min_s': round(min(slow_times), 4),
         'speedup_of_minima': round(min(slow_times) / min(fast_times), 1),
+        'rosbags_reader_s': round(t_peer, 4),
+        'rosbags_reader_msgs_per_s': round(n / t_peer),
+        'speedup_vs_rosbags_reader': round(t_peer / t_fast, 1),
+        'mcap_stream_walk_s': round(statistics.median(walk_times), 4),
         'repeats': repeats,
         'workers': bag.default_workers(),
         'cpus': os.cpu_count(),

@@ -39,8 +39,8 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 def _fly(tmp: pathlib.Path, name: str, lockstep: bool, rtf: float, stop_time: float,
          env: dict[str, str], sim_clock: bool = True, z0: float = 40.0, priority: int = 0,
          ) -> tuple[dict[str, np.ndarray], float]:
+    from auv_bag import read_arrays
     from auv_bringup.launch import GraphConfig, run_graph
-    from auv_ident.bag import read_arrays
 
     bag = tmp / name
     cfg = GraphConfig(vehicle=str(ROOT / 'config' / 'a18m.yaml'), lockstep=lockstep,

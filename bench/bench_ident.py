@@ -5,7 +5,7 @@ after another (surge, pitch, yaw, surge, pitch, yaw, pitch: 3741 s, 187 057 stat
 A18M, written as bags twice: with the force topic, and as a "real" log (no force topic,
 sensor noise as in the round-trip test). Timed, median of ``repeats`` runs each:
 
-* ``read_s``: the bags to numpy arrays (:func:`auv_ident.bag.read_arrays`), per source;
+* ``read_s``: the bags to numpy arrays (:func:`auv_bag.read_arrays`), per source;
 * ``identify_forces_s``: force records plus the five regressions from the force topic;
 * ``identify_motion_s``: forces reconstructed from motion plus the five regressions;
 * ``nelder_mead_s``: the report's bounded Nelder-Mead on the same data (comparison only);
@@ -30,7 +30,7 @@ TARGET_S = 10.0
 
 def run(repeats: int = 3) -> dict[str, Any]:
     """Run the benchmark; returns the figures (seconds, counts)."""
-    from auv_ident.bag import read_arrays
+    from auv_bag import read_arrays
     from auv_ident.identify import compare_nelder_mead, identify
     from auv_ident.motion import needed_topics, records_from_topics
     from auv_ident.simlog import SensorNoise, write_record

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from timing import save_figures
 
-from auv_ident.bag import BagWriter, read_arrays, typestore
+from auv_bag import BagWriter, read_arrays, typestore
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / 'tests'))
 from conftest import reserve_domain_id  # the tests' domain-id reservation

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from conftest import A18M
 
+from auv_bag import read_arrays
 from auv_bringup.launch import GraphConfig, run_graph
 from auv_depth_lqr.closed_loop import run_closed_loop
 from auv_depth_lqr.metrics import kinematic_bound, step_metrics
-from auv_ident.bag import read_arrays
 from auv_sim.params import load_vehicle
 
 FIELDS = ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r')

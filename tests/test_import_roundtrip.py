@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 import pytest
 
+from auv_bag import read_arrays
 from auv_ident import cli, gap_cli, import_cli
-from auv_ident.bag import read_arrays
 from auv_ident.realog import synth
 from auv_ident.realog.importer import ContractLog, contract_arrays, import_log, read_provenance
 from auv_ident.realog.mapping import load_map

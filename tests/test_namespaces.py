@@ -9,7 +9,7 @@ import sys
 import numpy as np
 from conftest import A18M
 
-from auv_ident.bag import bag_topics, read_arrays
+from auv_bag import bag_topics, read_arrays
 
 STOP = 60.0  # s of simulated time
 

@@ -18,7 +18,7 @@ import time
 import numpy as np
 import pytest
 
-from auv_ident.bag import read_arrays, read_messages
+from auv_bag import read_arrays, read_messages
 
 N = 500
 RATE_HZ = 200.0

@@ -26,13 +26,13 @@ from typing import Any
 
 import numpy as np
 
+from auv_bag import read_arrays
 from auv_bringup.errors import RunError
 from auv_bringup.launch import GraphConfig, run_graph
 from auv_bringup.plots import plot_depth_run
 from auv_depth_lqr.closed_loop import run_closed_loop
 from auv_depth_lqr.metrics import step_metrics
 from auv_depth_lqr.pilot import PilotSettings
-from auv_ident.bag import read_arrays
 from auv_sim.params import load_vehicle
 
 ROOT = pathlib.Path(__file__).resolve().parents[3]

@@ -58,7 +58,7 @@ def _check(args: argparse.Namespace) -> None:
 def run(args: argparse.Namespace) -> int:
     """Replay the bag once (or until stopped with ``--loop``); returns the exit status."""
     _check(args)
-    from auv_ident.bag import bag_topics, read_messages
+    from auv_bag import bag_topics, read_messages
 
     present = bag_topics(args.bag)
     topics = list(present) if args.topics is None else list(dict.fromkeys(args.topics))

@@ -103,7 +103,7 @@ def _default_out() -> str:
 
 
 class Recorder:
-    """Raw subscriptions feeding a :class:`auv_ident.bag.BagWriter`."""
+    """Raw subscriptions feeding a :class:`auv_bag.BagWriter`."""
 
     def __init__(self, node: Any, writer: Any, topics: list[str], qos_depth: int) -> None:
         from builtin_interfaces.msg import Time
@@ -139,7 +139,7 @@ class Recorder:
                 self._subscribe(name, msgtype, reliable=True)
 
     def _subscribe(self, topic: str, msgtype: str, reliable: bool) -> None:
-        from auv_ident.bag import qos_profiles_yaml
+        from auv_bag import qos_profiles_yaml
 
         cls = message_class(msgtype)
         old = self.subscriptions.pop(topic, None)
@@ -238,7 +238,7 @@ def run(args: argparse.Namespace) -> int:
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions
 
-    from auv_ident.bag import BagWriter
+    from auv_bag import BagWriter
 
     stop = {'signal': 0}
 

@@ -88,7 +88,7 @@ def load_records(bags: Sequence[str], base: VehicleParams, source: str = 'auto',
     ``limits`` (see :mod:`auv_ident.limits`).
     """
     limits = {} if limits is None else limits
-    from auv_ident.bag import bag_topics, read_arrays
+    from auv_bag import bag_topics, read_arrays
 
     present = [set(bag_topics(b)) for b in bags]
     if source == 'auto':

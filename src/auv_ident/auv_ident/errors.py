@@ -1,19 +1,21 @@
 """Exception family of the auv_ident package.
 
-Every error raised on bad input (a damaged bag, a missing topic, data that cannot be
-identified) derives from :class:`IdentError`, so a command line front end can print one line
-``error: ...`` and exit 1 without catching programming errors. Add new classes below, each
+Every error raised on bad input (data that cannot be identified, a bad model or log) derives
+from :class:`IdentError`, so a command line front end can print one line ``error: ...`` and
+exit 1 without catching programming errors. Bag errors come from the auv_bag package
+(:class:`auv_bag.errors.BagError`, a ``ValueError``, re-exported here): front ends catch it
+beside :class:`IdentError`. Add new classes below, each
 subclassing :class:`IdentError` and the built-in exception it refines.
 """
 from __future__ import annotations
 
+from auv_bag.errors import BagError
+
+__all__ = ['BagError', 'GapError', 'IdentError', 'IdentificationError', 'NotIdentifiableError']
+
 
 class IdentError(Exception):
     """Base class of every error the auv_ident package raises on bad input."""
-
-
-class BagError(IdentError, ValueError):
-    """A bag cannot be read or written: missing, damaged, wrong topic, bad timestamps."""
 
 
 class IdentificationError(IdentError, ValueError):

@@ -14,7 +14,7 @@ import json
 import sys
 from collections.abc import Sequence
 
-from auv_ident.errors import IdentError
+from auv_ident.errors import BagError, IdentError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -34,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         logmap, logs = import_logs(args.map, args.logs)
         prov = write_contract_bag(args.out, logmap, logs)
-    except (IdentError, OSError) as exc:
+    except (IdentError, BagError, OSError) as exc:
         print(f'error: {exc}', file=sys.stderr)
         return 1
     for lg in logs:

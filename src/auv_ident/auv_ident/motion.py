@@ -316,7 +316,7 @@ def needed_topics(source: str) -> list[str]:
 def records_from_topics(arrays: Mapping[str, np.ndarray], params: VehicleParams,
                         source: str = 'auto', name: str = 'log',
                         window_s: float = WINDOW_S) -> list[ForceRecord]:
-    """Force records from a log's topic arrays (as :func:`auv_ident.bag.read_arrays` gives:
+    """Force records from a log's topic arrays (as :func:`auv_bag.read_arrays` gives:
     structured arrays with ``t`` = header stamp [s] and one field per message field).
 
     The log is split into uniformly sampled stretches (see :func:`segments`); stretches too

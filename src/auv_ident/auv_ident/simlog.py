@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from auv_ident.bag import BagWriter, typestore
+from auv_bag import BagWriter, typestore
 from auv_sim.simulator import CHANNELS, Record
 
 if TYPE_CHECKING:

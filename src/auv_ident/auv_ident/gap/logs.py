@@ -113,7 +113,7 @@ def from_arrays(name: str, t: np.ndarray, state: np.ndarray,
 
 def load_bag(path: str | os.PathLike[str]) -> list[GapLog]:
     """Read a bag (directory or ``.mcap``) into log pieces (see :func:`from_arrays`)."""
-    from auv_ident.bag import bag_topics, read_arrays
+    from auv_bag import bag_topics, read_arrays
     from auv_ident.errors import BagError
 
     try:
@@ -131,7 +131,7 @@ def load_bag(path: str | os.PathLike[str]) -> list[GapLog]:
 
 
 def from_contract_arrays(name: str, arrays: Mapping[str, np.ndarray]) -> list[GapLog]:
-    """Log pieces from a contract bag's topic arrays (as :func:`auv_ident.bag.read_arrays`
+    """Log pieces from a contract bag's topic arrays (as :func:`auv_bag.read_arrays`
     or :func:`auv_ident.realog.importer.contract_arrays` give them)."""
     st = arrays[STATE_TOPIC]
     state = np.column_stack([st[f] for f in STATE_FIELDS])

@@ -155,7 +155,7 @@ def simulate(params: VehicleParams, effects: Environment | Mapping[str, Any] | N
 
 def write_bag(path: str | os.PathLike[str], log: SyntheticLog, t0_ns: int = 0) -> None:
     """Write a log as a vehicle would: ``/auv/state`` and the three command topics."""
-    from auv_ident.bag import BagWriter, typestore
+    from auv_bag import BagWriter, typestore
 
     store = typestore()
     state_t = store.types['auv_msgs/msg/VehicleState']

@@ -19,7 +19,7 @@ Steps (each recorded in the log's ``report``; nothing is resampled or filled sil
    their own stamps, as logged; the consumers hold them.
 
 The result is a :class:`ContractLog`, turned into the same arrays as
-:func:`auv_ident.bag.read_arrays` gives for a contract bag (:func:`contract_arrays`), or written
+:func:`auv_bag.read_arrays` gives for a contract bag (:func:`contract_arrays`), or written
 as a contract bag (:func:`write_contract_bag`) whose metadata carry the provenance.
 """
 from __future__ import annotations
@@ -360,14 +360,14 @@ def _ns(t: np.ndarray) -> np.ndarray:
 
 
 def _seconds(ns: np.ndarray) -> np.ndarray:
-    """As :func:`auv_ident.bag.read_arrays` computes stamps: ``sec + nanosec * 1e-9``."""
+    """As :func:`auv_bag.read_arrays` computes stamps: ``sec + nanosec * 1e-9``."""
     sec, nsec = np.divmod(ns, NS)
     out: np.ndarray = sec.astype(np.float64) + nsec.astype(np.float64) * 1e-9
     return out
 
 
 def contract_arrays(log: ContractLog) -> dict[str, np.ndarray]:
-    """The arrays :func:`auv_ident.bag.read_arrays` gives for the contract bag of ``log``
+    """The arrays :func:`auv_bag.read_arrays` gives for the contract bag of ``log``
     (``/auv/state`` with ``t``, ``t_log`` and the 12 state fields; each command topic with
     ``t``, ``t_log``, ``value``), stamps rounded to the nanosecond as the bag stores them."""
     ts = _seconds(_ns(log.t))
@@ -424,7 +424,7 @@ def write_contract_bag(out: str | os.PathLike[str], logmap: LogMap,
     Raises:
         RealLogError: ``out`` exists, or the logs overlap in time (import them one by one).
     """
-    from auv_ident.bag import BagWriter, typestore
+    from auv_bag import BagWriter, typestore
 
     dest = pathlib.Path(out)
     if dest.exists():

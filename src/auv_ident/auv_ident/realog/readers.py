@@ -3,13 +3,13 @@
 Bags: rosbag2 directories (``metadata.yaml`` with MCAP or sqlite3 storage) and ROS 1 ``.bag``
 files are read with :class:`rosbags.highlevel.AnyReader`, which takes every message type from
 the definitions embedded in the bag (a vendor's custom message needs no code); types a bag
-does not define come from the ROS 2 typestore of :func:`auv_ident.bag.typestore` (standard
+does not define come from the ROS 2 typestore of :func:`auv_bag.typestore` (standard
 types and ``auv_msgs``). A bare ``.mcap`` file (no ``metadata.yaml``) is read with the
 ``mcap`` package's reader and its schemas registered into rosbags. Messages are deserialized
 one by one by rosbags and only the mapped fields are kept.
 
 MCAP storage (a rosbag2 directory or a bare ``.mcap`` file) is first tried through this
-project's columnar decoder (:func:`auv_ident.bag.read_arrays`: vectorised CDR decoding on top
+project's columnar decoder (:func:`auv_bag.read_arrays`: vectorised CDR decoding on top
 of the ``mcap`` container; a damaged file is reported as one line naming the byte offset);
 fields it does not give as plain columns fall back to the per-message path above.
 
@@ -203,7 +203,7 @@ def _read_anyreader(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
     from rosbags.highlevel import AnyReader
     from rosbags.interfaces import Connection
 
-    from auv_ident.bag import typestore
+    from auv_bag import typestore
 
     store = typestore()
     try:
@@ -244,7 +244,8 @@ def _read_mcap_file(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
     from mcap.reader import make_reader
     from rosbags.typesys import Stores, get_typestore
 
-    from auv_ident.bag import _types_from_schema, typestore
+    from auv_bag import typestore
+    from auv_bag.typestore import types_from_schema
 
     store = get_typestore(Stores.LATEST)
     base = typestore()
@@ -267,7 +268,7 @@ def _read_mcap_file(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
                     continue
                 sc = summary.schemas[ch.schema_id]
                 if sc.data:
-                    types = _types_from_schema(sc.name, sc.data.decode())
+                    types = types_from_schema(sc.name, sc.data.decode())
                     store.register({k: v for k, v in types.items()
                                     if k not in store.fielddefs})
                 if sc.name not in store.fielddefs:
@@ -293,7 +294,7 @@ def read_bag(path: str | os.PathLike[str], requests: Mapping[str, Sequence[str]]
         requests: topic -> field paths (``pose.pose.position.x``, ``data[2]``).
         stamp: ``header`` (header stamps; the receive times for a type with no header, said
             in the table's ``stamp_kind``) or ``log`` (receive times).
-        fast: MCAP storage through the columnar decoder of :func:`auv_ident.bag.read_arrays`
+        fast: MCAP storage through the columnar decoder of :func:`auv_bag.read_arrays`
             (falls back to rosbags for what it cannot give); False: rosbags only.
 
     Raises:
@@ -327,7 +328,7 @@ def _storage(bag_dir: pathlib.Path) -> str:
 
 
 def _column_name(path: str) -> str:
-    """The :func:`auv_ident.bag.read_arrays` column of a field path (``a.b[2]`` -> ``a_b_2``)."""
+    """The :func:`auv_bag.read_arrays` column of a field path (``a.b[2]`` -> ``a_b_2``)."""
     return re.sub(r'\[(\d+)\]', r'_\1', path).replace('.', '_')
 
 
@@ -335,7 +336,7 @@ def _header_topics(files: Sequence[pathlib.Path], topics: Iterable[str]) -> dict
     """Whether each topic's message type has a ``header`` (from the MCAP schemas)."""
     from mcap.reader import make_reader
 
-    from auv_ident.bag import _types_from_schema
+    from auv_bag.typestore import types_from_schema
 
     out: dict[str, bool] = {}
     wanted = set(topics)
@@ -347,18 +348,18 @@ def _header_topics(files: Sequence[pathlib.Path], topics: Iterable[str]) -> dict
         for ch in summary.channels.values():
             if ch.topic in wanted and ch.topic not in out:
                 sc = summary.schemas[ch.schema_id]
-                defs = _types_from_schema(sc.name, sc.data.decode()).get(sc.name)
+                defs = types_from_schema(sc.name, sc.data.decode()).get(sc.name)
                 out[ch.topic] = defs is not None and any(f[0] == 'header' for f in defs[1])
     return out
 
 
 def _read_columnar(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
                    stamp: str) -> dict[str, Table] | None:
-    """MCAP storage through this project's columnar decoder (:func:`auv_ident.bag.read_arrays`:
+    """MCAP storage through this project's columnar decoder (:func:`auv_bag.read_arrays`:
     vectorised CDR decoding on the ``mcap`` container, damage reported as one line). None when
     a requested topic or field is not a plain column there (the per-message readers then
     read it and name what is wrong)."""
-    from auv_ident.bag import bag_files, bag_topics, read_arrays
+    from auv_bag import bag_files, bag_topics, read_arrays
     from auv_ident.errors import BagError
 
     try:

@@ -2,7 +2,7 @@
 
 The simulator's measured state (NED/FRD, :class:`auv_sim.simulator.Record`) and applied
 commands are written the way other vehicles log them, with rosbags' own writers (not this
-project's :class:`auv_ident.bag.BagWriter`):
+project's :class:`auv_bag.BagWriter`):
 
 * :func:`write_ros2` -- a rosbag2 bag (``mcap`` or ``sqlite3`` storage) or, with
   ``ros1=True``, a ROS 1 bag: ``nav_msgs/Odometry`` on ``/odom`` (REP-105: pose ENU, twist
