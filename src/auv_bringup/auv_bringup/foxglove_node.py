@@ -153,7 +153,7 @@ class Bridge:
             SceneUpdateChannel,
         )
 
-        from auv_ident.bag import typestore
+        from auv_bag import typestore
 
         self.node = node
         self._foxglove = foxglove
