@@ -628,7 +628,7 @@ class DepthController:
                     f'theta_max={self.limits.theta_max:.4g} rad); remove this speed from the '
                     'grid')
         # One-sample maps of the stop model at the grid speeds, interpolated like the gains.
-        self._stop_maps = [_series_map([float(x) for x in design.F[k, :, 3]], ts)
+        self._stop_maps = [_series_map(_stop_series(design.F[k], design.K[k]), ts)
                            for k in range(design.speeds.size)]
         self.reset()
 
@@ -1017,6 +1017,25 @@ def _series_map(b: Sequence[float], ts: float) -> tuple[tuple[float, ...], tuple
         M[2, 4] = 1.0 / (b[1] * tau)
     E = expm(M * ts)
     return tuple(float(x) for x in E[:4, :4].ravel()), tuple(float(x) for x in E[:4, 4])
+
+
+def _stop_series(F: Matrix, K: Matrix) -> list[float]:
+    """Series coefficients ``(b_0..b_3)`` the stop of the reference is planned on.
+
+    The open-loop series ``F[:, 3]`` when it is stable (some truncation of order >= 1
+    Hurwitz: the plane held at the braking end brings the vertical motion to rest). A vehicle
+    that is open-loop unstable in pitch and heave (the Munk moment beyond the restoring and
+    fin moments, e.g. the REMUS 100) has no such stop: holding the plane makes it pitch over
+    ever faster, and a stop planned on that series diverges. Its stop is planned on the
+    vehicle with the LQR's attitude feedback (``w, q, theta`` gains ``K``) closed: input
+    ``U = BAR + K_att (X - X_e)``, series ``F[:, 3] + F[:, :3] K_att`` (the same state
+    trajectory, the input seen by the stabilised vehicle).
+    """
+    b = [float(x) for x in F[:, 3]]
+    if _hurwitz(b[:2]) and b[1] != 0.0:
+        return b
+    k_att = np.array([K[0], K[1], K[3]], dtype=float)
+    return [float(x) for x in F[:, 3] + F[:, :3] @ k_att]
 
 
 _MAX_BRAKE_STEPS = 2000
