@@ -38,13 +38,18 @@ def run_closed_loop(params: VehicleParams, depth_commands: Sequence[tuple[float,
                     duration: float, z0: float = 40.0, u0: float = 2.0,
                     environment: Environment | None = None,
                     settings: PilotSettings | None = None, sample_period: float = 0.02,
-                    pilot: DepthPilot | None = None) -> ClosedLoopRun:
+                    pilot: DepthPilot | None = None,
+                    speed_time_constant: float | None = None) -> ClosedLoopRun:
     """Fly depth commands ``[(t [s], z [m]), ...]`` from a trim at ``z0`` [m], ``u0`` [m/s].
 
     The vehicle starts trimmed for the nominal model in the water it is in (its trim
-    velocities through the water plus the current, see :meth:`auv_sim.trim.Trim.state`;
-    thrust held at its trim value, the speed loop being outside this toolkit);
-    ``environment`` makes the "real" vehicle differ.
+    velocities through the water plus the current, see :meth:`auv_sim.trim.Trim.state`);
+    ``environment`` makes the "real" vehicle differ. The speed loop is the vehicle's, outside
+    this toolkit: by default the thrust is held at its trim value; with
+    ``speed_time_constant`` [s] a proportional surge-speed hold stands for it, thrust
+    ``T_trim + (m - Xudot) (u0 - u) / speed_time_constant`` [N] within the propeller's
+    limits (``u`` the measured surge), as on a vehicle that holds its speed in a climb or
+    dive (a positively buoyant vehicle with its thrust held slows down in a dive).
     """
     settings = settings or PilotSettings()
     pilot = pilot or DepthPilot.for_vehicle(params, settings)
@@ -56,6 +61,10 @@ def run_closed_loop(params: VehicleParams, depth_commands: Sequence[tuple[float,
     if steps_per_control * sim.dt - ts > 1e-9 or steps_per_control % steps_per_sample:
         raise ValueError(f'control period {ts} s must be a multiple of the sample period '
                          f'{sample_period} s, itself a multiple of dt = {sim.dt} s')
+    if speed_time_constant is not None and not speed_time_constant > 0.0:
+        raise ValueError(f'speed_time_constant must be > 0 s, got {speed_time_constant!r}')
+    speed_gain = 0.0 if speed_time_constant is None else \
+        (params.m - params.Xudot) / speed_time_constant
     n_control = int(math.floor(duration / ts + 1e-9))
     commands = sorted(depth_commands)
     samples, bar_t, bars, zr_t, zr = [], [], [], [], []
@@ -73,6 +82,9 @@ def run_closed_loop(params: VehicleParams, depth_commands: Sequence[tuple[float,
         pilot.on_state(t, z=x[2], theta=x[4], w=x[8], q=x[10], u=x[6])
         bar, _ = pilot.command(t)
         sim.command('bar', bar)
+        if speed_gain:
+            thrust = trim.thrust + speed_gain * (u0 - x[6])
+            sim.command('thrust', min(max(thrust, params.thrust_min), params.thrust_max))
         bar_t.append(t)
         bars.append(bar)
         for _ in range(steps_per_control // steps_per_sample):
