@@ -1,0 +1,93 @@
+"""The pilot on plants that are not its design model (gap-catalogue effects, coefficients).
+
+The pilot is designed on the vehicle file; the simulated plant differs by one effect of the
+sim-to-real catalogue (auv_sim.environment) at a realistic size, or by hydrodynamic
+coefficients off by +-30 %. Criteria (the robustness goals of the depth pilot): settled
+within 2x the time-optimal bound of the design model, no tumbling (|theta| < 35 deg), the
+pitch limit not exceeded by more than 2 deg, and the integral action removing the offset
+(depth within 1 cm of the command over the last 20 s of 200 s). The plant starts in the
+trim of the design model; the vehicle's speed loop (2 s) holds the surge speed.
+"""
+from __future__ import annotations
+
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+from auv_depth_lqr.bound import settling_bound
+from auv_depth_lqr.closed_loop import run_closed_loop
+from auv_depth_lqr.metrics import step_metrics
+from auv_depth_lqr.pilot import DepthPilot, PilotSettings
+from auv_sim.environment import Environment
+from auv_sim.params import VehicleParams, load_vehicle
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+THETA_MAX = math.radians(25.0)
+HULL = ('CZuw', 'CZuq', 'CMuw', 'CMuq')
+FINS = ('CZbar', 'CMbar')
+#: vehicle -> (u0 [m/s], z0, z1 [m])
+CASES = {'a18m': (2.0, 40.0, 10.0), 'remus100': (1.5, 20.0, 10.0)}
+
+
+def plant(design: VehicleParams, effect: str) -> tuple[VehicleParams, Environment]:
+    """The plant for one effect (sizes of the gap catalogue: buoyancy +-1 % of the weight,
+    plane delay 0.3 s, plane lag 0.5 s, bar bias 1 deg, pitch-sensor bias 0.5 deg)."""
+    weight = design.m * design.g
+    effects: dict[str, dict[str, dict[str, float]]] = {
+        'buoyancy+1%': {'buoyancy_offset': {'dB': 0.01 * weight}},
+        'buoyancy-1%': {'buoyancy_offset': {'dB': -0.01 * weight}},
+        'delay_0.3s': {'actuator_delay': {'bar': 0.3}},
+        'lag_0.5s': {'actuator_lag': {'bar_tau': 0.5}},
+        'bar_bias_1deg': {'bar_bias': {'bias': math.radians(1.0)}},
+        'pitch_bias_0.5deg': {'pitch_sensor_bias': {'bias': math.radians(0.5)}},
+    }
+    if effect in effects:
+        return design, Environment(effects=effects[effect])
+    group, scale = effect.split('*')
+    names = HULL if group == 'hull' else FINS
+    return design.replace(**{k: design.values[k] * float(scale) for k in names}), Environment()
+
+
+EFFECTS = ('buoyancy+1%', 'buoyancy-1%', 'delay_0.3s', 'lag_0.5s', 'bar_bias_1deg',
+           'pitch_bias_0.5deg', 'hull*0.7', 'hull*1.3', 'fins*0.7', 'fins*1.3')
+#: Measured failures (strict xfails: they run and must fail), see docs/vehicles.md.
+KNOWN = {
+    ('remus100', 'delay_0.3s'): 'settles only after 68.5 s, 3.3x the 20.8 s bound, and '
+                                'keeps a slow oscillation of 1.5 cm',
+    ('remus100', 'fins*0.7'): 'with 30 % less fin lift the plane saturates holding the trim '
+                              'against the 7 N of positive buoyancy: 1.55 m short of the '
+                              'command after 200 s',
+}
+
+
+@pytest.fixture(scope='module', params=sorted(CASES))
+def vehicle(request: pytest.FixtureRequest) -> tuple[str, VehicleParams, float]:
+    name = request.param
+    design = load_vehicle(ROOT / 'config' / f'{name}.yaml')
+    u0, z0, z1 = CASES[name]
+    return name, design, settling_bound(design, z0, z1, u0, THETA_MAX).settling_time
+
+
+@pytest.mark.parametrize('effect', EFFECTS)
+def test_pilot_off_its_design_model(vehicle: tuple[str, VehicleParams, float],
+                                   effect: str, request: pytest.FixtureRequest) -> None:
+    name, design, bound = vehicle
+    if (name, effect) in KNOWN:
+        request.applymarker(pytest.mark.xfail(strict=True, reason=KNOWN[(name, effect)]))
+    u0, z0, z1 = CASES[name]
+    real, environment = plant(design, effect)
+    settings = PilotSettings()
+    pilot = DepthPilot.for_vehicle(design, settings)
+    run = run_closed_loop(real, [(0.0, z1)], 200.0, z0=z0, u0=u0, environment=environment,
+                          settings=settings, pilot=pilot, speed_time_constant=2.0)
+    rec = run.record
+    theta = np.abs(rec.x[:, 4])
+    m = step_metrics(rec.t, rec.x[:, 2], rec.x[:, 4], rec.x[:, 10], rec.x[:, 12], z1,
+                     bar_max=design.bar_max, u0=u0, theta_max=THETA_MAX)
+    assert np.max(theta) < math.radians(35.0), m
+    assert np.max(theta) <= THETA_MAX + math.radians(2.0), m
+    assert m.settling_time <= 2.0 * bound, (m, bound)
+    last = rec.t > rec.t[-1] - 20.0
+    assert np.max(np.abs(rec.x[last, 2] - z1)) < 0.01, m
