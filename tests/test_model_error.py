@@ -17,41 +17,17 @@ import numpy as np
 import pytest
 
 from auv_depth_lqr.bound import settling_bound
-from auv_depth_lqr.closed_loop import run_closed_loop
+from auv_depth_lqr.closed_loop import MODEL_ERRORS, model_error_plant, run_closed_loop
 from auv_depth_lqr.metrics import step_metrics
 from auv_depth_lqr.pilot import DepthPilot, PilotSettings
-from auv_sim.environment import Environment
 from auv_sim.params import VehicleParams, load_vehicle
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 THETA_MAX = math.radians(25.0)
-HULL = ('CZuw', 'CZuq', 'CMuw', 'CMuq')
-FINS = ('CZbar', 'CMbar')
 #: vehicle -> (u0 [m/s], z0, z1 [m])
 CASES = {'a18m': (2.0, 40.0, 10.0), 'remus100': (1.5, 20.0, 10.0)}
 
 
-def plant(design: VehicleParams, effect: str) -> tuple[VehicleParams, Environment]:
-    """The plant for one effect (sizes of the gap catalogue: buoyancy +-1 % of the weight,
-    plane delay 0.3 s, plane lag 0.5 s, bar bias 1 deg, pitch-sensor bias 0.5 deg)."""
-    weight = design.m * design.g
-    effects: dict[str, dict[str, dict[str, float]]] = {
-        'buoyancy+1%': {'buoyancy_offset': {'dB': 0.01 * weight}},
-        'buoyancy-1%': {'buoyancy_offset': {'dB': -0.01 * weight}},
-        'delay_0.3s': {'actuator_delay': {'bar': 0.3}},
-        'lag_0.5s': {'actuator_lag': {'bar_tau': 0.5}},
-        'bar_bias_1deg': {'bar_bias': {'bias': math.radians(1.0)}},
-        'pitch_bias_0.5deg': {'pitch_sensor_bias': {'bias': math.radians(0.5)}},
-    }
-    if effect in effects:
-        return design, Environment(effects=effects[effect])
-    group, scale = effect.split('*')
-    names = HULL if group == 'hull' else FINS
-    return design.replace(**{k: design.values[k] * float(scale) for k in names}), Environment()
-
-
-EFFECTS = ('buoyancy+1%', 'buoyancy-1%', 'delay_0.3s', 'lag_0.5s', 'bar_bias_1deg',
-           'pitch_bias_0.5deg', 'hull*0.7', 'hull*1.3', 'fins*0.7', 'fins*1.3')
 #: Measured failures (strict xfails: they run and must fail), see docs/vehicles.md.
 KNOWN = {
     ('remus100', 'delay_0.3s'): 'settles only after 68.5 s, 3.3x the 20.8 s bound, and '
@@ -70,14 +46,14 @@ def vehicle(request: pytest.FixtureRequest) -> tuple[str, VehicleParams, float]:
     return name, design, settling_bound(design, z0, z1, u0, THETA_MAX).settling_time
 
 
-@pytest.mark.parametrize('effect', EFFECTS)
+@pytest.mark.parametrize('effect', MODEL_ERRORS)
 def test_pilot_off_its_design_model(vehicle: tuple[str, VehicleParams, float],
                                    effect: str, request: pytest.FixtureRequest) -> None:
     name, design, bound = vehicle
     if (name, effect) in KNOWN:
         request.applymarker(pytest.mark.xfail(strict=True, reason=KNOWN[(name, effect)]))
     u0, z0, z1 = CASES[name]
-    real, environment = plant(design, effect)
+    real, environment = model_error_plant(design, effect)
     settings = PilotSettings()
     pilot = DepthPilot.for_vehicle(design, settings)
     run = run_closed_loop(real, [(0.0, z1)], 200.0, z0=z0, u0=u0, environment=environment,

@@ -20,6 +20,38 @@ from auv_sim.params import VehicleParams
 from auv_sim.simulator import Record, Simulator, record
 from auv_sim.trim import VerticalPlane
 
+#: Model errors of :func:`model_error_plant`: effects of the sim-to-real catalogue at realistic
+#: sizes, and the hull (CZuw, CZuq, CMuw, CMuq) or fin (CZbar, CMbar) lift off by +-30 %.
+MODEL_ERRORS = ('buoyancy+1%', 'buoyancy-1%', 'delay_0.3s', 'lag_0.5s', 'bar_bias_1deg',
+                'pitch_bias_0.5deg', 'hull*0.7', 'hull*1.3', 'fins*0.7', 'fins*1.3')
+_HULL = ('CZuw', 'CZuq', 'CMuw', 'CMuq')
+_FINS = ('CZbar', 'CMbar')
+
+
+def model_error_plant(design: VehicleParams, error: str) -> tuple[VehicleParams, Environment]:
+    """The "real" vehicle for one of :data:`MODEL_ERRORS`: parameters and environment.
+
+    Buoyancy +-1 % of the weight [N], plane transport delay 0.3 s, plane lag 0.5 s, plane
+    bias 1 deg, pitch-sensor bias 0.5 deg (auv_sim.environment effects), or the hull's or the
+    fins' lift coefficients times 0.7 or 1.3. Raises ValueError for an unknown name.
+    """
+    weight = design.m * design.g
+    effects: dict[str, dict[str, dict[str, float]]] = {
+        'buoyancy+1%': {'buoyancy_offset': {'dB': 0.01 * weight}},
+        'buoyancy-1%': {'buoyancy_offset': {'dB': -0.01 * weight}},
+        'delay_0.3s': {'actuator_delay': {'bar': 0.3}},
+        'lag_0.5s': {'actuator_lag': {'bar_tau': 0.5}},
+        'bar_bias_1deg': {'bar_bias': {'bias': math.radians(1.0)}},
+        'pitch_bias_0.5deg': {'pitch_sensor_bias': {'bias': math.radians(0.5)}},
+    }
+    if error in effects:
+        return design, Environment(effects=effects[error])
+    if error not in MODEL_ERRORS:
+        raise ValueError(f'unknown model error {error!r} (known: {", ".join(MODEL_ERRORS)})')
+    group, scale = error.split('*')
+    names = _HULL if group == 'hull' else _FINS
+    return design.replace(**{k: design.values[k] * float(scale) for k in names}), Environment()
+
 
 @dataclasses.dataclass
 class ClosedLoopRun:
