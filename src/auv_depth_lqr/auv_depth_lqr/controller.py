@@ -26,7 +26,10 @@ Beyond the report, :class:`DepthController` adds
   the profile (a series in the derivatives of the vertical speed, :class:`OperatingPoint`),
   with the exact depth kinematics ``z_dot = -u sin(theta) + w cos(theta)``;
 * pitch envelope protection: the depth feedback may not ask for more than
-  ``pitch_guard * theta_max`` (a current or a wrong speed can make the vehicle lag the plan).
+  ``pitch_guard * theta_max`` (a current or a wrong speed can make the vehicle lag the plan);
+* for a vehicle that is open-loop unstable in pitch/heave (its BAR -> vertical-speed series is
+  not stable, e.g. the REMUS 100), a kinematic stop of the reference (``kinematic_stop``,
+  :func:`_kinematic_map`) instead of the held-plane stop, which would diverge.
 
 No ROS import here: the depth-pilot node converts messages and calls :meth:`DepthController.step`.
 """
@@ -714,11 +717,10 @@ class DepthController:
         u_release = u_land + settings.release_bar_share * (u_other - u_land)
         du = settings.bar_rate_margin * lim.bar_rate_max * self.Ts
         if self.kinematic_stop:
-            # input = commanded acceleration along the travel [m/s^2]: the stop brakes at the
-            # deceleration the braking share of the plane holds against b_1 (at most
-            # accel_max), commanded no faster than the jerk limit
-            # room of the plane (about the trim) on the side that holds the braking
-            # acceleration -travel a: the BAR b_1 (-travel a) must stay within the budget
+            # Input: the commanded acceleration along the travel [m/s^2], moved no faster than
+            # the jerk limit. The stop brakes at the deceleration that the braking share of
+            # the plane's room (about the trim, on the side where b_1 (-travel a) lies) holds,
+            # at most accel_max.
             side = -travel * (1.0 if b1 >= 0.0 else -1.0)
             room = max(budget - side * op.bar_e, 0.0)
             a_stop = settings.accel_max if b1 == 0.0 else min(
