@@ -23,7 +23,8 @@ from auv_sim.trim import VerticalPlane
 #: Model errors of :func:`model_error_plant`: effects of the sim-to-real catalogue at realistic
 #: sizes, and the hull (CZuw, CZuq, CMuw, CMuq) or fin (CZbar, CMbar) lift off by +-30 %.
 MODEL_ERRORS = ('buoyancy+1%', 'buoyancy-1%', 'delay_0.3s', 'lag_0.5s', 'bar_bias_1deg',
-                'pitch_bias_0.5deg', 'hull*0.7', 'hull*1.3', 'fins*0.7', 'fins*1.3')
+                'pitch_bias_0.5deg', 'hull*0.7', 'hull*1.3', 'fins*0.7', 'fins*1.3',
+                'current_following_0.3', 'current_head_0.3', 'current_cross_0.3')
 _HULL = ('CZuw', 'CZuq', 'CMuw', 'CMuq')
 _FINS = ('CZbar', 'CMbar')
 
@@ -32,8 +33,10 @@ def model_error_plant(design: VehicleParams, error: str) -> tuple[VehicleParams,
     """The "real" vehicle for one of :data:`MODEL_ERRORS`: parameters and environment.
 
     Buoyancy +-1 % of the weight [N], plane transport delay 0.3 s, plane lag 0.5 s, plane
-    bias 1 deg, pitch-sensor bias 0.5 deg (auv_sim.environment effects), or the hull's or the
-    fins' lift coefficients times 0.7 or 1.3. Raises ValueError for an unknown name.
+    bias 1 deg, pitch-sensor bias 0.5 deg, a horizontal current of 0.3 m/s along (north: the
+    runs head north), against or across the heading (auv_sim.environment effects), or the
+    hull's or the fins' lift coefficients times 0.7 or 1.3. Raises ValueError for an unknown
+    name.
     """
     weight = design.m * design.g
     effects: dict[str, dict[str, dict[str, float]]] = {
@@ -43,6 +46,9 @@ def model_error_plant(design: VehicleParams, error: str) -> tuple[VehicleParams,
         'lag_0.5s': {'actuator_lag': {'bar_tau': 0.5}},
         'bar_bias_1deg': {'bar_bias': {'bias': math.radians(1.0)}},
         'pitch_bias_0.5deg': {'pitch_sensor_bias': {'bias': math.radians(0.5)}},
+        'current_following_0.3': {'current': {'north': 0.3}},
+        'current_head_0.3': {'current': {'north': -0.3}},
+        'current_cross_0.3': {'current': {'east': 0.3}},
     }
     if error in effects:
         return design, Environment(effects=effects[error])
