@@ -6,8 +6,9 @@ speed over ground, the speed loop holding it), or by hydrodynamic
 coefficients off by +-30 %. Criteria (the robustness goals of the depth pilot): settled
 within 2x the time-optimal bound of the design model, no tumbling (|theta| < 35 deg), the
 pitch limit not exceeded by more than 2 deg, and the integral action removing the offset
-(depth within 1 cm of the command over the last 20 s of 200 s). The plant starts in the
-trim of the design model; the vehicle's speed loop (2 s) holds the surge speed.
+(depth within 1 cm of the command over the last 20 s of 200 s). The plant starts in its
+own trim (for the environment effects: the design model's); the vehicle's speed loop (2 s)
+holds the surge speed.
 """
 from __future__ import annotations
 
