@@ -37,7 +37,7 @@ KNOWN = {
     ('remus100', 'current_following_0.3'): 'the pilot schedules and the speed loop holds the '
                                            'speed over ground: 1.2 m/s through the water, '
                                            'settled after 86 s, 4.1x the bound',
-    ('remus100', 'current_head_0.3'): 'peak pitch 27.2 deg, beyond the limit + 2 deg',
+    ('remus100', 'current_head_0.3'): 'peak pitch 27.15 deg, beyond the limit + 2 deg',
     ('remus100', 'fins*0.7'): 'with 30 % less fin lift the plane saturates holding the trim '
                               'against the 7 N of positive buoyancy: 1.55 m short of the '
                               'command after 200 s',
