@@ -19,9 +19,11 @@ What was measured (the figures the tests assert, with the margins stated there):
 * The vertical-plane linearisation equals Prestero's linearised equations typed in here, and
   is open-loop unstable in pitch/heave at 1.5 and 2.0 m/s (Munk moment Muw = +24 kg; the
   quadratic drag adds damping only away from w = q = 0).
-* The depth pilot does NOT fly depth changes on it (strict xfail, test_depth_change_settles,
-  numbers there and in docs/vehicles.md); the open-loop missions, solved for the model
-  without cross-flow drag, now pitch it over (strict xfail).
+* The depth pilot (default settings, speed grid 1.3-2.5 m/s, the vehicle's speed loop)
+  flies 20 -> 10, 10 -> 30 and 5 -> 40 m at 1.5 m/s within 1.5x the time-optimal bound of
+  the model, pitch within 25 deg (test_depth_change_settles; numbers there and in
+  docs/vehicles.md). The open-loop missions, solved for the model without cross-flow drag,
+  now pitch it over (strict xfail).
 * Identification from the force topic with the REMUS missions (config/missions/remus100_*:
   doublets whose second halves were solved so as not to excite the unstable modes, 20-24 s
   each) recovers every coefficient to 3e-15 relative (the regression is exact on clean
