@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.linalg import solve_discrete_are
 from scipy.optimize import linprog
 
 from auv_depth_lqr.errors import DesignError
@@ -115,6 +116,44 @@ class _Rows:
                              shape=(len(self.bounds), n_columns))
 
 
+def _stabilising_gain(model: _Model, X: np.ndarray, bar: float) -> np.ndarray:
+    """Discrete LQR gain (4,) of the model's step at ``(X, bar)``: the rollout's feedback.
+
+    Weights per unit excursion: 0.1 m/s heave, 0.05 rad/s pitch rate, 1 m depth, 0.1 rad
+    pitch, 0.1 rad BAR (it only has to keep the rollout near the LP's plan).
+    """
+    A, B = model.jacobians(X, bar)
+    Q = np.diag([1 / 0.1**2, 1 / 0.05**2, 1.0, 1 / 0.1**2])
+    R = np.array([[1 / 0.1**2]])
+    b = B.reshape(4, 1)
+    P = solve_discrete_are(A, b, Q, R)
+    gain: np.ndarray = np.linalg.solve(R + b.T @ P @ b, b.T @ P @ A)[0]
+    return gain
+
+
+def _rollout(model: _Model, X0: np.ndarray, plan: np.ndarray, planned: np.ndarray,
+             gain: np.ndarray, bar_max: float, rate: float, bar_trim: float
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """BAR sequence and nonlinear states when the LP's plan is flown with feedback on the
+    departure from its planned states (``planned``: X_1..X_n), within the BAR's angle and
+    per-step ``rate``. On an open-loop-unstable vehicle the open-loop plan would diverge
+    from its prediction (by e^(lambda t)); the feedback keeps the rollout on the plan, and the
+    BAR sequence it applies is itself a plan that the bound's conditions are checked on."""
+    n = plan.size
+    bars = np.empty(n)
+    X = X0.copy()
+    out = [X0]
+    prev = bar_trim
+    for k in range(n):
+        ref = X0 if k == 0 else planned[k - 1]
+        b = float(plan[k] - gain @ (X - ref))
+        b = min(max(b, -bar_max, prev - rate), bar_max, prev + rate)
+        bars[k] = prev = b
+        X = model.step(X, b).real
+        out.append(X)
+    return bars, np.array(out)
+
+
 def _feasible(model: _Model, X0: np.ndarray, trim: np.ndarray, bar_trim: float, z1: float,
               n_settle: int, bars: np.ndarray, limits: tuple[float, float, float, float],
               iterations: int = 25) -> tuple[bool, np.ndarray]:
@@ -122,6 +161,7 @@ def _feasible(model: _Model, X0: np.ndarray, trim: np.ndarray, bar_trim: float, 
     the band from step ``n_settle`` on? Returns ``(found, bars)``."""
     bar_max, rate, theta_max, band = limits
     n = bars.size
+    gain = _stabilising_gain(model, X0, float(bars[0]))
     rho = 0.5  # trust region on the BAR [rad]
     nx = 4 * n
     nv = nx + n + 1  # X_1..X_n, BAR_0..BAR_{n-1}, slack
@@ -180,8 +220,9 @@ def _feasible(model: _Model, X0: np.ndarray, trim: np.ndarray, bar_trim: float, 
         if res.status != 0:
             rho *= 0.5
             continue
-        bars = np.clip(res.x[nx:nx + n], -bar_max, bar_max)
-        Xs = model.simulate(X0, bars)
+        plan = np.clip(res.x[nx:nx + n], -bar_max, bar_max)
+        bars, Xs = _rollout(model, X0, plan, res.x[:nx].reshape(n, 4), gain, bar_max, rate,
+                            bar_trim)
         violation = max(float(np.max(np.abs(Xs[n_settle:, 2] - z1))) - band,
                         float(np.max(np.abs(Xs[:, 3]))) - theta_max, 0.0)
         if res.x[-1] < 1e-7 and violation < 1e-3:

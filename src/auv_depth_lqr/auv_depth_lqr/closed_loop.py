@@ -20,6 +20,44 @@ from auv_sim.params import VehicleParams
 from auv_sim.simulator import Record, Simulator, record
 from auv_sim.trim import VerticalPlane
 
+#: Model errors of :func:`model_error_plant`: effects of the sim-to-real catalogue at realistic
+#: sizes, and the hull (CZuw, CZuq, CMuw, CMuq) or fin (CZbar, CMbar) lift off by +-30 %.
+MODEL_ERRORS = ('buoyancy+1%', 'buoyancy-1%', 'delay_0.3s', 'lag_0.5s', 'bar_bias_1deg',
+                'pitch_bias_0.5deg', 'hull*0.7', 'hull*1.3', 'fins*0.7', 'fins*1.3',
+                'current_following_0.3', 'current_head_0.3', 'current_cross_0.3')
+_HULL = ('CZuw', 'CZuq', 'CMuw', 'CMuq')
+_FINS = ('CZbar', 'CMbar')
+
+
+def model_error_plant(design: VehicleParams, error: str) -> tuple[VehicleParams, Environment]:
+    """The "real" vehicle for one of :data:`MODEL_ERRORS`: parameters and environment.
+
+    Buoyancy +-1 % of the weight [N], plane transport delay 0.3 s, plane lag 0.5 s, plane
+    bias 1 deg, pitch-sensor bias 0.5 deg, a horizontal current of 0.3 m/s along (north: the
+    runs head north), against or across the heading (auv_sim.environment effects), or the
+    hull's or the fins' lift coefficients times 0.7 or 1.3. Raises ValueError for an unknown
+    name.
+    """
+    weight = design.m * design.g
+    effects: dict[str, dict[str, dict[str, float]]] = {
+        'buoyancy+1%': {'buoyancy_offset': {'dB': 0.01 * weight}},
+        'buoyancy-1%': {'buoyancy_offset': {'dB': -0.01 * weight}},
+        'delay_0.3s': {'actuator_delay': {'bar': 0.3}},
+        'lag_0.5s': {'actuator_lag': {'bar_tau': 0.5}},
+        'bar_bias_1deg': {'bar_bias': {'bias': math.radians(1.0)}},
+        'pitch_bias_0.5deg': {'pitch_sensor_bias': {'bias': math.radians(0.5)}},
+        'current_following_0.3': {'current': {'north': 0.3}},
+        'current_head_0.3': {'current': {'north': -0.3}},
+        'current_cross_0.3': {'current': {'east': 0.3}},
+    }
+    if error in effects:
+        return design, Environment(effects=effects[error])
+    if error not in MODEL_ERRORS:
+        raise ValueError(f'unknown model error {error!r} (known: {", ".join(MODEL_ERRORS)})')
+    group, scale = error.split('*')
+    names = _HULL if group == 'hull' else _FINS
+    return design.replace(**{k: design.values[k] * float(scale) for k in names}), Environment()
+
 
 @dataclasses.dataclass
 class ClosedLoopRun:
@@ -38,13 +76,18 @@ def run_closed_loop(params: VehicleParams, depth_commands: Sequence[tuple[float,
                     duration: float, z0: float = 40.0, u0: float = 2.0,
                     environment: Environment | None = None,
                     settings: PilotSettings | None = None, sample_period: float = 0.02,
-                    pilot: DepthPilot | None = None) -> ClosedLoopRun:
+                    pilot: DepthPilot | None = None,
+                    speed_time_constant: float | None = None) -> ClosedLoopRun:
     """Fly depth commands ``[(t [s], z [m]), ...]`` from a trim at ``z0`` [m], ``u0`` [m/s].
 
     The vehicle starts trimmed for the nominal model in the water it is in (its trim
-    velocities through the water plus the current, see :meth:`auv_sim.trim.Trim.state`;
-    thrust held at its trim value, the speed loop being outside this toolkit);
-    ``environment`` makes the "real" vehicle differ.
+    velocities through the water plus the current, see :meth:`auv_sim.trim.Trim.state`);
+    ``environment`` makes the "real" vehicle differ. The speed loop is the vehicle's, outside
+    this toolkit: by default the thrust is held at its trim value; with
+    ``speed_time_constant`` [s] a proportional surge-speed hold stands for it, thrust
+    ``T_trim + (m - Xudot) (u0 - u) / speed_time_constant`` [N] within the propeller's
+    limits (``u`` the measured surge), as on a vehicle that holds its speed in a climb or
+    dive (a positively buoyant vehicle with its thrust held slows down in a dive).
     """
     settings = settings or PilotSettings()
     pilot = pilot or DepthPilot.for_vehicle(params, settings)
@@ -56,6 +99,10 @@ def run_closed_loop(params: VehicleParams, depth_commands: Sequence[tuple[float,
     if steps_per_control * sim.dt - ts > 1e-9 or steps_per_control % steps_per_sample:
         raise ValueError(f'control period {ts} s must be a multiple of the sample period '
                          f'{sample_period} s, itself a multiple of dt = {sim.dt} s')
+    if speed_time_constant is not None and not speed_time_constant > 0.0:
+        raise ValueError(f'speed_time_constant must be > 0 s, got {speed_time_constant!r}')
+    speed_gain = 0.0 if speed_time_constant is None else \
+        (params.m - params.Xudot) / speed_time_constant
     n_control = int(math.floor(duration / ts + 1e-9))
     commands = sorted(depth_commands)
     samples, bar_t, bars, zr_t, zr = [], [], [], [], []
@@ -73,6 +120,9 @@ def run_closed_loop(params: VehicleParams, depth_commands: Sequence[tuple[float,
         pilot.on_state(t, z=x[2], theta=x[4], w=x[8], q=x[10], u=x[6])
         bar, _ = pilot.command(t)
         sim.command('bar', bar)
+        if speed_gain:
+            thrust = trim.thrust + speed_gain * (u0 - x[6])
+            sim.command('thrust', min(max(thrust, params.thrust_min), params.thrust_max))
         bar_t.append(t)
         bars.append(bar)
         for _ in range(steps_per_control // steps_per_sample):

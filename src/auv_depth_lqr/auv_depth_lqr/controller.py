@@ -26,7 +26,10 @@ Beyond the report, :class:`DepthController` adds
   the profile (a series in the derivatives of the vertical speed, :class:`OperatingPoint`),
   with the exact depth kinematics ``z_dot = -u sin(theta) + w cos(theta)``;
 * pitch envelope protection: the depth feedback may not ask for more than
-  ``pitch_guard * theta_max`` (a current or a wrong speed can make the vehicle lag the plan).
+  ``pitch_guard * theta_max`` (a current or a wrong speed can make the vehicle lag the plan);
+* for a vehicle that is open-loop unstable in pitch/heave (its BAR -> vertical-speed series is
+  not stable, e.g. the REMUS 100), a kinematic stop of the reference (``kinematic_stop``,
+  :func:`_kinematic_map`) instead of the held-plane stop, which would diverge.
 
 No ROS import here: the depth-pilot node converts messages and calls :meth:`DepthController.step`.
 """
@@ -191,13 +194,22 @@ class Limits:
     """BAR slew-rate limit [rad/s] (20 deg/s: typical fin servo, assumed)."""
     theta_max: float = THETA_MAX_DEFAULT
     """Pitch limit for large depth changes, symmetric [rad] (default 25 deg = 0.436 rad)."""
-    integral_bar_max: float = math.radians(8.0)
-    """Largest BAR share of the integral term ``|K_xi xi|`` [rad]: bounds the integrator to
-    what trim errors can need (8 deg, assumed: ~2x the report's trim BAR)."""
+    integral_bar_share: float = 0.32
+    """Largest share of ``bar_max`` the integral term ``|K_xi xi|`` may command [-]: bounds
+    the integrator to what trim errors can need (0.32: 8 deg of a 25 deg plane, ~2x the
+    report's trim BAR; a fraction, so that it scales with the vehicle's plane)."""
+
+    @property
+    def integral_bar_max(self) -> float:
+        """Largest BAR of the integral term [rad]: ``integral_bar_share * bar_max``."""
+        return self.integral_bar_share * self.bar_max
 
     def __post_init__(self) -> None:
-        for name in ('bar_max', 'bar_rate_max', 'theta_max', 'integral_bar_max'):
+        for name in ('bar_max', 'bar_rate_max', 'theta_max', 'integral_bar_share'):
             _finite(f'Limits.{name}', getattr(self, name), positive=True)
+        if self.integral_bar_share > 1.0:
+            raise DesignError(f'Limits.integral_bar_share must be in (0, 1], got '
+                              f'{self.integral_bar_share!r}')
         if self.theta_max >= math.pi / 2:
             raise DesignError(f'Limits.theta_max must be < pi/2 rad, got {self.theta_max!r}')
 
@@ -628,8 +640,15 @@ class DepthController:
                     f'theta_max={self.limits.theta_max:.4g} rad); remove this speed from the '
                     'grid')
         # One-sample maps of the stop model at the grid speeds, interpolated like the gains.
-        self._stop_maps = [_series_map([float(x) for x in design.F[k, :, 3]], ts)
-                           for k in range(design.speeds.size)]
+        # An open-loop-unstable vehicle (no stable series at some grid speed) cannot stop by
+        # holding its plane: its stop is planned kinematically (see _kinematic_map).
+        self.kinematic_stop = not all(_stable_series([float(x) for x in design.F[k, :, 3]])
+                                      for k in range(design.speeds.size))
+        self._stop_tau = 0.5 * self.governor.jerk_time
+        self._stop_maps = [
+            _kinematic_map(self._stop_tau, ts) if self.kinematic_stop
+            else _series_map([float(x) for x in design.F[k, :, 3]], ts)
+            for k in range(design.speeds.size)]
         self.reset()
 
     # -- state -----------------------------------------------------------------------------
@@ -697,6 +716,19 @@ class DepthController:
         u_land = b0 * v_land - b1 * v_land / landing  # the landing's input at its start
         u_release = u_land + settings.release_bar_share * (u_other - u_land)
         du = settings.bar_rate_margin * lim.bar_rate_max * self.Ts
+        if self.kinematic_stop:
+            # Input: the commanded acceleration along the travel [m/s^2], moved no faster than
+            # the jerk limit. The stop brakes at the deceleration that the braking share of
+            # the plane's room (about the trim, on the side where b_1 (-travel a) lies) holds,
+            # at most accel_max.
+            side = -travel * (1.0 if b1 >= 0.0 else -1.0)
+            room = max(budget - side * op.bar_e, 0.0)
+            a_stop = settings.accel_max if b1 == 0.0 else min(
+                settings.accel_max, settings.brake_bar_share * room / abs(b1))
+            u_brake, u_other = -a_stop, a_stop
+            u_land = -v_land / landing
+            u_release = u_land + settings.release_bar_share * (u_other - u_land)
+            du = jerk * self.Ts
         _, i, j, w = self.design.weights(u)
         (phi_i, gam_i), (phi_j, gam_j) = self._stop_maps[i], self._stop_maps[j]
         brake = _Brake(tuple((1.0 - w) * x + w * y for x, y in zip(phi_i, phi_j)),
@@ -751,7 +783,7 @@ class DepthController:
         budget = settings.bar_margin * lim.bar_max
         u_hi, u_lo = budget - travel * op.bar_e, -budget - travel * op.bar_e
         s_cap = settings.accel_max / ts ** 2
-        if slope != 0.0:
+        if slope != 0.0 and not self.kinematic_stop:
             ends = sorted(((u_lo - centre) / slope, (u_hi - centre) / slope))
             s_lo, s_hi = ends
             s_floor = s_lo
@@ -764,6 +796,20 @@ class DepthController:
         else:
             s_lo = s_floor = -s_cap
             s_hi = s_cap
+        if self.kinematic_stop:
+            # The series of an unstable vehicle lets profiles that grow at its unstable rates
+            # through the plane budget at no cost: bound the reference's jerk (twice the
+            # speed-up's) and, beyond accel_max, turn its acceleration back.
+            j_lim = 2.0 * jerk
+            k_lo, k_hi = (-j_lim - J) / ts, (j_lim - J) / ts
+            if settings.accel_max < A:
+                k_hi = min(k_hi, (-j_lim - J) / ts + 1e-9)
+            elif -settings.accel_max > A:
+                k_lo = max(k_lo, (j_lim - J) / ts - 1e-9)
+            s_lo, s_hi = max(s_lo, k_lo), min(s_hi, k_hi)
+            if s_lo > s_hi:
+                s_lo = s_hi = min(max(0.0, k_lo), k_hi)
+            s_floor = max(s_floor, k_lo)
         # Speed-up: the jerk goes towards what brings the acceleration to a_goal.
         dv = v_cap - V - 0.5 * A * settings.jerk_time  # the jerk lags jerk_time behind
         lag = 0.5 * settings.jerk_time * jerk
@@ -778,7 +824,8 @@ class DepthController:
 
         def overshoot(s_try: float) -> float:
             dz, v1, a1, j1 = _constant_snap(V, A, J, s_try, ts)
-            u1 = b[0] * v1 + b[1] * a1 + b[2] * j1 + b[3] * s_try
+            u1 = (a1 + 2.0 * self._stop_tau * j1 + self._stop_tau ** 2 * s_try
+                  if self.kinematic_stop else b[0] * v1 + b[1] * a1 + b[2] * j1 + b[3] * s_try)
             return dz + _stop_distance(v1, a1, j1, u1, brake, hint) - E
 
         f_hi = overshoot(s)
@@ -1015,6 +1062,29 @@ def _series_map(b: Sequence[float], ts: float) -> tuple[tuple[float, ...], tuple
         M[2, 3] = 0.0
         M[2, 1:3] = [-b[0] / (b[1] * tau), -1.0 / tau]
         M[2, 4] = 1.0 / (b[1] * tau)
+    E = expm(M * ts)
+    return tuple(float(x) for x in E[:4, :4].ravel()), tuple(float(x) for x in E[:4, 4])
+
+
+def _stable_series(b: Sequence[float]) -> bool:
+    """Whether holding the plane stops the vertical motion: the first-order truncation
+    ``b_0 + b_1 s`` of the series is Hurwitz (``b_0``, ``b_1`` of one sign)."""
+    return b[1] != 0.0 and _hurwitz(b[:2])
+
+
+def _kinematic_map(tau: float, ts: float) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """``(phi, gam)`` of the kinematic stop of an open-loop-unstable vehicle.
+
+    A vehicle that is unstable in pitch and heave (the Munk moment beyond the restoring and
+    fin moments, e.g. the REMUS 100) does not stop when its plane is held at the braking end:
+    it pitches over ever faster, and a stop planned on its series diverges. Its reference
+    instead stops kinematically: the acceleration ``A`` [m/s^2] follows the commanded one
+    ``U`` as a critically damped second-order lag of time constant ``tau`` [s]
+    (``A'' = (U - A) / tau^2 - 2 A' / tau``), the feedback stabilising the vehicle along it.
+    """
+    M = np.zeros((5, 5))
+    M[0, 1] = M[1, 2] = M[2, 3] = 1.0
+    M[3, 2], M[3, 3], M[3, 4] = -1.0 / tau**2, -2.0 / tau, 1.0 / tau**2
     E = expm(M * ts)
     return tuple(float(x) for x in E[:4, :4].ravel()), tuple(float(x) for x in E[:4, 4])
 

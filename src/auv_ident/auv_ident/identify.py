@@ -11,6 +11,11 @@ Every regression of the report is linear in its coefficients. With the hydrodyna
     sway   Y = qs   (CYuv u v + CYur L u r)
     yaw    N = qs L (CNuv u v + CNur L u r)
 
+plus the vehicle file's quadratic cross-flow drag (``Zww w|w| + Zqq q|q|`` in heave, ``Mww``,
+``Mqq`` in pitch, ``Yvv``, ``Yrr`` in sway, ``Nvv``, ``Nrr`` in yaw; dimensional, see
+:mod:`auv_sim.params`), which is known from the base vehicle and moved to ``b`` as a fixed term
+(reported under ``fixed``) when it is not zero.
+
 so each equation is ``b = A theta`` with known columns ``A`` and the sum of squares
 ``J(theta) = |b - A theta|^2`` is a quadratic form in ``theta``: it has one minimum (unique
 when ``A`` has full column rank), found exactly by a linear least-squares solve; there are no
@@ -113,6 +118,14 @@ EQUATIONS: dict[str, Equation] = {
     'pitch': Equation('pitch', 4, 'N m', ('CMuw', 'CMuq'), 'CM0', 4),
     'sway': Equation('sway', 1, 'N', ('CYuv', 'CYur'), None, 5),
     'yaw': Equation('yaw', 5, 'N m', ('CNuv', 'CNur'), None, 6),
+}
+
+
+#: The vehicle file's quadratic cross-flow drag in each equation (dimensional, Prestero's
+#: ``Zww w|w| + Zqq q|q|`` ...): known terms, moved to ``b`` with their base values.
+CROSSFLOW: dict[str, tuple[str, str]] = {
+    'heave': ('Zww', 'Zqq'), 'pitch': ('Mww', 'Mqq'), 'sway': ('Yvv', 'Yrr'),
+    'yaw': ('Nvv', 'Nrr'),
 }
 
 
@@ -330,11 +343,14 @@ def regressor_columns(equation: Equation, nu: np.ndarray, params: VehicleParams
         k = qs if equation.name == 'heave' else qs * L
         c0, cw, cq = ('CZ0', 'CZuw', 'CZuq') if equation.name == 'heave' else (
             'CM0', 'CMuw', 'CMuq')
-        return {c0: k * u * np.abs(u), cw: k * u * w, cq: k * L * u * q}
+        xw, xq = CROSSFLOW[equation.name]
+        return {c0: k * u * np.abs(u), cw: k * u * w, cq: k * L * u * q,
+                xw: w * np.abs(w), xq: q * np.abs(q)}
     if equation.name in ('sway', 'yaw'):
         k = qs if equation.name == 'sway' else qs * L
         cv, cr = ('CYuv', 'CYur') if equation.name == 'sway' else ('CNuv', 'CNur')
-        return {cv: k * u * v, cr: k * L * u * r}
+        xv, xr = CROSSFLOW[equation.name]
+        return {cv: k * u * v, cr: k * L * u * r, xv: v * np.abs(v), xr: r * np.abs(r)}
     raise IdentificationError(f'unknown equation {equation.name!r} (known: {list(EQUATIONS)})')
 
 
@@ -401,6 +417,9 @@ def build_system(records: Sequence[ForceRecord], equation: Equation, base: Vehic
         (equation.offset, *equation.coefficients))
     fixed = {} if (equation.offset is None or fit_offset) else {
         equation.offset: base.values[equation.offset]}
+    # the vehicle's cross-flow drag is known (not fitted): moved to b like the offset
+    fixed.update({k: base.values[k] for k in CROSSFLOW.get(equation.name, ())
+                  if base.values[k] != 0.0})
     parts_a, parts_b, parts_m, parts_t, parts_i, parts_x = [], [], [], [], [], []
     parts_z: list[np.ndarray] = []
     parts_r: list[np.ndarray] = []

@@ -40,6 +40,8 @@ I_CZ0, I_CZUW, I_CZUQ = _I['CZ0'], _I['CZuw'], _I['CZuq']
 I_CM0, I_CMUW, I_CMUQ = _I['CM0'], _I['CMuw'], _I['CMuq']
 I_CYUV, I_CYUR, I_CNUV, I_CNUR, I_CLUP = (
     _I[k] for k in ('CYuv', 'CYur', 'CNuv', 'CNur', 'CLup'))
+I_YVV, I_YRR, I_ZWW, I_ZQQ, I_MWW, I_MQQ, I_NVV, I_NRR = (
+    _I[k] for k in ('Yvv', 'Yrr', 'Zww', 'Zqq', 'Mww', 'Mqq', 'Nvv', 'Nrr'))
 I_CZBAR, I_CMBAR, I_CYHELM, I_CNHELM = (_I[k] for k in ('CZbar', 'CMbar', 'CYhelm', 'CNhelm'))
 I_BARMAX, I_BARRATE, I_BARTAU = _I['bar_max'], _I['bar_rate'], _I['bar_tau']
 I_HELMMAX, I_HELMRATE, I_HELMTAU = _I['helm_max'], _I['helm_rate'], _I['helm_tau']
@@ -140,7 +142,9 @@ def current_ned(t, z, env, prof):  # type: ignore[no-untyped-def]
 def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
     """Fill ``out`` (4 x 6) with the body-FRD wrenches [N, N m] about the body origin.
 
-    Rows: hydrodynamic (damping, lift, drag: report section 2), Coriolis (rigid-body with
+    Rows: hydrodynamic (damping, lift, drag: report section 2, and the quadratic cross-flow
+    drag ``Yvv v|v| + Yrr r|r|``, ``Zww w|w| + Zqq q|q|``, ``Mww w|w| + Mqq q|q|``,
+    ``Nvv v|v| + Nrr r|r|`` of the vehicle file, in ``nu_r``), Coriolis (rigid-body with
     ``nu``, added-mass with ``nu_r``, plus ``M_A nu_c_dot`` of a varying current), restoring
     (weight and buoyancy), actuators (BAR, helm, propeller). Their sum is ``M nu_dot``.
     Returns the attitude's (cos phi, sin phi, cos theta, sin theta, cos psi, sin psi).
@@ -184,14 +188,21 @@ def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
     lg = np.log(re) * _INV_LN10 - 2.0
     cxf = 0.075 / (lg * lg)
     out[0, 0] = -P[I_KSH] * qs * cxf * ur * aur
-    out[0, 1] = qs * (P[I_CYUV] * ur * vr + P[I_CYUR] * L * ur * r) + env[E_YVV] * vr * _sabs(vr)
+    # quadratic cross-flow drag (Prestero 2001): the vehicle file's, plus the environment's
+    # cross-flow effect; a|a| is continued as a^2 sign(Re a), C1 at a = 0 with zero slope
+    wwr = wr * _sabs(wr)
+    vvr = vr * _sabs(vr)
+    qqa = q * _sabs(q)
+    rra = r * _sabs(r)
+    out[0, 1] = (qs * (P[I_CYUV] * ur * vr + P[I_CYUR] * L * ur * r)
+                 + (P[I_YVV] + env[E_YVV]) * vvr + P[I_YRR] * rra)
     out[0, 2] = (qs * (P[I_CZ0] * ur * aur + P[I_CZUW] * ur * wr + P[I_CZUQ] * L * ur * q)
-                 + env[E_ZWW] * wr * _sabs(wr))
+                 + (P[I_ZWW] + env[E_ZWW]) * wwr + P[I_ZQQ] * qqa)
     out[0, 3] = qs * L * L * P[I_CLUP] * ur * p
     out[0, 4] = (qs * L * (P[I_CM0] * ur * aur + P[I_CMUW] * ur * wr + P[I_CMUQ] * L * ur * q)
-                 + env[E_MQQ] * q * _sabs(q))
+                 + P[I_MWW] * wwr + (P[I_MQQ] + env[E_MQQ]) * qqa)
     out[0, 5] = (qs * L * (P[I_CNUV] * ur * vr + P[I_CNUR] * L * ur * r)
-                 + env[E_NRR] * r * _sabs(r))
+                 + P[I_NVV] * vvr + (P[I_NRR] + env[E_NRR]) * rra)
 
     # --- Coriolis and centripetal ---
     # rigid body: f = -m (w x v + w x (w x r_g)), m_o = -(w x I_o w) - m r_g x (w x v)

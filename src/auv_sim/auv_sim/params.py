@@ -4,7 +4,8 @@ A vehicle file (``config/*.yaml``) holds, section by section, every parameter as
 ``{value, unit, source}``. Frames and conventions: body frame FRD with its origin at the
 centre of buoyancy, world frame NED, Fossen's signs for added mass (``Zwdot < 0``).
 Hydrodynamic coefficients are dimensionless, scaled by ``1/2 rho S_ref`` (forces) and
-``1/2 rho S_ref L_ref`` (moments), as in the report's section 2.
+``1/2 rho S_ref L_ref`` (moments), as in the report's section 2; the optional quadratic
+cross-flow drag (section ``crossflow``, see :data:`OPTIONAL`) is dimensional, as Prestero's.
 """
 from __future__ import annotations
 
@@ -71,6 +72,15 @@ SCHEMA: dict[str, tuple[str, str, Callable[[float], bool]]] = {
     'CNuv': ('hydrodynamics', '-', ANY),
     'CNur': ('hydrodynamics', '-', ANY),
     'CLup': ('hydrodynamics', '-', NON_POSITIVE),
+    # quadratic cross-flow drag, dimensional as Prestero (2001) gives them (optional, 0)
+    'Yvv': ('crossflow', 'kg/m', NON_POSITIVE),
+    'Yrr': ('crossflow', 'kg m', ANY),
+    'Zww': ('crossflow', 'kg/m', NON_POSITIVE),
+    'Zqq': ('crossflow', 'kg m', ANY),
+    'Mww': ('crossflow', 'kg', ANY),
+    'Mqq': ('crossflow', 'kg m^2', NON_POSITIVE),
+    'Nvv': ('crossflow', 'kg', ANY),
+    'Nrr': ('crossflow', 'kg m^2', NON_POSITIVE),
     # control surfaces: dive plane (BAR) and helm (rudder)
     'CZbar': ('control_surfaces', '1/rad', ANY),
     'CMbar': ('control_surfaces', '1/rad', ANY),
@@ -93,6 +103,16 @@ SCHEMA: dict[str, tuple[str, str, Callable[[float], bool]]] = {
     'dt': ('simulation', 's', POSITIVE),
 }
 PARAM_NAMES: tuple[str, ...] = tuple(SCHEMA)
+#: Parameters a vehicle file may leave out, with the value they then take. The quadratic
+#: cross-flow drag (body FRD, about the body origin; velocities through the water)::
+#:
+#:     Y += Yvv v|v| + Yrr r|r|      Z += Zww w|w| + Zqq q|q|
+#:     M += Mww w|w| + Mqq q|q|      N += Nvv v|v| + Nrr r|r|
+#:
+#: is Prestero's (2001, section 3.3, tables B.1 and B.2) with his signs; a vehicle without it
+#: (a fit of linear terms only) simply has none.
+OPTIONAL: dict[str, float] = {name: 0.0 for name, (sec, _, _) in SCHEMA.items()
+                              if sec == 'crossflow'}
 SECTIONS: tuple[str, ...] = tuple(dict.fromkeys(s for s, _, _ in SCHEMA.values()))
 
 
@@ -163,7 +183,9 @@ def mass_matrix(params: VehicleParams) -> np.ndarray:
 
 def _validate(values: dict[str, float], path: str) -> None:
     for key, (section, unit, check) in SCHEMA.items():
-        if key not in values:
+        if key not in values and key in OPTIONAL:
+            values[key] = OPTIONAL[key]
+        elif key not in values:
             raise ParameterError(f'{path}: missing parameter {section}.{key} [{unit}]')
         value = values[key]
         if not math.isfinite(value):
@@ -195,6 +217,8 @@ def parse_vehicle(doc: Any, path: str = '<memory>') -> VehicleParams:
     sources: dict[str, str] = {}
     for section in SECTIONS:
         block = doc.get(section)
+        if block is None and all(k in OPTIONAL for k, v in SCHEMA.items() if v[0] == section):
+            continue
         if block is None:
             raise ParameterError(f'{path}: missing section {section!r}')
         if not isinstance(block, dict):
