@@ -29,8 +29,8 @@ def test_bad_depth_commands_are_rejected_and_last_kept(pilot_factory) -> None:
     pilot = pilot_factory()
     pilot.set_depth_command(12.0)
     for bad, match in ((math.nan, 'not finite'), (math.inf, 'not finite'),
-                       (-5.0, 'outside the vehicle envelope'),
-                       (1e4, 'outside the vehicle envelope'), ('x', 'not a number')):
+                       (-5.0, r'outside the depth envelope \[0, 300\] m'),
+                       (1e4, 'outside the depth envelope'), ('x', 'not a number')):
         with pytest.raises(InvalidInputError, match=match):
             pilot.set_depth_command(bad)
         assert pilot.z_ref == 12.0
