@@ -110,7 +110,7 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
     (['-p', 'vehicle_file:=/nonexistent/vehicle.yaml'], 'vehicle'),
     (['-p', 'rate:=-5.0'], 'rate'),
     (['-p', 'weights:=no_such_preset'], 'no_such_preset'),
-    (['-p', 'theta_max_deg:=0.0'], 'theta_max'),
+    (['-p', 'theta_max:=0.0'], 'theta_max'),
     (['-p', 'publish_delay:=0.08'], 'publish_delay'),
     (['-p', 'realtime_priority:=150'], 'realtime_priority'),
     (['-p', 'depth_max:=500.0'], 'depth_max = 500.0 m is outside the envelope [0, 300]'),
@@ -121,7 +121,7 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
     (['-p', 'odom_frame:=enu'], 'odom_frame'),
     (['-p', 'state_reliability:=sometimes'], 'state_reliability'),
     (['-p', 'recovery_gain:=2.0'], 'gain'),
-    (['-p', 'recovery_pitch_margin_deg:=-1.0'], 'pitch_margin'),
+    (['-p', 'recovery_pitch_margin:=-1.0'], 'pitch_margin'),
     (['-p', 'diagnostics_period:=0.0'], 'diagnostics_period'),
 ])
 def test_bad_parameter_at_start_exits_with_one_line_error(ros_env, ros_args: list[str],

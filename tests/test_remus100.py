@@ -354,7 +354,7 @@ def test_force_topic_identification_recovers_the_file(
         bags.append(str(tmp_path / name))
     parser = argparse.ArgumentParser()
     cli.add_arguments(parser)
-    args = parser.parse_args([*bags, '--base', str(REMUS), '--out', str(tmp_path / 'out')])
+    args = parser.parse_args([*bags, '--vehicle', str(REMUS), '--out', str(tmp_path / 'out')])
     assert cli.run(args) == 0
     report = json.loads((tmp_path / 'out' / 'report.json').read_text())
     assert report['source'] == 'forces'

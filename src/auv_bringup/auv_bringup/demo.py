@@ -45,7 +45,8 @@ def say(text: str) -> None:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--out', default='out/demo', help='output directory')
-    parser.add_argument('--vehicle', default=str(ROOT / 'config' / 'a18m.yaml'))
+    parser.add_argument('--vehicle', default=str(ROOT / 'config' / 'a18m.yaml'),
+                        help='vehicle file (default: config/a18m.yaml)')
     parser.add_argument('--from-depth', type=float, default=40.0, help='[m]')
     parser.add_argument('--to-depth', type=float, default=10.0, help='[m]')
     parser.add_argument('--duration', type=float, default=150.0, help='simulated [s]')

@@ -25,7 +25,8 @@ NS_PER_S = 1_000_000_000
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('mission', help='surge, pitch, yaw or a mission file')
-    parser.add_argument('--vehicle', default=str(ROOT / 'config' / 'a18m.yaml'))
+    parser.add_argument('--vehicle', default=str(ROOT / 'config' / 'a18m.yaml'),
+                        help='vehicle file (default: config/a18m.yaml)')
     parser.add_argument('--timeout', type=float, default=30.0,
                         help='wall seconds to wait for the first state')
 

@@ -27,7 +27,9 @@ ROOT = pathlib.Path(__file__).resolve().parents[3]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument('--vehicle', default=str(ROOT / 'config' / 'a18m.yaml'))
+    parser.add_argument('--vehicle', default=str(ROOT / 'config' / 'a18m.yaml'),
+                        help='vehicle file of the simulated vehicle and of the pilot '
+                             '(default: config/a18m.yaml)')
     parser.add_argument('--effects', default=None, help='effects file of the "real" vehicle')
     what = parser.add_mutually_exclusive_group(required=True)
     what.add_argument('--mission', help='open-loop mission: surge, pitch, yaw or a file')
@@ -41,7 +43,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              'default: it schedules on the measured surge over ground)')
     parser.add_argument('--noise', action='store_true',
                         help='add realistic sensor noise to the logged state')
-    parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--seed', type=int, default=0,
+                        help='seed of the sensor noise (with --noise; default: %(default)s)')
     parser.add_argument('--no-forces', action='store_true',
                         help='leave out /auv/hydrodynamic_forces, as a real vehicle log')
     parser.add_argument('--out', required=True, help='bag directory (or .mcap file) to write')

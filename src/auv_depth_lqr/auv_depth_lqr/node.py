@@ -27,13 +27,13 @@ instant, so the simulator can wait for it (see :mod:`auv_sim.node`).
 
 Parameters (validated at start: a bad one ends the node with one line ``error: ...`` and exit
 status 1; and on change, where a bad one is refused with a reason): ``vehicle_file``,
-``rate`` [Hz], ``weights`` (preset name), ``theta_max_deg`` [deg], ``bar_max`` /
+``rate`` [Hz], ``weights`` (preset name), ``theta_max`` [rad], ``bar_max`` /
 ``bar_rate`` [rad, rad/s; 0 = vehicle file], ``state_timeout`` [s], ``safe_bar`` [rad],
 ``lockstep`` (bool), ``water_speed`` [m/s; 0 = schedule on the measured surge over ground,
 else the known speed through the water, see :func:`auv_depth_lqr.pilot.water_relative`],
 ``publish_delay`` [s], ``depth_min`` / ``depth_max`` [m; NaN (default) = the vehicle file's
 envelope], ``depth_command_mode`` (``refuse`` or ``clamp``), ``odom_frame``, the envelope
-fallback ``recovery`` (bool), ``recovery_pitch_margin_deg`` [deg],
+fallback ``recovery`` (bool), ``recovery_pitch_margin`` [rad],
 ``recovery_rate_residual`` [m/s], ``recovery_rate_window`` [s], ``recovery_resume_time``
 [s], ``recovery_gain``, ``recovery_bar_fraction`` (see :mod:`auv_depth_lqr.recovery`),
 at start only: ``diagnostics_period`` [s], ``state_source`` (``vehicle_state`` or
@@ -116,10 +116,10 @@ _LEVELS = {'ok': DiagnosticStatus.OK, 'recovery': DiagnosticStatus.WARN,
 
 #: Numeric parameters (double; an integer value is accepted too) and their defaults.
 _NUMBERS: dict[str, float] = {
-    'rate': 10.0, 'theta_max_deg': 25.0, 'bar_max': 0.0, 'bar_rate': 0.0,
+    'rate': 10.0, 'theta_max': PilotSettings.theta_max, 'bar_max': 0.0, 'bar_rate': 0.0,
     'state_timeout': 0.5, 'safe_bar': SAFE_BAR_DEFAULT, 'water_speed': 0.0,
     'publish_delay': 0.01, 'depth_min': math.nan, 'depth_max': math.nan,
-    'recovery_pitch_margin_deg': math.degrees(RecoverySettings.pitch_margin),
+    'recovery_pitch_margin': RecoverySettings.pitch_margin,
     'recovery_rate_residual': RecoverySettings.rate_residual_max,
     'recovery_rate_window': RecoverySettings.rate_window,
     'recovery_resume_time': RecoverySettings.resume_time,
@@ -176,13 +176,13 @@ def pilot_from_values(v: dict[str, Any]) -> DepthPilot:
     naming what is wrong."""
     params = load_vehicle(v['vehicle_file'])
     recovery = RecoverySettings(
-        enabled=v['recovery'], pitch_margin=math.radians(v['recovery_pitch_margin_deg']),
+        enabled=v['recovery'], pitch_margin=v['recovery_pitch_margin'],
         rate_residual_max=v['recovery_rate_residual'], rate_window=v['recovery_rate_window'],
         resume_time=v['recovery_resume_time'], gain=v['recovery_gain'],
         bar_fraction=v['recovery_bar_fraction'])
     settings = PilotSettings(
         rate_hz=v['rate'], weights=str(v['weights']),
-        theta_max=math.radians(v['theta_max_deg']),
+        theta_max=v['theta_max'],
         bar_max=v['bar_max'] or None, bar_rate=v['bar_rate'] or None,
         state_timeout=v['state_timeout'], safe_bar=v['safe_bar'],
         water_speed=v['water_speed'] or None, publish_delay=v['publish_delay'],

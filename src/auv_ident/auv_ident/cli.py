@@ -36,6 +36,7 @@ from auv_ident.motion import (
     records_from_topics,
 )
 from auv_ident.report import write_outputs
+from auv_sim.cli_options import add_vehicle_option
 from auv_sim.params import VehicleParams, load_vehicle
 
 ROOT = pathlib.Path(__file__).resolve().parents[3]
@@ -57,8 +58,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--map', default=None, metavar='MAP',
                         help='read the original logs through this mapping file (as `auv '
                              'import` does, without writing a bag); forces from motion')
-    parser.add_argument('--base', default=str(DEFAULT_BASE),
-                        help='vehicle file the identified values replace (default: a18m)')
+    add_vehicle_option(parser, default=str(DEFAULT_BASE), old_names=('--base',),
+                       help_text='vehicle file the identified values replace')
     parser.add_argument('--out', required=True, help='output directory')
     parser.add_argument('--fit-c0', action='store_true',
                         help='fit CZ0 and CM0 too (default: fixed at the base values)')
@@ -222,7 +223,7 @@ def identify_and_report(records: Sequence[ForceRecord], base: VehicleParams, out
 
 def run(args: argparse.Namespace) -> int:
     """Identify from the bags of ``args``; prints the coefficients as JSON on stdout."""
-    base = load_vehicle(args.base)
+    base = load_vehicle(args.vehicle)
     if not (args.window > 0):
         raise IdentificationError(f'--window must be > 0 s, got {args.window}')
     limits: dict[str, Any] = {}

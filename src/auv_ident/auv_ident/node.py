@@ -14,9 +14,10 @@ With ``--map MAP --logs LOG...`` it first reads a real vehicle's original logs t
 mapping file (:mod:`auv_ident.realog`, as ``auv ident --map`` does) into its buffers, as if
 their contract topics had been received, then goes on accumulating live topics.
 
-Parameters: ``base`` (vehicle file), ``out`` (output directory), ``source``
-(auto|forces|motion), ``fit_c0``, ``bounds``, ``errors`` (hac|ess|iid), ``equations``
-(list; empty: all), ``window`` [s], ``estimate_period`` [s], ``qos_depth`` (messages).
+Parameters: ``vehicle_file`` (the vehicle file the identified values replace), ``out``
+(output directory), ``source`` (auto|forces|motion), ``fit_c0``, ``bounds``, ``errors``
+(hac|ess|iid), ``equations`` (list; empty: all), ``window`` [s], ``estimate_period`` [s],
+``qos_depth`` (messages).
 """
 from __future__ import annotations
 
@@ -42,6 +43,7 @@ from auv_ident.motion import (
     STATE_TOPIC,
     WINDOW_S,
 )
+from auv_sim.cli_options import add_vehicle_option
 
 NODE_NAME = 'identifier'
 
@@ -82,17 +84,27 @@ def stamp_seconds(stamp: Any) -> float:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``auv ident-node`` (each sets the ROS parameter of the same name)."""
-    parser.add_argument('--base', default=None, help='vehicle file (default: config/a18m.yaml)')
+    add_vehicle_option(parser, old_names=('--base',),
+                       help_text='vehicle file the identified values replace '
+                                 '(default: config/a18m.yaml)')
     parser.add_argument('--out', default='out/ident', help='output directory')
-    parser.add_argument('--source', choices=SOURCES, default='auto')
-    parser.add_argument('--fit-c0', action='store_true')
-    parser.add_argument('--bounds', action='store_true')
-    parser.add_argument('--errors', choices=ERROR_METHODS, default='hac')
-    parser.add_argument('--equations', nargs='+', choices=list(EQUATIONS), default=[])
-    parser.add_argument('--window', type=float, default=WINDOW_S)
+    parser.add_argument('--source', choices=SOURCES, default='auto',
+                        help='fit from the force topic, from the motion, or from what the '
+                             'topics hold (default: %(default)s)')
+    parser.add_argument('--fit-c0', action='store_true',
+                        help='fit CZ0 and CM0 too (default: fixed at the vehicle file values)')
+    parser.add_argument('--bounds', action='store_true',
+                        help='bounded solve with the physical signs of the coefficients')
+    parser.add_argument('--errors', choices=ERROR_METHODS, default='hac',
+                        help='covariance estimator of the intervals (default: %(default)s)')
+    parser.add_argument('--equations', nargs='+', choices=list(EQUATIONS), default=[],
+                        help='equations to identify (default: all)')
+    parser.add_argument('--window', type=float, default=WINDOW_S,
+                        help='length of the motion fit windows [s] (default: %(default)s)')
     parser.add_argument('--estimate-period', type=float, default=0.0,
                         help='publish the running estimate every S seconds (0: never)')
-    parser.add_argument('--qos-depth', type=int, default=10000)
+    parser.add_argument('--qos-depth', type=int, default=10000,
+                        help='subscription queue depth [messages] (default: %(default)s)')
     parser.add_argument('--map', default=None, metavar='MAP',
                         help='mapping file of the logs given with --logs')
     parser.add_argument('--logs', nargs='+', default=[], metavar='LOG',
@@ -123,7 +135,7 @@ def _make_node(overrides: dict[str, Any]) -> Any:
         def __init__(self) -> None:
             super().__init__(NODE_NAME, parameter_overrides=[
                 Parameter(k, value=v) for k, v in overrides.items()])
-            self.declare_parameter('base', str(DEFAULT_BASE))
+            self.declare_parameter('vehicle_file', str(DEFAULT_BASE))
             self.declare_parameter('out', 'out/ident')
             self.declare_parameter('source', 'auto')
             self.declare_parameter('fit_c0', False)
@@ -138,7 +150,7 @@ def _make_node(overrides: dict[str, Any]) -> Any:
             if problem:
                 raise IdentError(problem)
             self.add_on_set_parameters_callback(self._on_set)
-            self.base = load_vehicle(self.get_parameter('base').value)
+            self.base = load_vehicle(self.get_parameter('vehicle_file').value)
             self.state = ColumnBuffer(('t', *STATE_FIELDS))
             self.forces = ColumnBuffer(('t', *FORCE_FIELDS))
             self.commands = {topic: ColumnBuffer(('t', 'value')) for topic in
@@ -299,8 +311,8 @@ def run(args: argparse.Namespace, ros_args: Sequence[str] | None = None) -> int:
                                  'window': float(args.window),
                                  'estimate_period': float(args.estimate_period),
                                  'qos_depth': int(args.qos_depth)}
-    if args.base:
-        overrides['base'] = args.base
+    if args.vehicle:
+        overrides['vehicle_file'] = args.vehicle
     stop = {'signal': 0}
 
     def on_signal(signum: int, _frame: FrameType | None) -> None:

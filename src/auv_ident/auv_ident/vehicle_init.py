@@ -4,7 +4,7 @@ For a user's own torpedo-shaped vehicle ("1.6 m long, 0.15 m diameter, 20 kg") w
 tank tests: every parameter is a class-typical first estimate, scaled from a reference
 vehicle file with published values (default ``config/remus100.yaml``: Prestero 2001) by
 geometric similarity, and marked ``estimated: ...`` in its source with the scaling used.
-``auv ident --base NEW.yaml`` then replaces what the logs identify (the hydrodynamic
+``auv ident --vehicle NEW.yaml`` then replaces what the logs identify (the hydrodynamic
 coefficients); the rest stays estimated until measured (weigh, swing-test, trim).
 
 Scaling (reference quantities with subscript r; ``r = D/2``; SI, body FRD at the CB):

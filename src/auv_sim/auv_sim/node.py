@@ -488,6 +488,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``auv sim``; each sets the ROS parameter of the same name (see module doc)."""
     def opt(name: str, kind: type, help_text: str) -> None:
         flag = '--' + name.replace('_', '-')
+        if name == 'vehicle_file':   # one name for the vehicle file in every command
+            parser.add_argument('--vehicle', dest=name, default=None, metavar='VEHICLE.yaml',
+                                help=help_text)
+            parser.add_argument(flag, dest=name, default=argparse.SUPPRESS,
+                                help=argparse.SUPPRESS)
+            return
         if kind is bool:
             parser.add_argument(flag, dest=name, action=argparse.BooleanOptionalAction,
                                 default=None, help=help_text)
