@@ -189,19 +189,6 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
     return nodes
 
 
-def wait_for_file(path: pathlib.Path, proc: NodeProcess, deadline: float) -> None:
-    """Wait until ``path`` exists (a node's readiness mark), at most ``deadline`` s."""
-    end = time.monotonic() + deadline
-    while time.monotonic() < end:
-        if path.exists():
-            return
-        if not proc.running():
-            raise LaunchError(f'{proc.name} exited early (code {proc.proc and proc.proc.poll()})'
-                              + (f'; see {proc.log_path}' if proc.log_path else ''))
-        time.sleep(0.05)
-    raise LaunchError(f'{proc.name} not ready within {deadline} s')
-
-
 def send_depth_command(z: float, env: dict[str, str], subscribers: int = 1,
                        timeout: float = 20.0, namespace: str = '') -> None:
     """Publish a depth command [m] with ``auv depth`` on ``<namespace>/depth_command`` once

@@ -112,13 +112,6 @@ class Environment:
         """Biases added to the measured depth [m] and pitch [rad]."""
         return (self.field('depth_sensor_bias', 'bias'), self.field('pitch_sensor_bias', 'bias'))
 
-    def to_document(self) -> dict[str, Any]:
-        """The YAML document of this environment (inverse of :func:`parse_environment`)."""
-        doc: dict[str, Any] = {'effects': {k: dict(v) for k, v in self.effects.items()}}
-        if self.current_profile:
-            doc['current_profile'] = [list(row) for row in self.current_profile]
-        return doc
-
 
 def parse_environment(doc: Any, where: str = '<memory>') -> Environment:
     """Validate an environment document

@@ -65,8 +65,6 @@ SCALAR_ENU: dict[str, tuple[float, float]] = {
     'z': (-1.0, 0.0), 'phi': (1.0, 0.0), 'theta': (-1.0, 0.0), 'psi': (-1.0, math.pi / 2),
     'u': (1.0, 0.0), 'v': (-1.0, 0.0), 'w': (-1.0, 0.0),
     'p': (1.0, 0.0), 'q': (-1.0, 0.0), 'r': (-1.0, 0.0)}
-WORLD_FRAMES = ('NED', 'ENU')
-BODY_FRAMES = ('FRD', 'FLU')
 _FRAME_ALIASES = {'NED': ('NED', 'FRD'), 'FRD': ('NED', 'FRD'), 'NED/FRD': ('NED', 'FRD'),
                   'ENU': ('ENU', 'FLU'), 'FLU': ('ENU', 'FLU'), 'ENU/FLU': ('ENU', 'FLU'),
                   'ENU/FRD': ('ENU', 'FRD'), 'NED/FLU': ('NED', 'FLU')}
@@ -199,14 +197,6 @@ class LogMap:
     text_source: str
     path: str
     description: str = ''
-
-    def provides(self) -> dict[str, str]:
-        """Signal -> where it comes from (``signals`` or the preset/vector that gives it)."""
-        out = {name: s.origin for name, s in self.scalars.items()}
-        for vec in self.vectors:
-            for name in vec.gives:
-                out[name] = vec.origin
-        return out
 
     def topics(self) -> list[str]:
         """Topics the map reads (bags), in first-use order."""
