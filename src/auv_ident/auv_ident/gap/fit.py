@@ -16,7 +16,9 @@ and Student's t with ``G - 1`` degrees of freedom for ``G`` windows; a free-run 
 widened to cover the equation-error estimate (two estimators with different systematic
 errors: initial-state smoothing for the free run, derivative filtering for the equation).
 A parameter whose residual sensitivity is negligible is "not identifiable from these data": it
-is held at its "absent" value and its interval is its whole range.
+is held at its "absent" value and its interval is its whole range. Of several parameters, those
+whose free-run interval covers their "absent" value are dropped after the free-run fit and the
+rest refitted, so a candidate pays only for the parameters it uses.
 """
 from __future__ import annotations
 
@@ -208,8 +210,12 @@ class FreeRunFit:
         return np.clip(np.where(np.isfinite(err), err, BAD_RESIDUAL), -BAD_RESIDUAL,
                        BAD_RESIDUAL)
 
-    def fit(self, start: FitResult, max_nfev: int = 8) -> FitResult:
-        """Refine an equation-error fit by free-run error over the training windows."""
+    def fit(self, start: FitResult, max_nfev: int = 8, prune: bool = True,
+            cover: np.ndarray | None = None) -> FitResult:
+        """Refine an equation-error fit by free-run error over the training windows; with
+        ``prune``, of several parameters those whose interval covers their "absent" value are
+        then dropped and the rest refitted (once). The interval is widened to cover ``cover``
+        (default: the equation-error estimate of ``start``)."""
         es, active = start.effects, start.active.copy()
         if not active.any():
             return dataclasses.replace(start, stage='free_run')
@@ -250,13 +256,20 @@ class FreeRunFit:
         sol = optimize.least_squares(fun, s0, jac=jac, bounds=(lb, ub), method='trf',
                                      max_nfev=max_nfev, x_scale=1.0)
         values = full(sol.x)
-        J = sol.jac
-        r = sol.fun
         nch = len(CH_INDEX)
-        cov, g = _sandwich(J, r, np.repeat(self.clusters, nch))
+        cov, g = _sandwich(sol.jac, sol.fun, np.repeat(self.clusters, nch))
         lo, hi = _intervals(es, values, active, cov, g)
+        covers = active & (lo <= es.absent) & (hi >= es.absent)
+        if prune and active.sum() >= 2 and covers.any() and not covers[active].all():
+            # drop what the free run cannot tell from "absent", refit the rest
+            active = active & ~covers
+            kept = dataclasses.replace(start, active=active,
+                                       values=np.where(active, values, es.absent))
+            return self.fit(kept, max_nfev=max(2, max_nfev // 2), prune=False,
+                            cover=np.where(active, start.values, es.absent))
         # the two fits are different estimators of the same parameters: widen the interval
         # to cover the equation-error estimate, so a disagreement shows as a wider interval
-        lo = np.where(active, np.minimum(lo, start.values), lo)
-        hi = np.where(active, np.maximum(hi, start.values), hi)
+        other = start.values if cover is None else cover
+        lo = np.where(active, np.minimum(lo, other), lo)
+        hi = np.where(active, np.maximum(hi, other), hi)
         return FitResult(es, values, active, lo, hi, 'free_run')

@@ -32,9 +32,13 @@ BASIS_NAMES = (
     'z_gx', 'z_gy', 'z_gz',     # depth [m] times the gravity direction
     'ur|ur|',                   # [m^2/s^2], surge speed through the water
     'wr|wr|', 'q|q|', 'vr|vr|', 'r|r|',  # cross-flow quadratic terms
+    'ur wr', 'ur q',            # [m^2/s^2], [m/s^2]: the model's own heave/pitch damping terms
+    'ur|ur| bar',               # [m^2/s^2 rad]: the dive plane's lift (plane position x[12])
+    'thrust',                   # [N]: the propeller's thrust (position x[14])
 )
 NB = len(BASIS_NAMES)
 B_ONE, B_G, B_ZG, B_UU, B_WW, B_QQ, B_VV, B_RR = 0, 1, 4, 7, 8, 9, 10, 11
+B_UW, B_UQ, B_UUBAR, B_THRUST = 12, 13, 14, 15
 OUT_STATES = 12  # eta and nu are written out
 
 
@@ -61,6 +65,10 @@ def basis(x, xr, phi):  # type: ignore[no-untyped-def]
     phi[9] = x[10] * abs(x[10])
     phi[10] = xr[7] * abs(xr[7])
     phi[11] = x[11] * abs(x[11])
+    phi[12] = xr[6] * xr[8]
+    phi[13] = xr[6] * x[10]
+    phi[14] = xr[6] * abs(xr[6]) * x[12]
+    phi[15] = x[14]
 
 
 @njit(cache=True)
