@@ -8,11 +8,12 @@ with realistic sensor noise, each of a plant the diagnosis is not told:
   pairs; the truth is the effect file. Counted right when the verdict is ``explained`` with
   exactly the true set, or ``ambiguous`` with the true set among the named;
 * ``coefficients``: the plant's own coefficients differ from the file (heave and pitch damping
-  30 % higher, plane effectiveness 70 %): right when named by ``coefficients`` or
-  ``plane_effectiveness``; never to be ``explained`` by another effect;
-* ``outside``: forms the catalogue lacks (a current growing with depth, an added-mass error, an
-  internal wave, a surge drag error, a cross-flow drag beyond what the hull can have): wrong
-  when ``explained``;
+  30 % higher, plane effectiveness 70 %, Munk moment 20 % lower, surge drag 30 % higher, heave
+  added mass 30 % higher, which acts through the Munk moment): right when named by
+  ``coefficients`` or ``plane_effectiveness``; never to be ``explained`` by another effect;
+* ``outside``: forms the catalogue lacks (a current growing with depth, one reversing with
+  depth, an internal wave, a tidal drift, a cross-flow drag beyond what the hull can have):
+  wrong when ``explained``;
 * ``clean``: no effect, several seeds: a false alarm is any verdict but ``no_gap``.
 
 Figures: right effect named, clean false alarms, outside cases wrongly explained (goal 0),
@@ -78,6 +79,10 @@ CASES: dict[str, Case] = {
                                        actuator_lag={'bar_tau': 0.6}),
                      {'buoyancy_offset': {'dB': 25.0}, 'actuator_lag': {'bar_tau': 0.6}},
                      'closed'),
+    'current+damping_25': ('inside', {'CZuw': 1.25}, _fx(current={'north': 0.25, 'east': 0.15,
+                                                                 'down': 0.0}),
+                           {'current': {'north': 0.25, 'east': 0.15},
+                            'coefficients': {'CZuw': 1.25}}, 'closed'),
     'damping_30_higher': ('coefficients', {'CZuw': 1.3, 'CMuq': 1.3}, _fx(),
                           {'coefficients': {'CZuw': 1.3, 'CMuq': 1.3}}, 'closed'),
     'plane_70_open': ('coefficients', {'CZbar': 0.7, 'CMbar': 0.7}, _fx(),
@@ -88,13 +93,15 @@ CASES: dict[str, Case] = {
         [0.0, 0.0, 0.0, 0.0], [200.0, 0.4, 0.2, 0.0]]}, {}, 'closed'),
     'shear_reversing': ('outside', {}, {'effects': {}, 'current_profile': [
         [40.0, 0.3, 0.0, 0.0], [100.0, -0.3, 0.0, 0.0]]}, {}, 'closed'),
-    'added_mass_30': ('outside', {'Zwdot': 1.3, 'Mqdot': 1.3}, _fx(), {}, 'closed'),
+    'added_mass_30': ('coefficients', {'Zwdot': 1.3}, _fx(),
+                      {'coefficients': {'CMuw': 0.523}}, 'closed'),
     'internal_wave': ('outside', {}, _fx(current_oscillation={'down': 0.05, 'period': 120.0}),
                       {}, 'closed'),
     'tidal_drift_open': ('outside', {}, _fx(current_oscillation={'north': 0.3,
                                                                  'period': 900.0}),
                          {}, 'open'),
-    'surge_drag_30': ('outside', {'Ksh': 1.3}, _fx(), {}, 'closed'),
+    'surge_drag_30': ('coefficients', {'Ksh': 1.3}, _fx(), {'coefficients': {'Ksh': 1.3}},
+                      'closed'),
     'crossflow_cd_3': ('outside', {}, _fx(crossflow_drag={'Zww': -3400.0, 'Mqq': -10300.0}),
                        {}, 'closed'),
     'clean_1': ('clean', {}, _fx(), {}, 'closed'),

@@ -45,6 +45,7 @@ from auv_ident.gap.kernel import (
     B_UW,
     B_VV,
     B_WW,
+    B_XDRAG,
     B_ZG,
     NB,
 )
@@ -427,18 +428,20 @@ class PitchSensorBias(Effect):
         pert.bias[4] += values[0]
 
 
-#: The vertical-plane coefficients ``auv ident`` fits, as (name, basis row, body row,
-#: power of L_ref in the wrench): ``Z = qs (CZuw ur wr + CZuq L ur q + CZbar ur|ur| bar)``,
-#: ``M = qs L (CMuw ur wr + CMuq L ur q + CMbar ur|ur| bar)``.
+#: The coefficients of the vertical plane and of surge that ``auv ident`` fits, as (name,
+#: basis row, body row, power of L_ref in the wrench; None: the basis holds the whole term per
+#: unit coefficient): ``Z = qs (CZuw ur wr + CZuq L ur q + CZbar ur|ur| bar)``,
+#: ``M = qs L (CMuw ur wr + CMuq L ur q + CMbar ur|ur| bar)``, ``X = -Ksh qs C_XF(Re) ur|ur|``.
 COEFFICIENTS = (('CZuw', B_UW, 2, 0), ('CMuw', B_UW, 4, 1), ('CZuq', B_UQ, 2, 1),
-                ('CMuq', B_UQ, 4, 2), ('CZbar', B_UUBAR, 2, 0), ('CMbar', B_UUBAR, 4, 1))
+                ('CMuq', B_UQ, 4, 2), ('CZbar', B_UUBAR, 2, 0), ('CMbar', B_UUBAR, 4, 1),
+                ('Ksh', B_XDRAG, 0, None))
 
 
 class Coefficients(Effect):
     name = 'coefficients'
-    description = ("the model's own vertical-plane coefficients are off: each of CZuw, CMuw, "
-                   'CZuq, CMuq, CZbar, CMbar is re-fitted as a factor on its file value')
-    equations = ('heave', 'pitch')
+    description = ("the model's own coefficients are off: each of CZuw, CMuw, CZuq, CMuq, "
+                   'CZbar, CMbar and Ksh is re-fitted as a factor on its file value')
+    equations = ('heave', 'pitch', 'surge')
     signature = {'speed change': 1.0, 'plane doublets of several periods': 1.0,
                  'plane steps of several sizes': 0.0}
 
@@ -449,8 +452,8 @@ class Coefficients(Effect):
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         qs = _dynamic_pressure_area(vehicle)
         for k, (n, row, col, power) in enumerate(COEFFICIENTS):
-            pert.C[row, col] += (values[k] - 1.0) * qs * vehicle.L_ref ** power * \
-                float(getattr(vehicle, n))
+            unit = 1.0 if power is None else qs * vehicle.L_ref ** power
+            pert.C[row, col] += (values[k] - 1.0) * unit * float(getattr(vehicle, n))
 
 
 class PlaneEffectiveness(Effect):

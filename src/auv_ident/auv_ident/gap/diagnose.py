@@ -282,7 +282,7 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     # 5. residual tests of the best, and the verdict
     res_signals = {'z': pr.eq_state[:, 2], 'u': pr.eq_state[:, 6], 'theta': pr.eq_state[:, 4],
                    'w': pr.eq_state[:, 8], 'q': pr.eq_state[:, 10], 'bar_command': bar_cmd,
-                   'thrust_command': thr_cmd}
+                   'bar_command_rate': bar_rate, 'thrust_command': thr_cmd}
     tested = best if best.names else None
     white, findings, left = (_residual_tests(pr, eqf, frf, tested, res_signals)
                              if tested is not None and gap_channels else (False, [], []))
@@ -441,6 +441,8 @@ def _residual_tests(pr: Problem, eqf: EquationFit, frf: FreeRunFit, cand: Candid
            for ch in ('bar', 'thrust')}
     fr_sig = {n: [meas[r, i] for r in wrows] for n, i in (('z', 2), ('u', 6), ('theta', 4),
                                                             ('w', 8), ('q', 10))}
+    for n, i in (('w_dot', 8), ('q_dot', 10)):
+        fr_sig[n] = [np.gradient(meas[r, i], out_dt * every) for r in wrows]
     fr_sig['bar_command'] = cmd['bar']
     fr_sig['thrust_command'] = cmd['thrust']
     win = max(2, min(r.size for r in wrows) // 2)

@@ -2,7 +2,9 @@
 
 A candidate explains the gap only if what it leaves behind looks like sensor noise: no
 autocorrelation (Ljung-Box), no mean, and no correlation with the inputs or with the
-operating point (depth, speed, pitch, heave velocity, pitch rate). Structure left over names
+operating point (depth, speed, pitch, heave velocity, pitch rate; for the free-run errors
+also heave and pitch acceleration, where an inertia error shows; not for the equation errors,
+whose noise is the measured acceleration's own). Structure left over names
 where the rest of the gap is: which equation, and what it follows ("follows depth").
 
 The residuals are equation errors of the held-out windows (``M nu_dot - tau`` per body
@@ -39,7 +41,8 @@ XC_LAGS = 5
 
 #: How a residual that follows a signal is described.
 FOLLOWS = {'z': 'depth', 'u': 'speed', 'theta': 'pitch', 'w': 'heave velocity',
-           'q': 'pitch rate', 'bar_command': 'the plane command',
+           'q': 'pitch rate', 'w_dot': 'heave acceleration', 'q_dot': 'pitch acceleration',
+           'bar_command': 'the plane command', 'bar_command_rate': 'the plane command rate',
            'thrust_command': 'the thrust command'}
 
 
