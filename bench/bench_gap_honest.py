@@ -21,9 +21,9 @@ median shrink of the in-catalogue cases, and the share of true parameter values 
 reported 95 % intervals. A second part measures interval coverage over many seeds on a cheap
 case (5-minute logs, one effect fitted directly, no search).
 
-Run: ``. .venv/bin/auv-env && python bench/bench_gap_honest.py [--seeds N]`` (writes
-bench/results/gap_honest.json; the panel takes about 15 minutes on 2 cores, the coverage part
-about 1 minute per 10 seeds).
+Run: ``. .venv/bin/auv-env && python bench/bench_gap_honest.py [--seeds N] [--skip-panel]
+[--skip-coverage]`` (updates bench/results/gap_honest.json; the panel takes about 15 minutes
+on 2 cores, the coverage part about 1 minute per 10 seeds).
 """
 from __future__ import annotations
 
@@ -228,12 +228,17 @@ def coverage(seeds: int) -> dict[str, Any]:
 if __name__ == '__main__':
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--seeds', type=int, default=20, help='coverage seeds per effect')
-    ap.add_argument('--skip-panel', action='store_true')
+    ap.add_argument('--skip-panel', action='store_true', help='keep the saved panel figures')
+    ap.add_argument('--skip-coverage', action='store_true',
+                    help='keep the saved coverage figures')
     args = ap.parse_args()
-    figures: dict[str, Any] = {'benchmark': 'gap diagnosis honesty panel'}
+    saved = ROOT / 'bench' / 'results' / 'gap_honest.json'
+    figures: dict[str, Any] = json.loads(saved.read_text()) if saved.exists() else {}
+    figures['benchmark'] = 'gap diagnosis honesty panel'
     if not args.skip_panel:
         figures['panel'] = panel()
-    figures['coverage'] = coverage(args.seeds)
+    if not args.skip_coverage:
+        figures['coverage'] = coverage(args.seeds)
     save_figures('gap_honest', figures)
     print(json.dumps({k: v for k, v in figures.get('panel', {}).items() if k != 'cases'},
                      indent=2))

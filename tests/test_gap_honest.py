@@ -102,7 +102,7 @@ def test_coefficient_errors_are_named_or_not_explained(panel, case: str,  # type
 def test_added_mass_error_shows_as_the_munk_moment(panel, vehicle) -> None:  # type: ignore
     """Heave added mass 30 % above the file: in the simulator the added-mass Coriolis terms
     give the pitch (Munk) moment ``(Xudot - Zwdot) ur wr``, so the plant's moment in ``ur wr``
-    is larger by ``-0.3 Zwdot = 204 kg``: the same as a factor ``1 + 0.3 Zwdot / (qs L CMuw)``
+    is larger by ``-0.3 Zwdot = 204 kg``: the same as a factor ``1 - 0.3 Zwdot / (qs L CMuw)``
     on the file's CMuw (0.52 for the A18M). If the diagnosis calls it explained, it must be
     through the model's coefficients with CMuw there; the inertia part stays unnamed."""
     r = panel('added_mass_30').report
@@ -111,7 +111,7 @@ def test_added_mass_error_shows_as_the_munk_moment(panel, vehicle) -> None:  # t
     if r['verdict'] != 'explained':
         return
     qs_l = 0.5 * vehicle.rho * vehicle.S_ref * vehicle.L_ref
-    munk = 1.0 + 0.3 * vehicle.Zwdot / (qs_l * vehicle.CMuw)
+    munk = 1.0 - 0.3 * vehicle.Zwdot / (qs_l * vehicle.CMuw)
     assert munk == pytest.approx(0.523, abs=0.002)
     entry = next(c for c in r['candidates'] if c['effect'] == best)
     lo, hi = entry['ci95']['CMuw']

@@ -15,7 +15,8 @@ Steps (see :func:`diagnose`):
    effect identifies something (an interval that excludes its "absent" value).
 5. Verdict (:func:`_verdict`): plausibility, the held-out share of the gap explained, the
    residual tests of :mod:`auv_ident.gap.residuals`, and the candidates the held-out windows
-   cannot tell from the best.
+   cannot tell from the best. When the best leaves structure in its residuals, a larger
+   plausible set that leaves none, within ``RESCUE`` of its score, replaces it.
 
 Score: ``ln(J_nominal / J_candidate) - PARAM_PRICE * k`` with ``J`` the held-out free-run
 cost (mean over samples of the squared channel errors over their scales) and ``k`` the number
@@ -49,6 +50,7 @@ PARTLY = 0.3             # ... for "partly_explained"
 AMBIGUOUS_RATIO = 1.25   # held-out cost within this factor of the best ...
 AMBIGUOUS_T = 2.0        # ... and not worse by this many standard errors over the windows
 TIE = 0.02               # scores closer than this are a tie: the simpler candidate wins
+RESCUE = 0.1             # a larger set with white residuals may score this much less
 MC_RUNS = 4
 
 Progress = Callable[[str], None]
@@ -253,18 +255,26 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     pool = list(names)
     while gap_channels and viable and best.score > 0 and len(best.names) < max_effects:
         base_cost = eqf.cost(best.fit.effects, best.fit.values, held_out=True)
-        ranked = []
+        ranked, joint = [], {}
         for n in pool:
             if n in best.names:
                 continue
             es = EffectSet((*best.names, n), vehicle)
             start = np.concatenate([best.fit.values, singles_a[n].values])
-            fa = eqf.fit(es, start=start)
+            fa = joint[n] = eqf.fit(es, start=start)
             cost = eqf.cost(es, fa.values, held_out=True)
             if cost < base_cost:
                 ranked.append((cost, fa))
         ranked.sort(key=lambda item: item[0])
-        trials = [frf.fit(fa) for _, fa in ranked[:max(1, top - 1)]]
+        chosen = [fa for _, fa in ranked[:max(1, top - 1)]]
+        # and the addition of the best single effect by held-out free run not yet tried
+        # (equation error ranks actuator effects poorly: their signature is in the free run)
+        tried = {fa.effects.names[-1] for fa in chosen}
+        extra = next((c.names[0] for c in viable if len(c.names) == 1
+                      and c.names[0] not in best.names and c.names[0] not in tried), None)
+        if extra is not None:
+            chosen.append(joint[extra])
+        trials = [frf.fit(fa) for fa in chosen]
         if not trials:
             break
         say(f'combinations: {", ".join(t.effects.label for t in trials)}')
@@ -277,7 +287,10 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
         if top_trial.score <= best.score + TIE:
             break
         best = top_trial
-    candidates.sort(key=lambda c: (-c.score, c.fit.n_active, len(c.names)))
+    # ranked: the chosen best first, then the other plausible candidates that identify
+    # something, then the rest, each by score (ties: fewer parameters first)
+    candidates.sort(key=lambda c: (c is not best, not (c.plausible and c.identifies),
+                                   -c.score, c.fit.n_active, len(c.names)))
 
     # 5. residual tests of the best, and the verdict
     res_signals = {'z': pr.eq_state[:, 2], 'u': pr.eq_state[:, 6], 'theta': pr.eq_state[:, 4],
@@ -286,6 +299,20 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     tested = best if best.names else None
     white, findings, left = (_residual_tests(pr, eqf, frf, tested, res_signals)
                              if tested is not None and gap_channels else (False, [], []))
+    if tested is not None and gap_channels and not white:
+        # a larger plausible set whose residuals are white, within RESCUE of the score,
+        # is the better answer (the score alone cannot see structure below the floor)
+        larger = [c for c in candidates if c.plausible and c.identifies
+                  and set(c.names) > set(best.names) and c.score >= best.score - RESCUE]
+        for c in sorted(larger, key=lambda c: -c.score)[:3]:
+            w2, f2, l2 = _residual_tests(pr, eqf, frf, c, res_signals)
+            if w2:
+                say(f'{c.label}: white residuals where {best.label} leaves structure')
+                best = tested = c
+                white, findings, left = w2, f2, l2
+                candidates.sort(key=lambda c: (c is not best, not (c.plausible and c.identifies),
+                                               -c.score, c.fit.n_active, len(c.names)))
+                break
     verdict, ambiguous, suggestion = _verdict(gap_channels, tested, candidates, white)
     best_label = best.label if verdict not in ('no_gap', 'unexplained') else None
     after = best if best_label else nominal_cand
@@ -399,17 +426,19 @@ def _shrink(before: float, after: float, floor: float) -> float:
 
 def _plausibility(f: FitResult) -> tuple[dict[str, tuple[float, float]], list[str]]:
     """Identified parameters at or beyond their plausible range (key -> range), and the
-    effects of the set that identify nothing (no identified parameter whose 95 % interval
-    excludes its "absent" value)."""
+    effects of the set that identify nothing (no identified parameter whose 95 % interval,
+    the fit's own before widening, excludes its "absent" value)."""
     single = len(f.effects.names) == 1
     beyond: dict[str, tuple[float, float]] = {}
     found: dict[str, bool] = {n: False for n in f.effects.names}
-    for (e, p), v, a, lo, hi in zip(f.effects.params, f.values, f.active, f.lo95, f.hi95):
+    sig = f.significant if f.significant is not None else (f.lo95 > f.absent_values) | (
+        f.hi95 < f.absent_values)
+    for (e, p), v, a, s in zip(f.effects.params, f.values, f.active, sig):
         if not a:
             continue
         if not p.is_plausible(float(v)):
             beyond[p.name if single else f'{e}.{p.name}'] = p.plausible_range
-        if lo > p.absent or hi < p.absent:
+        if s:
             found[e] = True
     return beyond, [n for n, ok in found.items() if not ok]
 

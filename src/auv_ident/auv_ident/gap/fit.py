@@ -47,6 +47,14 @@ class FitResult:
     lo95: np.ndarray
     hi95: np.ndarray
     stage: str
+    #: per parameter: the fit's own interval excludes the "absent" value (before any
+    #: widening to cover another estimator); None: use ``lo95``/``hi95``
+    significant: np.ndarray | None = None
+
+    @property
+    def absent_values(self) -> np.ndarray:
+        """The "absent" value of every parameter."""
+        return self.effects.absent
 
     @property
     def n_active(self) -> int:
@@ -275,9 +283,10 @@ class FreeRunFit:
                                        values=np.where(active, values, es.absent))
             return self.fit(kept, max_nfev=max(2, max_nfev // 2), prune=False,
                             cover=np.where(active, start.values, es.absent))
+        significant = active & ((lo > es.absent) | (hi < es.absent))
         # the two fits are different estimators of the same parameters: widen the interval
         # to cover the equation-error estimate, so a disagreement shows as a wider interval
         other = start.values if cover is None else cover
         lo = np.where(active, np.minimum(lo, other), lo)
         hi = np.where(active, np.maximum(hi, other), hi)
-        return FitResult(es, values, active, lo, hi, 'free_run')
+        return FitResult(es, values, active, lo, hi, 'free_run', significant)
