@@ -32,6 +32,12 @@ CASES: dict[str, dict[str, dict[str, float]]] = {
 INVISIBLE = {'depth_sensor_bias'}
 #: Effects of a form the catalogue does not have.
 OUTSIDE = {'current_oscillation'}
+#: Effect files whose magnitude physics does not allow on this hull: the file's cross-flow
+#: drag (Zww = -2000 kg/m, Mqq = -10000 kg m^2) is a cross-flow drag coefficient of 1.8 and
+#: 2.9 on the A18M's 4.6 m x 0.477 m hull, beyond the 0.6-1.2 of a cylinder (Hoerner 1965).
+#: The diagnosis must find the fit and flag it, not call it the explanation
+#: (tests/test_gap_honest.py flies a physically sized one).
+BEYOND_PHYSICS = {'crossflow_drag'}
 
 
 @pytest.fixture(scope='module')
@@ -68,6 +74,11 @@ def test_panel(panel, case: str) -> None:  # type: ignore[no-untyped-def]
     if effects & OUTSIDE:
         assert r['verdict'] in ('unexplained', 'partly_explained'), r['verdict']
         return
+    if effects & BEYOND_PHYSICS:
+        assert r['best'] is None or not effects & set(r['best'].split('+')), r['best']
+        flagged = {n for i in r['implausible'] for n in i['effect'].split('+')}
+        assert effects <= flagged, r['implausible']
+        return
     assert r['verdict'] in ('explained', 'ambiguous'), r['verdict']
     named = set(r['best'].split('+'))
     if r['verdict'] == 'explained':
@@ -96,12 +107,13 @@ def test_report_files(panel, tmp_path: pathlib.Path) -> None:  # type: ignore[no
                                   'segments', 'regimes', 'band_hz'}
     assert set(report['gap']['free_run_rms']) == {'z', 'theta', 'w', 'q', 'u'}
     assert set(report['gap']['equation_rms']) == {'surge', 'heave', 'pitch', 'sway', 'yaw'}
-    assert set(report['held_out']) == {'rms_before', 'rms_after', 'shrink'}
+    assert {'rms_before', 'rms_after', 'shrink'} <= set(report['held_out'])
     for c in report['candidates']:
-        assert set(c) == {'effect', 'params', 'ci95', 'score', 'explained'}
+        assert {'effect', 'params', 'ci95', 'score', 'explained'} <= set(c)
         assert 0.0 <= c['explained'] <= 1.0
-    scores = [c['score'] for c in report['candidates']]
-    assert scores == sorted(scores, reverse=True)
+    assert report['candidates'][0]['effect'] == report['best']
+    viable = [c['score'] for c in report['candidates'] if c['plausible'] and c['identifies']]
+    assert viable[1:] == sorted(viable[1:], reverse=True)
     text = (tmp_path / 'gap' / 'report.md').read_text()
     assert 'Verdict: explained' in text and 'free_run_held_out.png' in text
     assert (tmp_path / 'gap' / 'free_run_held_out.png').stat().st_size > 1000

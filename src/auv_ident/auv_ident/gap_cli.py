@@ -102,6 +102,8 @@ def run(args: argparse.Namespace) -> int:
     say(f'verdict {r["verdict"]}' + (f', best {r["best"]}' if r['best'] else '')
         + f'; held-out depth RMS {r["held_out"]["rms_before"]["z"]:.3g} -> '
           f'{r["held_out"]["rms_after"]["z"]:.3g} m; wrote {path}')
+    if not args.quiet:
+        print(r['statement'], file=sys.stderr)
     return 0
 
 

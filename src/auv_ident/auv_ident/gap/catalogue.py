@@ -34,7 +34,21 @@ from typing import ClassVar
 import numpy as np
 
 from auv_ident.errors import GapError
-from auv_ident.gap.kernel import B_G, B_QQ, B_RR, B_UU, B_VV, B_WW, B_ZG, NB
+from auv_ident.gap.kernel import (
+    B_G,
+    B_QQ,
+    B_RR,
+    B_THRUST,
+    B_UQ,
+    B_UU,
+    B_UUBAR,
+    B_UW,
+    B_VV,
+    B_WW,
+    B_XDRAG,
+    B_ZG,
+    NB,
+)
 from auv_sim.params import VehicleParams
 
 #: Manoeuvres that separate effects, with what a user should fly. An effect's signature gives,
@@ -55,8 +69,15 @@ MANOEUVRES: dict[str, str] = {
 
 @dataclasses.dataclass(frozen=True)
 class Parameter:
-    """One parameter of an effect: name, unit, bounds, the value meaning "absent", and its
-    typical size ``scale`` (the optimiser's unit and finite-difference scale)."""
+    """One parameter of an effect: name, unit, search bounds ``lo``/``hi``, the value meaning
+    "absent", its typical size ``scale`` (the optimiser's unit and finite-difference scale),
+    and the range physics allows, ``plausible`` (``lo, hi`` in the same unit; default: the
+    search bounds) with its ``source``.
+
+    The search bounds are wider than the plausible range on purpose: a fit that runs past
+    what physics allows is evidence that the effect is the wrong explanation, and the
+    diagnosis says so (it never reports such a fit as ``explained``).
+    """
 
     name: str
     unit: str
@@ -64,6 +85,21 @@ class Parameter:
     hi: float
     absent: float
     scale: float
+    plausible: tuple[float, float] | None = None
+    source: str = ''
+
+    @property
+    def plausible_range(self) -> tuple[float, float]:
+        """``(lo, hi)`` physics allows [unit]."""
+        return self.plausible if self.plausible is not None else (self.lo, self.hi)
+
+    def is_plausible(self, value: float) -> bool:
+        """True when ``value`` lies strictly inside the plausible range, or exactly at an
+        end that is the "absent" value (a sign bound: zero is no effect, not an excess)."""
+        plo, phi = self.plausible_range
+        if plo < value < phi:
+            return True
+        return value == self.absent and value in (plo, phi)
 
 
 @dataclasses.dataclass
@@ -98,6 +134,9 @@ class Effect:
 
     name: ClassVar[str] = ''
     description: ClassVar[str] = ''
+    #: Effects of which this one is a special case (the same change of the model with fewer
+    #: parameters): a tie between them is not an ambiguity.
+    within: ClassVar[tuple[str, ...]] = ()
     equations: ClassVar[tuple[str, ...]] = ()
     signature: ClassVar[dict[str, float]] = {}
 
@@ -143,6 +182,51 @@ def separating_manoeuvre(a: str, b: str) -> str:
     return f'{best}: {MANOEUVRES[best]}'
 
 
+#: Sources of the plausible ranges (the table of docs/gap-diagnosis.md repeats them).
+SRC_CURRENT = ('horizontal currents: tidal streams in coastal straits reach 2-3 m/s; an AUV '
+               'cannot make way against more than its own speed (~2.5 m/s)')
+SRC_UPWELLING = ('vertical currents (internal waves, convection, upwelling) are mm/s to '
+                 'cm/s, rarely 0.1 m/s (Thorpe 2005, The Turbulent Ocean)')
+SRC_BALLAST = ('trim ballasting leaves |dB| within a few per mille of the weight; 5 % of the '
+               'weight (flooding, lost ballast) is the largest a flying vehicle survives')
+SRC_COMPRESS = ('sea water compressibility 4.4e-10 1/Pa (4.4e-6 1/m, UNESCO EOS-80); hulls and '
+                'syntactic foam compress by the same order: |k| <= 1e-4 1/m (1 % per 100 m)')
+SRC_DELAY = ('bus, servo-controller and sample-and-hold latencies: tens to hundreds of ms; '
+             'a delay is positive, 1.5 s bounds a broken link (assumed)')
+SRC_LAG = ('fin servos have time constants 0.05-0.5 s (bandwidth 0.3-3 Hz); a lag is '
+           'positive; 2 s bounds a failing servo (assumed)')
+SRC_RATE = ('fin servos move 5-60 deg/s (0.09-1 rad/s); 0.01 rad/s (0.6 deg/s) bounds a '
+            'failing one (assumed)')
+SRC_BAR_BIAS = 'fin zeroing and mounting errors are a few degrees: |bias| <= 0.1 rad (assumed)'
+SRC_CROSSFLOW = ('hull as a cylinder in cross-flow: Zww = -1/2 rho Cd D L, Mqq = -1/2 rho Cd '
+                 'D L^4 / 32 (and Yvv, Nrr alike); Cd of a circular cylinder 0.6-1.2 '
+                 '(Hoerner 1965, Fluid-Dynamic Drag), Prestero 2001 uses 1.1 for '
+                 'REMUS; dissipative sign; plausible up to Cd = 1.2')
+SRC_CG = ('ballasting places the centre of gravity to within 2 % of the length along the '
+          'hull and 10 % of the diameter vertically (assumed)')
+SRC_DEPTH_BIAS = ('atmospheric pressure (+-0.1 bar ~ 1 m) and density errors: |bias| <= 2 m '
+                  '(assumed)')
+SRC_PITCH_BIAS = 'AHRS mounting errors are a degree or two: |bias| <= 0.05 rad (assumed)'
+SRC_COEF = ('semi-empirical derivatives (slender-body theory, DATCOM) are commonly off by '
+            'tens of per cent, at worst a factor 2-3, against captive-model or flight data; '
+            'the sign is fixed by the hull: factor 0.25-4 (assumed)')
+SRC_PLANE = ('fouling, damage and hull interference lower a fin\'s lift; a lift-slope '
+             'estimate may be low by a third: gain 0.3-1.5 (assumed)')
+SRC_THRUST = ('propeller thrust against the command: wear, fouling, a mis-set thrust map; '
+              'gain 0.7-1.3 (assumed)')
+
+#: The largest cross-flow drag coefficient of the hull that is physically plausible.
+CROSSFLOW_CD_MAX = 1.2
+
+
+def crossflow_unit(vehicle: VehicleParams) -> tuple[float, float]:
+    """Magnitudes of Zww [kg/m] and Mqq [kg m^2] for a cross-flow drag coefficient of 1 on
+    the hull taken as a cylinder of the vehicle's diameter and length."""
+    length, diam = vehicle.L_ref, vehicle.diameter
+    zww = 0.5 * vehicle.rho * diam * length
+    return zww, zww * length ** 3 / 32.0
+
+
 def _dynamic_pressure_area(vehicle: VehicleParams) -> float:
     """``1/2 rho S_ref`` [kg/m]."""
     qs: float = 0.5 * vehicle.rho * vehicle.S_ref
@@ -173,9 +257,9 @@ class Current(Effect):
     signature = {'speed change': 0.0, 'heading change': 1.0}
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
-        return (Parameter('north', 'm/s', -2.5, 2.5, 0.0, 0.1),
-                Parameter('east', 'm/s', -2.5, 2.5, 0.0, 0.1),
-                Parameter('down', 'm/s', -0.5, 0.5, 0.0, 0.01))
+        return (Parameter('north', 'm/s', -5.0, 5.0, 0.0, 0.1, (-2.5, 2.5), SRC_CURRENT),
+                Parameter('east', 'm/s', -5.0, 5.0, 0.0, 0.1, (-2.5, 2.5), SRC_CURRENT),
+                Parameter('down', 'm/s', -0.5, 0.5, 0.0, 0.01, (-0.2, 0.2), SRC_UPWELLING))
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         pert.current += values[:3]
@@ -189,7 +273,8 @@ class BuoyancyOffset(Effect):
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         w = vehicle.W
-        return (Parameter('dB', 'N', -0.05 * w, 0.05 * w, 0.0, 0.002 * w),)
+        return (Parameter('dB', 'N', -0.15 * w, 0.15 * w, 0.0, 0.002 * w,
+                          (-0.05 * w, 0.05 * w), SRC_BALLAST),)
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         # extra buoyancy acts upward (-gravity direction) at the centre of buoyancy
@@ -203,7 +288,7 @@ class BuoyancyDepth(Effect):
     signature = {'speed change': -1.0, 'depth excursion': 1.0}
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
-        return (Parameter('k', '1/m', -1e-3, 1e-3, 0.0, 1e-5),)
+        return (Parameter('k', '1/m', -1e-3, 1e-3, 0.0, 1e-5, (-1e-4, 1e-4), SRC_COMPRESS),)
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         _add_force_at(pert, B_ZG, -vehicle.B * values[0], (vehicle.xb, vehicle.yb, vehicle.zb))
@@ -216,7 +301,7 @@ class ActuatorDelay(Effect):
     signature = {'speed change': 2.0, 'plane doublets of several periods': 1.0}
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
-        return (Parameter('bar', 's', 0.0, 3.0, 0.0, 0.1),)
+        return (Parameter('bar', 's', 0.0, 3.0, 0.0, 0.1, (0.0, 1.5), SRC_DELAY),)
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         pert.delay[0] += values[0]
@@ -229,7 +314,8 @@ class ActuatorLag(Effect):
     signature = {'speed change': 2.0, 'plane doublets of several periods': 0.5}
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
-        return (Parameter('bar_tau', 's', vehicle.dt, 10.0, vehicle.bar_tau, 0.2),)
+        return (Parameter('bar_tau', 's', vehicle.dt, 10.0, vehicle.bar_tau, 0.2, (0.0, 2.0),
+                          SRC_LAG),)
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         pert.tau[0] = values[0]
@@ -244,7 +330,8 @@ class ActuatorRateLimit(Effect):
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('bar_rate', 'rad/s', 0.002, max(2.0, vehicle.bar_rate),
-                          vehicle.bar_rate, 0.02),)
+                          vehicle.bar_rate, 0.02, (0.01, max(1.5, vehicle.bar_rate)),
+                          SRC_RATE),)
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         pert.rate[0] = values[0]
@@ -257,7 +344,7 @@ class BarBias(Effect):
     signature = {'speed change': 2.0}
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
-        return (Parameter('bias', 'rad', -0.2, 0.2, 0.0, 0.005),)
+        return (Parameter('bias', 'rad', -0.2, 0.2, 0.0, 0.005, (-0.1, 0.1), SRC_BAR_BIAS),)
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         qs = _dynamic_pressure_area(vehicle)
@@ -273,13 +360,16 @@ class CrossflowDrag(Effect):
     signature = {'plane steps of several sizes': 1.0}
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
-        length, diam = vehicle.L_ref, vehicle.diameter
-        zww = 0.5 * vehicle.rho * diam * length  # crossflow Cd = 1 scale [kg/m]
-        mqq = zww * length ** 3 / 32.0           # the same over the length [kg m^2]
-        return (Parameter('Zww', 'kg/m', -50 * zww, 50 * zww, 0.0, zww),
-                Parameter('Mqq', 'kg m^2', -50 * mqq, 50 * mqq, 0.0, mqq),
-                Parameter('Yvv', 'kg/m', -50 * zww, 50 * zww, 0.0, zww),
-                Parameter('Nrr', 'kg m^2', -50 * mqq, 50 * mqq, 0.0, mqq))
+        zww, mqq = crossflow_unit(vehicle)
+        cd = CROSSFLOW_CD_MAX
+        return (Parameter('Zww', 'kg/m', -20 * zww, 5 * zww, 0.0, zww, (-cd * zww, 0.0),
+                          SRC_CROSSFLOW),
+                Parameter('Mqq', 'kg m^2', -20 * mqq, 5 * mqq, 0.0, mqq, (-cd * mqq, 0.0),
+                          SRC_CROSSFLOW),
+                Parameter('Yvv', 'kg/m', -20 * zww, 5 * zww, 0.0, zww, (-cd * zww, 0.0),
+                          SRC_CROSSFLOW),
+                Parameter('Nrr', 'kg m^2', -20 * mqq, 5 * mqq, 0.0, mqq, (-cd * mqq, 0.0),
+                          SRC_CROSSFLOW))
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         pert.C[B_WW, 2] += values[0]
@@ -297,8 +387,9 @@ class CgOffset(Effect):
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         lim = 0.05 * vehicle.L_ref
-        return (Parameter('dxg', 'm', -lim, lim, 0.0, 0.002),
-                Parameter('dzg', 'm', -lim, lim, 0.0, 0.002))
+        px, pz = 0.02 * vehicle.L_ref, 0.1 * vehicle.diameter
+        return (Parameter('dxg', 'm', -lim, lim, 0.0, 0.002, (-px, px), SRC_CG),
+                Parameter('dzg', 'm', -lim, lim, 0.0, 0.002, (-pz, pz), SRC_CG))
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         w = vehicle.W
@@ -317,7 +408,7 @@ class DepthSensorBias(Effect):
     signature = {'surface reference': 1.0, 'depth excursion': 0.5}
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
-        return (Parameter('bias', 'm', -10.0, 10.0, 0.0, 0.1),)
+        return (Parameter('bias', 'm', -10.0, 10.0, 0.0, 0.1, (-2.0, 2.0), SRC_DEPTH_BIAS),)
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         pert.bias[2] += values[0]
@@ -330,13 +421,73 @@ class PitchSensorBias(Effect):
     signature = {'speed change': 1.0}
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
-        return (Parameter('bias', 'rad', -0.2, 0.2, 0.0, 0.005),)
+        return (Parameter('bias', 'rad', -0.2, 0.2, 0.0, 0.005, (-0.05, 0.05),
+                          SRC_PITCH_BIAS),)
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         pert.bias[4] += values[0]
 
 
+#: The coefficients of the vertical plane and of surge that ``auv ident`` fits, as (name,
+#: basis row, body row, power of L_ref in the wrench; None: the basis holds the whole term per
+#: unit coefficient): ``Z = qs (CZuw ur wr + CZuq L ur q + CZbar ur|ur| bar)``,
+#: ``M = qs L (CMuw ur wr + CMuq L ur q + CMbar ur|ur| bar)``, ``X = -Ksh qs C_XF(Re) ur|ur|``.
+COEFFICIENTS = (('CZuw', B_UW, 2, 0), ('CMuw', B_UW, 4, 1), ('CZuq', B_UQ, 2, 1),
+                ('CMuq', B_UQ, 4, 2), ('CZbar', B_UUBAR, 2, 0), ('CMbar', B_UUBAR, 4, 1),
+                ('Ksh', B_XDRAG, 0, None))
+
+
+class Coefficients(Effect):
+    name = 'coefficients'
+    description = ("the model's own coefficients are off: each of CZuw, CMuw, CZuq, CMuq, "
+                   'CZbar, CMbar and Ksh is re-fitted as a factor on its file value')
+    equations = ('heave', 'pitch', 'surge')
+    signature = {'speed change': 1.0, 'plane doublets of several periods': 1.0,
+                 'plane steps of several sizes': 0.0}
+
+    def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
+        return tuple(Parameter(n, 'x file value', -1.0, 6.0, 1.0, 0.05, (0.25, 4.0), SRC_COEF)
+                     for n, _, _, _ in COEFFICIENTS)
+
+    def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
+        qs = _dynamic_pressure_area(vehicle)
+        for k, (n, row, col, power) in enumerate(COEFFICIENTS):
+            unit = 1.0 if power is None else qs * vehicle.L_ref ** power
+            pert.C[row, col] += (values[k] - 1.0) * unit * float(getattr(vehicle, n))
+
+
+class PlaneEffectiveness(Effect):
+    name = 'plane_effectiveness'
+    within = ('coefficients',)
+    description = ("the dive plane's lift and moment are a gain times the file's "
+                   '(CZbar, CMbar scaled together)')
+    equations = ('heave', 'pitch')
+    signature = {'plane steps of several sizes': 1.0, 'speed change': 2.0,
+                 'plane doublets of several periods': 1.0}
+
+    def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
+        return (Parameter('gain', '-', 0.0, 2.5, 1.0, 0.05, (0.3, 1.5), SRC_PLANE),)
+
+    def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
+        qs = _dynamic_pressure_area(vehicle)
+        pert.C[B_UUBAR, 2] += (values[0] - 1.0) * qs * vehicle.CZbar
+        pert.C[B_UUBAR, 4] += (values[0] - 1.0) * qs * vehicle.L_ref * vehicle.CMbar
+
+
+class ThrustError(Effect):
+    name = 'thrust_error'
+    description = 'the propeller gives a gain times the commanded thrust'
+    equations = ('surge',)
+    signature = {'speed change': 1.0}
+
+    def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
+        return (Parameter('gain', '-', 0.2, 2.5, 1.0, 0.02, (0.7, 1.3), SRC_THRUST),)
+
+    def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
+        pert.C[B_THRUST, 0] += values[0] - 1.0
+
+
 for _effect in (Current(), BuoyancyOffset(), BuoyancyDepth(), ActuatorDelay(), ActuatorLag(),
                 ActuatorRateLimit(), BarBias(), CrossflowDrag(), CgOffset(), DepthSensorBias(),
-                PitchSensorBias()):
+                PitchSensorBias(), Coefficients(), PlaneEffectiveness(), ThrustError()):
     register(_effect)

@@ -7,17 +7,24 @@ Steps (see :func:`diagnose`):
    initial-state uncertainty plus the sensor noise); channels whose RMS exceeds the floor by
    ``GAP_FACTOR`` carry a gap. No such channel: ``no_gap``.
 2. Equation error of the nominal model; where the gap lies (:mod:`auv_ident.gap.analysis`).
-3. Every catalogue effect fitted by equation error on the training windows, scored by free
+3. Every catalogue effect (among them ``coefficients``: the model's own vertical-plane
+   coefficients re-fitted) fitted by equation error on the training windows, scored by free
    run on the held-out windows; the ``top`` best refined by free-run error and scored again.
-4. Combinations, greedily: the best set plus each other top effect, refitted jointly, kept
-   while the held-out score improves.
-5. Verdict from the held-out share of the gap explained and from the candidates the
-   held-out windows cannot tell from the best.
+4. Combinations, greedily: the best plausible set plus each other effect, refitted jointly,
+   kept while the held-out score improves, every parameter stays plausible and the added
+   effect identifies something (an interval that excludes its "absent" value).
+5. Verdict (:func:`_verdict`): plausibility, the held-out share of the gap explained, the
+   residual tests of :mod:`auv_ident.gap.residuals`, and the candidates the held-out windows
+   cannot tell from the best. When the best leaves structure in its residuals, a larger
+   plausible set that leaves none, within ``RESCUE`` of its score, replaces it.
 
 Score: ``ln(J_nominal / J_candidate) - PARAM_PRICE * k`` with ``J`` the held-out free-run
 cost (mean over samples of the squared channel errors over their scales) and ``k`` the number
 of identified parameters: a parameter must buy a PARAM_PRICE share of the held-out cost.
-``explained = (J_nominal - J) / (J_nominal - J_floor)``, clipped to [0, 1].
+Scores within ``TIE`` of each other are a tie, which goes to the simpler candidate.
+``explained = (J_nominal - J) / (J_nominal - J_floor)``, clipped to [0, 1]: the share of what
+could shrink (the gap above the noise floor) that did. ``held_out.shrink`` is this same share
+for the chosen candidate; ``held_out.shrink_depth`` the same in depth RMS alone.
 """
 from __future__ import annotations
 
@@ -28,19 +35,22 @@ from typing import Any
 
 import numpy as np
 
-from auv_ident.gap import analysis
+from auv_ident.gap import analysis, residuals
 from auv_ident.gap.catalogue import CATALOGUE, Perturbation, get_effect, separating_manoeuvre
 from auv_ident.gap.fit import EquationFit, FitResult, FreeRunFit
 from auv_ident.gap.logs import GapLog
 from auv_ident.gap.problem import CH_INDEX, CH_NAMES, EQUATIONS, EffectSet, Problem
+from auv_ident.gap.wording import describe
 from auv_sim.params import VehicleParams
 
 GAP_FACTOR = analysis.GAP_FACTOR
 PARAM_PRICE = 0.05
-EXPLAINED = 0.8          # explained share of the held-out gap for "explained"
+EXPLAINED = 0.9          # explained share of the held-out gap for "explained"
 PARTLY = 0.3             # ... for "partly_explained"
 AMBIGUOUS_RATIO = 1.25   # held-out cost within this factor of the best ...
 AMBIGUOUS_T = 2.0        # ... and not worse by this many standard errors over the windows
+TIE = 0.02               # scores closer than this are a tie: the simpler candidate wins
+RESCUE = 0.1             # a larger set with white residuals may score this much less
 MC_RUNS = 4
 
 Progress = Callable[[str], None]
@@ -56,6 +66,19 @@ class Candidate:
     rms: dict[str, float]       # held-out free-run RMS per state of CH_NAMES
     score: float = -math.inf
     explained: float = 0.0
+    beyond: dict[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
+    empty: list[str] = dataclasses.field(default_factory=list)
+
+    @property
+    def plausible(self) -> bool:
+        """Every identified parameter lies inside its physically plausible range."""
+        return not self.beyond
+
+    @property
+    def identifies(self) -> bool:
+        """Every effect of the set identifies something: at least one of its parameters is
+        identified with a 95 % interval that excludes its "absent" value."""
+        return not self.empty
 
     @property
     def label(self) -> str:
@@ -107,6 +130,7 @@ class _Scorer:
             gap = self.nominal_cost - self.floor_cost
             cand.explained = float(np.clip((self.nominal_cost - cost) / gap, 0.0, 1.0)) \
                 if gap > 0 else 0.0
+            cand.beyond, cand.empty = _plausibility(f)
             res.append(cand)
         return res
 
@@ -211,9 +235,10 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     singles_a = {n: eqf.fit(EffectSet([n], vehicle)) for n in names}
     cands_a = {c.label: c for c in scorer.evaluate(list(singles_a.values()))}
     order = sorted(names, key=lambda n: -cands_a[n].score)
-    order = [n for n in order if singles_a[n].n_active > 0] + \
-        [n for n in order if singles_a[n].n_active == 0]
-    refine = [n for n in order[:top] if singles_a[n].n_active > 0]
+    # refine the best that identify something, plausible ones first
+    order = [n for n in order if singles_a[n].n_active > 0 and cands_a[n].plausible] + \
+        [n for n in order if singles_a[n].n_active > 0 and not cands_a[n].plausible]
+    refine = order[:top]
     say(f'free-run refinement of {", ".join(refine)}')
     singles: dict[str, Candidate] = dict(cands_a)
     refined = scorer.evaluate([frf.fit(singles_a[n]) for n in refine])
@@ -223,44 +248,86 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     ranked_singles = sorted(singles.values(), key=lambda c: -c.score)
     candidates: list[Candidate] = list(ranked_singles)
 
-    # 4. combinations: equation error ranks every addition, free run refines the best ones
-    best = ranked_singles[0]
+    # 4. combinations: equation error ranks every addition, free run refines the best ones;
+    # only plausible sets whose every effect identifies something count
+    viable = [c for c in ranked_singles if c.plausible and c.identifies]
+    best = _simplest(viable) if viable else nominal_cand
     pool = list(names)
-    while gap_channels and best.score > 0 and len(best.names) < max_effects:
+    while gap_channels and viable and best.score > 0 and len(best.names) < max_effects:
         base_cost = eqf.cost(best.fit.effects, best.fit.values, held_out=True)
-        ranked = []
+        ranked, joint = [], {}
         for n in pool:
             if n in best.names:
                 continue
             es = EffectSet((*best.names, n), vehicle)
             start = np.concatenate([best.fit.values, singles_a[n].values])
-            fa = eqf.fit(es, start=start)
+            fa = joint[n] = eqf.fit(es, start=start)
             cost = eqf.cost(es, fa.values, held_out=True)
             if cost < base_cost:
                 ranked.append((cost, fa))
         ranked.sort(key=lambda item: item[0])
-        trials = [frf.fit(fa) for _, fa in ranked[:max(1, top - 1)]]
+        chosen = [fa for _, fa in ranked[:max(1, top - 1)]]
+        # and the addition of the best single effect by held-out free run not yet tried
+        # (equation error ranks actuator effects poorly: their signature is in the free run)
+        tried = {fa.effects.names[-1] for fa in chosen}
+        extra = next((c.names[0] for c in viable if len(c.names) == 1
+                      and c.names[0] not in best.names and c.names[0] not in tried), None)
+        if extra is not None:
+            chosen.append(joint[extra])
+        trials = [frf.fit(fa) for fa in chosen]
         if not trials:
             break
         say(f'combinations: {", ".join(t.effects.label for t in trials)}')
         evaluated = scorer.evaluate(trials)
         candidates.extend(evaluated)
-        top_trial = max(evaluated, key=lambda c: c.score)
-        if top_trial.score <= best.score:
+        good = [c for c in evaluated if c.plausible and c.identifies]
+        if not good:
+            break
+        top_trial = max(good, key=lambda c: c.score)
+        if top_trial.score <= best.score + TIE:
             break
         best = top_trial
-    candidates.sort(key=lambda c: -c.score)
+    # ranked: the chosen best first, then the other plausible candidates that identify
+    # something, then the rest, each by score (ties: fewer parameters first)
+    candidates.sort(key=lambda c: (c is not best, not (c.plausible and c.identifies),
+                                   -c.score, c.fit.n_active, len(c.names)))
 
-    # 5. verdict
-    verdict, ambiguous, suggestion = _verdict(gap_channels, best, candidates)
-    best_label = best.label if verdict != 'no_gap' and best.score > 0 else None
+    # 5. residual tests of the best, and the verdict
+    res_signals = {'z': pr.eq_state[:, 2], 'u': pr.eq_state[:, 6], 'theta': pr.eq_state[:, 4],
+                   'w': pr.eq_state[:, 8], 'q': pr.eq_state[:, 10], 'bar_command': bar_cmd,
+                   'bar_command_rate': bar_rate, 'thrust_command': thr_cmd}
+    tested = best if best.names else None
+    white, findings, left = (_residual_tests(pr, eqf, frf, tested, res_signals)
+                             if tested is not None and gap_channels else (False, [], []))
+    if tested is not None and gap_channels and not white:
+        # a larger plausible set whose residuals are white, within RESCUE of the score,
+        # is the better answer (the score alone cannot see structure below the floor)
+        larger = [c for c in candidates if c.plausible and c.identifies
+                  and set(c.names) > set(best.names) and c.score >= best.score - RESCUE]
+        for c in sorted(larger, key=lambda c: -c.score)[:3]:
+            w2, f2, l2 = _residual_tests(pr, eqf, frf, c, res_signals)
+            if w2:
+                say(f'{c.label}: white residuals where {best.label} leaves structure')
+                best = tested = c
+                white, findings, left = w2, f2, l2
+                candidates.sort(key=lambda c: (c is not best, not (c.plausible and c.identifies),
+                                               -c.score, c.fit.n_active, len(c.names)))
+                break
+    verdict, ambiguous, suggestion = _verdict(gap_channels, tested, candidates, white)
+    best_label = best.label if verdict not in ('no_gap', 'unexplained') else None
     after = best if best_label else nominal_cand
+    z_i, th_i = CH_NAMES.index('z'), CH_NAMES.index('theta')
     held = {
         'rms_before': {'z': nominal_cand.rms['z'], 'theta': nominal_cand.rms['theta']},
         'rms_after': {'z': after.rms['z'], 'theta': after.rms['theta']},
-        'shrink': float(np.clip(1.0 - after.rms['z'] / nominal_cand.rms['z'], 0.0, 1.0))
-        if nominal_cand.rms['z'] > 0 else 0.0,
+        'shrink': after.explained,
+        'shrink_depth': _shrink(nominal_cand.rms['z'], after.rms['z'], float(floor[z_i])),
+        'floor': {'z': float(floor[z_i]), 'theta': float(floor[th_i])},
     }
+    implausible = [{'effect': c.label, 'explained': c.explained,
+                    'beyond': {k: [v, *c.beyond[k]] for k, v in _entry_params(c).items()
+                               if k in c.beyond}}
+                   for c in candidates if not c.plausible and c.explained >= PARTLY]
     report = {
         'verdict': verdict,
         'gap': gap,
@@ -269,6 +336,12 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
         'ambiguous_with': ambiguous,
         'suggested_manoeuvre': suggestion,
         'held_out': held,
+        'statement': _statement(verdict, best if best_label else None, implausible, left),
+        'residual_tests': {'white': white, 'left_over': left,
+                           'alpha': residuals.ALPHA, 'n_tests': len(findings),
+                           'residual': 'held-out equation error, one sample per smoothing '
+                                       'window'},
+        'implausible': implausible,
     }
     details = {
         'logs': [{'name': lg.name, 't0': float(lg.t[0]), 'duration_s': lg.duration,
@@ -283,7 +356,8 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
         'equation_rms_all': dict(zip(EQUATIONS, map(float, eq_rms))),
         'correlation': [{k: v for k, v in c.items() if k not in ('curve', 'lags')}
                         for c in corr],
-        'held_out_cost': {'nominal': nominal_cost, 'floor': floor_cost},
+        'residual_tests': [dataclasses.asdict(f) for f in findings],
+        'held_out_cost': {'nominal': nominal_cost, 'floor': floor_cost, 'best': after.cost},
         'candidates': [_candidate_details(c) for c in candidates],
         'integration_step_s': pr.dt,
         'window_s': window,
@@ -300,18 +374,25 @@ def _held_at(cmd: tuple[np.ndarray, np.ndarray], t: np.ndarray) -> np.ndarray:
     return va[np.clip(i, 0, va.size - 1)]
 
 
-def _verdict(gap_channels: list[str], best: Candidate, candidates: list[Candidate]
-             ) -> tuple[str, list[str], str | None]:
+def _verdict(gap_channels: list[str], best: Candidate | None, candidates: list[Candidate],
+             white: bool) -> tuple[str, list[str], str | None]:
+    """``(verdict, ambiguous_with, suggested_manoeuvre)``.
+
+    ``explained`` needs all of: a plausible best that identifies every effect it names, an
+    explained share of at least ``EXPLAINED`` and white, independent residuals; a plausible
+    best short of one of the last two is ``partly_explained``; implausible fits never count.
+    """
     if not gap_channels:
         return 'no_gap', [], None
-    if best.score <= 0 or best.explained < PARTLY:
+    if best is None or best.score <= 0 or best.explained < PARTLY:
         return 'unexplained', [], None
-    verdict = 'explained' if best.explained >= EXPLAINED else 'partly_explained'
+    verdict = 'explained' if best.explained >= EXPLAINED and white else 'partly_explained'
     mine = set(best.names)
     ambiguous: list[str] = []
     for c in candidates:
         s = set(c.names)
-        if s <= mine or s >= mine or c.cost > AMBIGUOUS_RATIO * best.cost:
+        if not (c.plausible and c.identifies) or _nested(s, mine) or _nested(mine, s) \
+                or c.cost > AMBIGUOUS_RATIO * best.cost:
             continue
         d = c.window_cost - best.window_cost
         se = float(np.std(d, ddof=1) / np.sqrt(d.size)) if d.size > 1 else math.inf
@@ -325,6 +406,106 @@ def _verdict(gap_channels: list[str], best: Candidate, candidates: list[Candidat
     return verdict, [], None
 
 
+def _nested(a: set[str], b: set[str]) -> bool:
+    """Every effect of ``a`` is in ``b`` or a special case of one in ``b``."""
+    return all(n in b or set(get_effect(n).within) & b for n in a)
+
+
+def _simplest(cands: Sequence[Candidate]) -> Candidate:
+    """The best-scoring candidate, a tie (within ``TIE``) going to fewer parameters."""
+    top = max(c.score for c in cands)
+    tied = [c for c in cands if c.score >= top - TIE]
+    return min(tied, key=lambda c: (c.fit.n_active, -c.score))
+
+
+def _shrink(before: float, after: float, floor: float) -> float:
+    """Share of the RMS above the noise floor that a candidate removes, in [0, 1]."""
+    room = before - floor
+    return float(np.clip((before - after) / room, 0.0, 1.0)) if room > 0 else 0.0
+
+
+def _plausibility(f: FitResult) -> tuple[dict[str, tuple[float, float]], list[str]]:
+    """Identified parameters at or beyond their plausible range (key -> range), and the
+    effects of the set that identify nothing (no identified parameter whose 95 % interval,
+    the fit's own before widening, excludes its "absent" value)."""
+    single = len(f.effects.names) == 1
+    beyond: dict[str, tuple[float, float]] = {}
+    found: dict[str, bool] = {n: False for n in f.effects.names}
+    sig = f.significant if f.significant is not None else (f.lo95 > f.absent_values) | (
+        f.hi95 < f.absent_values)
+    for (e, p), v, a, s in zip(f.effects.params, f.values, f.active, sig):
+        if not a:
+            continue
+        if not p.is_plausible(float(v)):
+            beyond[p.name if single else f'{e}.{p.name}'] = p.plausible_range
+        if s:
+            found[e] = True
+    return beyond, [n for n, ok in found.items() if not ok]
+
+
+def _residual_tests(pr: Problem, eqf: EquationFit, frf: FreeRunFit, cand: Candidate,
+                    signals: dict[str, np.ndarray]
+                    ) -> tuple[bool, list[residuals.Finding], list[str]]:
+    """Residual tests (:mod:`auv_ident.gap.residuals`) of ``cand`` on the held-out windows:
+    its equation errors (one sample per smoothing window) and its free-run depth and pitch
+    errors (one sample a second)."""
+    e = eqf.residual(cand.fit.effects, cand.fit.values)
+    eq_dt = float(np.median(np.diff(pr.eq_t[pr.eq_window == pr.eq_window[0]])))
+    step = max(1, int(math.ceil(pr.smooth_window / eq_dt - 1e-9)))
+    held = sorted(set(pr.eq_window[pr.eq_held].tolist()))
+    rows = [np.flatnonzero(pr.eq_window == w)[::step] for w in held]
+    one_step = residuals.Group({n: [e[r, k] for r in rows] for k, n in enumerate(EQUATIONS)},
+                               {n: [v[r] for r in rows] for n, v in signals.items()},
+                               eq_dt * step, white=True)
+    out, meas = pr.free_run([cand.fit.effects.perturbation(cand.fit.values)], frf.held)
+    t_out = pr.output_times(frf.held)
+    out_dt = pr.m * pr.period
+    every = max(1, int(round(1.0 / out_dt)))
+    wrows = [np.arange(r.start, r.stop)[::every] for r in pr.window_rows(frf.held)]
+    err = (out[0] - meas)
+    fr_res = {f'free-run {n}': [err[r, i] for r in wrows] for n, i in (('depth', 2),
+                                                                         ('pitch', 4))}
+    logs = [pr.windows[w].log for w in frf.held]
+    cmd = {ch: [_held_at(pr.logs[lg].commands[ch], t_out[r]) for r, lg in zip(wrows, logs)]
+           for ch in ('bar', 'thrust')}
+    fr_sig = {n: [meas[r, i] for r in wrows] for n, i in (('z', 2), ('u', 6), ('theta', 4),
+                                                            ('w', 8), ('q', 10))}
+    for n, i in (('w_dot', 8), ('q_dot', 10)):
+        fr_sig[n] = [np.gradient(meas[r, i], out_dt * every) for r in wrows]
+    fr_sig['bar_command'] = cmd['bar']
+    fr_sig['thrust_command'] = cmd['thrust']
+    win = max(2, min(r.size for r in wrows) // 2)
+    free = residuals.Group(fr_res, fr_sig, out_dt * every, white=False, acf_lags=win)
+    return residuals.residual_tests([one_step, free])
+
+
+def _entry_params(c: Candidate) -> dict[str, float]:
+    return {_param_key(c, e, p.name): float(v) for (e, p), v in zip(c.fit.effects.params,
+                                                                     c.fit.values)}
+
+
+def _statement(verdict: str, best: Candidate | None, implausible: list[dict[str, Any]],
+               left: list[str]) -> str:
+    """One paragraph for the user: what the diagnosis found, in words and units."""
+    parts = []
+    if verdict == 'no_gap':
+        parts.append('The model matches the logs to within the noise floor.')
+    elif best is None:
+        parts.append('No plausible effect of the catalogue explains the gap.')
+    else:
+        parts.append(f'{verdict.replace("_", " ").capitalize()}: '
+                     + describe(best.fit) + f' ({best.explained:.0%} of the held-out gap '
+                     'above the noise floor).')
+    for item in implausible[:3]:
+        ks = ', '.join(f'{k} = {v[0]:.4g} (plausible {v[1]:.4g} to {v[2]:.4g})'
+                       for k, v in item['beyond'].items())
+        parts.append(f'{item["effect"]} would explain {item["explained"]:.0%} but only with '
+                     f'{ks}: not a physical explanation.')
+    if left and best is not None:
+        parts.append('Left over in the held-out residuals: ' + '; '.join(left[:4]) + '.')
+    return ' '.join(parts)
+
+
 def _param_key(c: Candidate, effect: str, name: str) -> str:
     return name if len(c.names) == 1 else f'{effect}.{name}'
 
@@ -336,7 +517,9 @@ def _candidate_entry(c: Candidate) -> dict[str, Any]:
     ci = {_param_key(c, e, p.name): [float(lo), float(hi)]
           for (e, p), lo, hi in zip(f.effects.params, f.lo95, f.hi95)}
     return {'effect': c.label, 'params': params, 'ci95': ci, 'score': float(c.score),
-            'explained': float(c.explained)}
+            'explained': float(c.explained), 'plausible': c.plausible,
+            'beyond_plausible': {k: list(v) for k, v in c.beyond.items()},
+            'identifies': c.identifies}
 
 
 def _candidate_details(c: Candidate) -> dict[str, Any]:

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from auv_sim.model import ENV_SIZE, I_MINV, kinematics, rotation, wrenches
+from auv_sim.model import ENV_SIZE, I_KSH, I_MINV, kinematics, rotation, wrenches
 
 #: Basis functions of the extra wrench, in :func:`basis` order (dimension given per row).
 BASIS_NAMES = (
@@ -32,9 +32,14 @@ BASIS_NAMES = (
     'z_gx', 'z_gy', 'z_gz',     # depth [m] times the gravity direction
     'ur|ur|',                   # [m^2/s^2], surge speed through the water
     'wr|wr|', 'q|q|', 'vr|vr|', 'r|r|',  # cross-flow quadratic terms
+    'ur wr', 'ur q',            # [m^2/s^2], [m/s^2]: the model's own heave/pitch damping terms
+    'ur|ur| bar',               # [m^2/s^2 rad]: the dive plane's lift (plane position x[12])
+    'thrust',                   # [N]: the propeller's thrust (position x[14])
+    'surge_drag/Ksh',           # [N]: the model's surge drag per unit of its Ksh
 )
 NB = len(BASIS_NAMES)
 B_ONE, B_G, B_ZG, B_UU, B_WW, B_QQ, B_VV, B_RR = 0, 1, 4, 7, 8, 9, 10, 11
+B_UW, B_UQ, B_UUBAR, B_THRUST, B_XDRAG = 12, 13, 14, 15, 16
 OUT_STATES = 12  # eta and nu are written out
 
 
@@ -61,6 +66,11 @@ def basis(x, xr, phi):  # type: ignore[no-untyped-def]
     phi[9] = x[10] * abs(x[10])
     phi[10] = xr[7] * abs(xr[7])
     phi[11] = x[11] * abs(x[11])
+    phi[12] = xr[6] * xr[8]
+    phi[13] = xr[6] * x[10]
+    phi[14] = xr[6] * abs(xr[6]) * x[12]
+    phi[15] = x[14]
+    phi[16] = 0.0  # set by model_wrench from the model's own surge drag
 
 
 @njit(cache=True)
@@ -87,6 +97,8 @@ def model_wrench(x, cur, C, P, env0, prof0, xr, work, phi, ncb, tau):  # type: i
     xr[8] -= ncb[2]
     wrenches(0.0, xr, P, env0, prof0, work)
     basis(x, xr, phi)
+    if P[I_KSH] != 0.0:
+        phi[B_XDRAG] = work[0, 0] / P[I_KSH]
     for i in range(6):
         acc = work[0, i] + work[1, i] + work[2, i] + work[3, i]
         for j in range(NB):

@@ -4,6 +4,11 @@ equation-error samples, and the model evaluated for any set of effects.
 Windows: every log piece is cut into windows of ``window`` seconds; a free run restarts at
 each window from the smoothed logged state (so a long log never drifts far from the data and
 every window is an independent run). Whole windows are held out to score the effects.
+
+Actuator positions at a window's start come from the log's history: each candidate's actuator
+model is driven by the logged commands from the start of the log piece, and the first
+``ACT_SETTLE`` seconds of a piece (where the plane's position before the first command is
+unknown) start no window.
 """
 from __future__ import annotations
 
@@ -27,6 +32,9 @@ EQ_UNITS = ('N', 'N', 'N m', 'N', 'N m', 'm/s')
 #: States compared in free runs: z, theta, u, w, q, v, r (indices into the 12-state).
 CH_INDEX = (2, 4, 6, 8, 10, 7, 11)
 CH_NAMES = ('z', 'theta', 'u', 'w', 'q', 'v', 'r')
+#: Seconds at the start of each log piece for the actuator models to forget their unknown
+#: initial position (5 time constants of a 1-s lag).
+ACT_SETTLE = 5.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -150,7 +158,8 @@ class Problem:
         for li, lg in enumerate(self.logs):
             n = lg.t.size
             last = ((n - 1) // self.m) * self.m  # last sample on the output grid
-            starts = list(range(0, last, nwin))
+            settle = int(np.ceil(ACT_SETTLE / (self.period * self.m) - 1e-9)) * self.m
+            starts = list(range(min(settle, last), last, nwin))
             if len(starts) > 1 and last - starts[-1] < nwin // 2:
                 starts.pop()
             for j, i0 in enumerate(starts):

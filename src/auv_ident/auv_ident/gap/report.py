@@ -15,7 +15,7 @@ from auv_ident.gap.diagnose import Diagnosis
 from auv_ident.gap.problem import EQ_UNITS, EQUATIONS
 
 REPORT_KEYS = ('verdict', 'gap', 'candidates', 'best', 'ambiguous_with',
-               'suggested_manoeuvre', 'held_out')
+               'suggested_manoeuvre', 'held_out', 'statement', 'residual_tests', 'implausible')
 
 
 def _clean(obj: Any) -> Any:
@@ -60,6 +60,14 @@ def _markdown(diag: Diagnosis, figures: list[tuple[str, str]]) -> str:
     r, d = diag.report, diag.details
     lines = ['# Sim-to-real gap diagnosis', '']
     lines += [f'**Verdict: {r["verdict"]}**' + (f' — best: `{r["best"]}`' if r['best'] else '')]
+    lines += ['', r['statement']]
+    rt = r['residual_tests']
+    if r['best']:
+        lines += ['', f'Residual tests of the best ({rt["residual"]}; Ljung-Box, mean and '
+                  f'cross-correlation with inputs and states, {rt["n_tests"]} tests at a '
+                  f'family-wise level of {rt["alpha"]:g}): '
+                  + ('white and independent.' if rt['white'] else
+                     'structure left: ' + '; '.join(rt['left_over']) + '.')]
     if r['ambiguous_with']:
         lines += ['', f'The held-out data cannot tell `{r["best"]}` from '
                   + ', '.join(f'`{n}`' for n in r['ambiguous_with'])
@@ -71,7 +79,9 @@ def _markdown(diag: Diagnosis, figures: list[tuple[str, str]]) -> str:
               f'{_fmt(held["rms_after"]["z"], "m")} |',
               f'| pitch RMS | {_fmt(np.degrees(held["rms_before"]["theta"]), "deg")} | '
               f'{_fmt(np.degrees(held["rms_after"]["theta"]), "deg")} |', '',
-              f'Depth RMS shrink: {held["shrink"]:.1%} (1 - after / before) on windows not '
+              f'Shrink: {held["shrink"]:.1%} of the held-out gap above the noise floor (all '
+              f'states; depth alone {held["shrink_depth"]:.1%}, its floor '
+              f'{_fmt(held["floor"]["z"], "m")}) on windows not '
               'used to fit the effects. Free runs restart from the logged state at each '
               f'{d["window_s"]:g}-s window; the log is compared smoothed over 1 s.']
     gap = r['gap']
@@ -109,6 +119,8 @@ def _markdown(diag: Diagnosis, figures: list[tuple[str, str]]) -> str:
     for c in d['correlation']:
         lines.append(f'| {c["signal"]} | {c["peak_corr"]:.3f} | {c["lag_s"]:.2f} |')
     lines += ['', '## Candidates (held-out score, best first)', '',
+              'A candidate with a parameter at or beyond its physically plausible range '
+              '(marked !) is not an explanation, however well it fits.', '',
               '| effect | score | explained | parameters (95 % interval) |',
               '| --- | --- | --- | --- |']
     units = {c['effect']: c['units'] for c in d['candidates']}
@@ -118,6 +130,9 @@ def _markdown(diag: Diagnosis, figures: list[tuple[str, str]]) -> str:
         for k, v in c['params'].items():
             lo, hi = c['ci95'][k]
             tag = '' if ident[c['effect']][k] else ' (not identified: no sensitivity at the fit)'
+            if k in c['beyond_plausible']:
+                plo, phi = c['beyond_plausible'][k]
+                tag += f' ! beyond plausible [{_fmt(plo)}, {_fmt(phi)}]'
             parts.append(f'{k} = {_fmt(v)} [{_fmt(lo)}, {_fmt(hi)}] {units[c["effect"]][k]}'
                          + tag)
         lines.append(f'| {c["effect"]} | {_fmt(c["score"], digits=3)} | '

@@ -57,6 +57,8 @@ class Scenario:
 
     ``depth`` rows ``(t [s], z_ref [m])``; ``thrust`` rows ``(t [s], N)``; ``doublets``
     rows ``(t [s], amplitude [rad], half period [s])``; commands at ``command_rate`` [Hz].
+    With ``pilot`` False the flight is open loop: the BAR command is the trim angle plus the
+    ``bar_steps`` rows ``(t [s], offset [rad])`` (held) plus the doublets; ``depth`` is unused.
     """
 
     duration: float
@@ -66,6 +68,8 @@ class Scenario:
     thrust: tuple[tuple[float, float], ...]
     doublets: tuple[tuple[float, float, float], ...]
     command_rate: float = 10.0
+    pilot: bool = True
+    bar_steps: tuple[tuple[float, float], ...] = ((0.0, 0.0),)
 
 
 def panel_scenario(repeat: int = 1) -> Scenario:
@@ -85,6 +89,20 @@ def panel_scenario(repeat: int = 1) -> Scenario:
         depth=tuple((t + k * period, z) for k in rep for t, z in depth),
         thrust=tuple((t + k * period, f) for k in rep for t, f in thrust),
         doublets=tuple((t + k * period, a, h) for k in rep for t, a, h in doublets))
+
+
+def open_loop_scenario() -> Scenario:
+    """600 s open loop (no depth pilot): BAR steps of +-1 to 3 deg about trim, doublets of
+    2-8 s half period, and thrust steps giving about 1.5, 2.4 and 2 m/s."""
+    return Scenario(duration=600.0, z0=60.0, u0=2.0, depth=((0.0, 60.0),),
+                    thrust=((0.0, 55.0), (200.0, 95.0), (420.0, 40.0)),
+                    doublets=((30.0, 0.06, 3.0), (90.0, 0.08, 2.0), (160.0, 0.05, 6.0),
+                              (250.0, 0.07, 4.0), (330.0, 0.1, 2.0), (470.0, 0.06, 8.0),
+                              (540.0, 0.08, 3.0)),
+                    pilot=False,
+                    bar_steps=((0.0, 0.0), (60.0, 0.02), (120.0, -0.02), (220.0, 0.0),
+                               (300.0, -0.025), (380.0, 0.03), (450.0, 0.0),
+                               (520.0, -0.015)))
 
 
 def _held(rows: tuple[tuple[float, float], ...], t: float) -> float:
@@ -137,7 +155,8 @@ def simulate(params: VehicleParams, effects: Environment | Mapping[str, Any] | N
             integ = float(np.clip(integ + dz / sc.command_rate, -100.0, 100.0))
             th_ref = float(np.clip(0.06 * dz + 0.002 * integ, -0.35, 0.35))
             gain = (2.0 / max(x[6], 0.8)) ** 2
-            bar = trim.bar + gain * (1.2 * (x[4] - th_ref) + 3.0 * x[10])
+            bar = trim.bar + gain * (1.2 * (x[4] - th_ref) + 3.0 * x[10]) if sc.pilot \
+                else trim.bar + _held(sc.bar_steps, t)
             for t_d, amp, half in sc.doublets:
                 if t_d <= t < t_d + half:
                     bar += amp

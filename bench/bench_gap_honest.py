@@ -1,0 +1,244 @@
+"""Benchmark: how honest the gap diagnosis is, inside and outside its catalogue.
+
+A panel of 15-minute closed-loop logs (the panel flight, :func:`auv_ident.gap.synth.
+panel_scenario`) and 10-minute open-loop logs (:func:`auv_ident.gap.synth.open_loop_scenario`)
+with realistic sensor noise, each of a plant the diagnosis is not told:
+
+* ``inside``: catalogue effects at magnitudes from barely visible to large, single and in
+  pairs; the truth is the effect file. Counted right when the verdict is ``explained`` with
+  exactly the true set, or ``ambiguous`` with the true set among the named;
+* ``coefficients``: the plant's own coefficients differ from the file (heave and pitch damping
+  30 % higher, plane effectiveness 70 %, Munk moment 20 % lower, surge drag 30 % higher, heave
+  added mass 30 % higher, which acts through the Munk moment): right when named by
+  ``coefficients`` or ``plane_effectiveness``; never to be ``explained`` by another effect;
+* ``outside``: forms the catalogue lacks (a current growing with depth, one reversing with
+  depth, an internal wave, a tidal drift, a cross-flow drag beyond what the hull can have):
+  wrong when ``explained``;
+* ``clean``: no effect, several seeds: a false alarm is any verdict but ``no_gap``.
+
+Figures: right effect named, clean false alarms, outside cases wrongly explained (goal 0),
+median shrink of the in-catalogue cases, and the share of true parameter values inside the
+reported 95 % intervals. A second part measures interval coverage over many seeds on a cheap
+case (5-minute logs, one effect fitted directly, no search).
+
+Run: ``. .venv/bin/auv-env && python bench/bench_gap_honest.py [--seeds N] [--skip-panel]
+[--skip-coverage]`` (updates bench/results/gap_honest.json; the panel takes about 15 minutes
+on 2 cores, the coverage part about 1 minute per 10 seeds).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import statistics
+import time
+from typing import Any
+
+import numpy as np
+from timing import save_figures
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+#: name -> (kind, vehicle-file factors, environment document, truth {effect: {param: value}},
+#: flight 'closed' or 'open')
+Case = tuple[str, dict[str, float], dict[str, Any], dict[str, dict[str, float]], str]
+
+
+def _fx(**effects: dict[str, float]) -> dict[str, Any]:
+    return {'effects': effects}
+
+
+CASES: dict[str, Case] = {
+    'current_large': ('inside', {}, _fx(current={'north': 0.5, 'east': -0.3, 'down': 0.0}),
+                      {'current': {'north': 0.5, 'east': -0.3}}, 'closed'),
+    'current_small': ('inside', {}, _fx(current={'north': 0.05, 'east': 0.0, 'down': 0.0}),
+                      {'current': {'north': 0.05}}, 'closed'),
+    'buoyancy_8N': ('inside', {}, _fx(buoyancy_offset={'dB': 8.0}),
+                    {'buoyancy_offset': {'dB': 8.0}}, 'closed'),
+    'buoyancy_-60N_open': ('inside', {}, _fx(buoyancy_offset={'dB': -60.0}),
+                           {'buoyancy_offset': {'dB': -60.0}}, 'open'),
+    'delay_0.25': ('inside', {}, _fx(actuator_delay={'bar': 0.25}),
+                   {'actuator_delay': {'bar': 0.25}}, 'closed'),
+    'lag_0.7_open': ('inside', {}, _fx(actuator_lag={'bar_tau': 0.7}),
+                     {'actuator_lag': {'bar_tau': 0.7}}, 'open'),
+    'rate_0.08': ('inside', {}, _fx(actuator_rate_limit={'bar_rate': 0.08}),
+                  {'actuator_rate_limit': {'bar_rate': 0.08}}, 'closed'),
+    'bar_bias_0.01': ('inside', {}, _fx(bar_bias={'bias': 0.01}),
+                      {'bar_bias': {'bias': 0.01}}, 'closed'),
+    'cg_dzg_4mm': ('inside', {}, _fx(cg_offset={'dxg': 0.0, 'dzg': 0.004}),
+                   {'cg_offset': {'dzg': 0.004}}, 'closed'),
+    'pitch_bias_2deg': ('inside', {}, _fx(pitch_sensor_bias={'bias': 0.035}),
+                        {'pitch_sensor_bias': {'bias': 0.035}}, 'closed'),
+    'crossflow_cd_0.8': ('inside', {}, _fx(crossflow_drag={'Zww': -900.0, 'Mqq': -2700.0}),
+                         {'crossflow_drag': {'Zww': -900.0, 'Mqq': -2700.0}}, 'closed'),
+    'current+delay': ('inside', {}, _fx(current={'north': 0.2, 'east': 0.2, 'down': 0.0},
+                                        actuator_delay={'bar': 0.4}),
+                      {'current': {'north': 0.2, 'east': 0.2}, 'actuator_delay': {'bar': 0.4}},
+                      'closed'),
+    'buoyancy+lag': ('inside', {}, _fx(buoyancy_offset={'dB': 25.0},
+                                       actuator_lag={'bar_tau': 0.6}),
+                     {'buoyancy_offset': {'dB': 25.0}, 'actuator_lag': {'bar_tau': 0.6}},
+                     'closed'),
+    'current+damping_25': ('inside', {'CZuw': 1.25}, _fx(current={'north': 0.25, 'east': 0.15,
+                                                                 'down': 0.0}),
+                           {'current': {'north': 0.25, 'east': 0.15},
+                            'coefficients': {'CZuw': 1.25}}, 'closed'),
+    'damping_30_higher': ('coefficients', {'CZuw': 1.3, 'CMuq': 1.3}, _fx(),
+                          {'coefficients': {'CZuw': 1.3, 'CMuq': 1.3}}, 'closed'),
+    'plane_70_open': ('coefficients', {'CZbar': 0.7, 'CMbar': 0.7}, _fx(),
+                      {'plane_effectiveness': {'gain': 0.7}}, 'open'),
+    'munk_20_lower': ('coefficients', {'CMuw': 0.8}, _fx(),
+                      {'coefficients': {'CMuw': 0.8}}, 'closed'),
+    'shear_north': ('outside', {}, {'effects': {}, 'current_profile': [
+        [0.0, 0.0, 0.0, 0.0], [200.0, 0.4, 0.2, 0.0]]}, {}, 'closed'),
+    'shear_reversing': ('outside', {}, {'effects': {}, 'current_profile': [
+        [40.0, 0.3, 0.0, 0.0], [100.0, -0.3, 0.0, 0.0]]}, {}, 'closed'),
+    'added_mass_30': ('coefficients', {'Zwdot': 1.3}, _fx(),
+                      {'coefficients': {'CMuw': 0.523}}, 'closed'),
+    'internal_wave': ('outside', {}, _fx(current_oscillation={'down': 0.05, 'period': 120.0}),
+                      {}, 'closed'),
+    'tidal_drift_open': ('outside', {}, _fx(current_oscillation={'north': 0.3,
+                                                                 'period': 900.0}),
+                         {}, 'open'),
+    'surge_drag_30': ('coefficients', {'Ksh': 1.3}, _fx(), {'coefficients': {'Ksh': 1.3}},
+                      'closed'),
+    'crossflow_cd_3': ('outside', {}, _fx(crossflow_drag={'Zww': -3400.0, 'Mqq': -10300.0}),
+                       {}, 'closed'),
+    'clean_1': ('clean', {}, _fx(), {}, 'closed'),
+    'clean_2': ('clean', {}, _fx(), {}, 'closed'),
+    'clean_3_open': ('clean', {}, _fx(), {}, 'open'),
+}
+
+
+def _truth_covered(report: dict[str, Any], truth: dict[str, dict[str, float]]
+                   ) -> list[bool]:
+    best = report['best']
+    if not best:
+        return []
+    entry = next(c for c in report['candidates'] if c['effect'] == best)
+    named = best.split('+')
+    out = []
+    for effect, fields in truth.items():
+        if effect not in named:
+            continue
+        for name, value in fields.items():
+            key = name if len(named) == 1 else f'{effect}.{name}'
+            lo, hi = entry['ci95'][key]
+            out.append(bool(lo <= value <= hi))
+    return out
+
+
+def _right(kind: str, report: dict[str, Any], truth: dict[str, dict[str, float]]) -> bool:
+    verdict, best = report['verdict'], report['best']
+    if kind == 'clean':
+        return bool(verdict == 'no_gap')
+    if kind == 'outside':
+        return bool(verdict != 'explained')
+    true = set(truth)
+    named = set(best.split('+')) if best else set()
+    if kind == 'coefficients':
+        ok = {'coefficients', 'plane_effectiveness'}
+        return bool(verdict in ('explained', 'ambiguous') and named and named <= ok)
+    if verdict == 'explained':
+        return named == true
+    if verdict == 'ambiguous':
+        return true <= named | set(report['ambiguous_with'])
+    return False
+
+
+def panel(seed: int = 23) -> dict[str, Any]:
+    """Run the panel; per-case rows and the summary figures."""
+    from auv_ident.gap import synth
+    from auv_ident.gap.diagnose import diagnose
+    from auv_sim.params import load_vehicle
+
+    vehicle = load_vehicle(ROOT / 'config' / 'a18m.yaml')
+    rows = []
+    for k, (name, (kind, factors, env, truth, flight)) in enumerate(CASES.items()):
+        plant = vehicle.replace(**{p: f * getattr(vehicle, p) for p, f in factors.items()})
+        scenario = synth.panel_scenario() if flight == 'closed' else synth.open_loop_scenario()
+        t0 = time.perf_counter()
+        log = synth.simulate(plant, env, scenario, seed=seed + k)
+        r = diagnose(vehicle, log.gap_logs()).report
+        rows.append({'case': name, 'kind': kind, 'flight': flight, 'verdict': r['verdict'],
+                     'best': r['best'], 'ambiguous_with': r['ambiguous_with'],
+                     'right': _right(kind, r, truth), 'shrink': r['held_out']['shrink'],
+                     'covered': _truth_covered(r, truth) if kind == 'inside' else [],
+                     'implausible': [i['effect'] for i in r['implausible']],
+                     'statement': r['statement'], 'seconds': time.perf_counter() - t0})
+        print(f'{name}: {r["verdict"]} {r["best"]} right={rows[-1]["right"]}', flush=True)
+    by = {kind: [row for row in rows if row['kind'] == kind]
+          for kind in ('inside', 'coefficients', 'outside', 'clean')}
+    covered = [c for row in by['inside'] for c in row['covered']]
+    return {
+        'cases': rows,
+        'inside_right': f'{sum(r["right"] for r in by["inside"])}/{len(by["inside"])}',
+        'coefficients_right': f'{sum(r["right"] for r in by["coefficients"])}/'
+                              f'{len(by["coefficients"])}',
+        'coefficients_wrongly_explained': sum(
+            r['verdict'] == 'explained' and not r['right'] for r in by['coefficients']),
+        'outside_wrongly_explained': sum(not r['right'] for r in by['outside']),
+        'outside_cases': len(by['outside']),
+        'clean_false_alarms': sum(not r['right'] for r in by['clean']),
+        'clean_cases': len(by['clean']),
+        'median_shrink_inside': statistics.median(r['shrink'] for r in by['inside']),
+        'truth_in_ci95': f'{sum(covered)}/{len(covered)}',
+    }
+
+
+def coverage(seeds: int) -> dict[str, Any]:
+    """Share of 95 % intervals holding the truth over ``seeds`` noise seeds, for two effects
+    fitted directly (equation error, then free run) on 5-minute closed-loop logs."""
+    from auv_ident.gap import synth
+    from auv_ident.gap.catalogue import Perturbation
+    from auv_ident.gap.fit import EquationFit, FreeRunFit
+    from auv_ident.gap.problem import CH_INDEX, EffectSet, Problem
+    from auv_sim.params import load_vehicle
+
+    vehicle = load_vehicle(ROOT / 'config' / 'a18m.yaml')
+    short = synth.Scenario(duration=300.0, z0=60.0, u0=2.0,
+                           depth=((0.0, 60.0), (60.0, 80.0), (200.0, 65.0)),
+                           thrust=((0.0, 55.0), (150.0, 100.0)),
+                           doublets=((30.0, 0.08, 3.0), (110.0, 0.1, 2.0), (170.0, 0.06, 5.0),
+                                     (240.0, 0.1, 3.0)))
+    cases = {'buoyancy_offset': ('dB', 30.0), 'actuator_delay': ('bar', 0.25)}
+    out: dict[str, Any] = {}
+    for effect, (param, true) in cases.items():
+        hits_ee, hits_fr, widths = 0, 0, []
+        for seed in range(seeds):
+            log = synth.simulate(vehicle, {'effects': {effect: {param: true}}}, short,
+                                 seed=1000 + seed)
+            pr = Problem(vehicle, log.gap_logs(), window=30.0)
+            es = EffectSet([effect], vehicle)
+            ee = EquationFit(pr).fit(es)
+            pred, meas = pr.free_run([Perturbation.nominal(vehicle)], pr.select(None))
+            rms = np.sqrt(np.nanmean((pred[0] - meas)[:, CH_INDEX] ** 2, axis=0))
+            fr = FreeRunFit(pr, np.maximum(rms, pr.noise[list(CH_INDEX)])).fit(ee)
+            hits_ee += bool(ee.lo95[0] <= true <= ee.hi95[0])
+            hits_fr += bool(fr.lo95[0] <= true <= fr.hi95[0])
+            widths.append(float(fr.hi95[0] - fr.lo95[0]))
+        out[effect] = {'true': true, 'seeds': seeds,
+                       'equation_error_coverage': hits_ee / seeds,
+                       'free_run_coverage': hits_fr / seeds,
+                       'median_width': statistics.median(widths)}
+        print(effect, out[effect], flush=True)
+    return out
+
+
+if __name__ == '__main__':
+    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap.add_argument('--seeds', type=int, default=20, help='coverage seeds per effect')
+    ap.add_argument('--skip-panel', action='store_true', help='keep the saved panel figures')
+    ap.add_argument('--skip-coverage', action='store_true',
+                    help='keep the saved coverage figures')
+    args = ap.parse_args()
+    saved = ROOT / 'bench' / 'results' / 'gap_honest.json'
+    figures: dict[str, Any] = json.loads(saved.read_text()) if saved.exists() else {}
+    figures['benchmark'] = 'gap diagnosis honesty panel'
+    if not args.skip_panel:
+        figures['panel'] = panel()
+    if not args.skip_coverage:
+        figures['coverage'] = coverage(args.seeds)
+    save_figures('gap_honest', figures)
+    print(json.dumps({k: v for k, v in figures.get('panel', {}).items() if k != 'cases'},
+                     indent=2))
