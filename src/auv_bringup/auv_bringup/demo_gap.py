@@ -30,7 +30,7 @@ def gap_step(params: VehicleParams, vehicle_file: str, out: pathlib.Path,
     log = simulate(params, env, seed=7)
     bag = out / 'real_log'
     write_bag(bag, log)
-    proc = subprocess.run([sys.executable, '-m', 'auv_bringup.cli', 'gap', '--model',
+    proc = subprocess.run([sys.executable, '-m', 'auv_bringup.cli', 'gap', '--vehicle',
                            vehicle_file, str(bag), '--out', str(out / 'report')],
                           capture_output=True, text=True)
     if proc.returncode != 0:

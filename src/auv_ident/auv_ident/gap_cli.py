@@ -14,6 +14,7 @@ import sys
 import time
 
 from auv_ident.errors import IdentError
+from auv_sim.cli_options import add_vehicle_option
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -23,8 +24,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--map', default=None, metavar='MAP',
                         help='read the original logs (BAG...) through this mapping file, as '
                              '`auv import` does, without writing a bag')
-    parser.add_argument('--model', required=True, metavar='VEHICLE.yaml',
-                        help='the nominal vehicle file (e.g. config/a18m.yaml)')
+    add_vehicle_option(parser, required=True, old_names=('--model',),
+                       help_text='the nominal vehicle file (e.g. config/a18m.yaml)')
     parser.add_argument('--out', required=True, metavar='DIR', help='output directory')
     parser.add_argument('--holdout', nargs='+', default=[], metavar='BAG',
                         help='bags (among BAG...) held out whole to score the effects; '
@@ -57,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         if args.window <= 0:
             raise ValueError(f'--window must be > 0 s, got {args.window}')
-        vehicle = load_vehicle(args.model)
+        vehicle = load_vehicle(args.vehicle)
         bags = [str(b) for b in args.bags]
         norm = {str(pathlib.Path(b).resolve()): i for i, b in enumerate(bags)}
         held_bags = []

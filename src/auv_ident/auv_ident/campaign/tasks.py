@@ -162,7 +162,7 @@ def _run_gap_joint(bag: str, out: pathlib.Path, settings: Mapping[str, Any]
     from auv_sim.params import load_vehicle
 
     args = _tool_args('gap', bag, str(out), settings)
-    vehicle = load_vehicle(args.model)
+    vehicle = load_vehicle(args.vehicle)
     problem = Problem(vehicle, load_bag(bag), window=args.window)
     effects = EffectSet(list(settings['effect_set']), vehicle)
     fit = EquationFit(problem).fit(effects)
