@@ -5,9 +5,12 @@ as its own task (``ident``: ``auv ident``), each writing its full report under
 ``DIR/missions/<name>/``, and gathers them into ``DIR/campaign.json`` and
 ``DIR/campaign.md`` with plots of every quantity against mission time and the drift and
 step tests. LOGS: bags (``.mcap`` files or bag directories), directories of bags, globs, or
-``.txt``/``.list`` files naming one log per line. Options of the single-log tool pass through
-``--options '...'``. Missions already done with the same log content and settings are taken
-from the cache. ``auv campaign montecarlo`` flies chunks of closed-loop runs per task.
+``.txt``/``.list`` files naming one log per line; with ``--map MAP`` the original logs of
+another vehicle (text logs, ROS 1 bags, rosbag2 bags of any message types) read through the
+mapping file, as ``auv ident --map`` / ``auv gap --map`` read them. Options of the single-log
+tool pass through ``--options '...'``. Missions already done with the same log content,
+settings and code version are taken from the cache. ``auv campaign montecarlo`` flies
+chunks of closed-loop runs per task.
 
 The cluster: an embedded local one (``--workers N``) or ``--scheduler ADDRESS``. Progress
 lines go to stderr; bad input is one line ``error: ...`` and exit status 1.
@@ -25,7 +28,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from auv_ident.campaign import engine, inputs, report
-from auv_ident.campaign.cache import file_hash
+from auv_ident.campaign.cache import code_version, file_hash
 from auv_ident.campaign.errors import CampaignError
 from auv_ident.campaign.runner import run_missions, stderr_lines
 
@@ -48,7 +51,11 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 def _logs(p: argparse.ArgumentParser) -> None:
     p.add_argument('logs', nargs='+', metavar='LOG',
-                   help='bags, directories of bags, globs or list files (.txt, .list)')
+                   help='bags, directories of bags, globs or list files (.list; .txt unless '
+                        'the map reads text logs)')
+    p.add_argument('--map', default=None, metavar='MAP',
+                   help='read the original logs (text logs, ROS 1 bags, rosbag2 .db3/.mcap) '
+                        'through this mapping file (see docs/real-logs.md)')
     p.add_argument('--options', default='', metavar="'OPTS'",
                    help='options passed to the single-log tool, as one word: '
                         '--options="--window 60"')
@@ -156,16 +163,22 @@ def _logs_campaign(args: argparse.Namespace, say: Any) -> int:
     if not pathlib.Path(model).is_file():
         raise CampaignError(f'vehicle file {model} does not exist')
     options = shlex.split(args.options)
-    check_options(kind, model, options)
-    logs = inputs.find_logs(args.logs)
+    if '--map' in options or any(o.startswith('--map=') for o in options):
+        raise CampaignError('give the map as the campaign\'s own --map MAP, not in --options')
+    map_path, map_kind = _check_map(args.map)
+    check_options(kind, model, options, map_path)
+    logs = inputs.find_logs(args.logs, map_kind)
     names = inputs.mission_names(logs)
     out = pathlib.Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     settings: dict[str, Any] = {
         'model': str(pathlib.Path(model).resolve()), 'options': options, 'out': str(out),
+        'map': map_path,
         'cache': None if args.no_cache else str(pathlib.Path(args.cache or out / 'cache')
                                                 .resolve()),
-        'key_settings': {'tool': kind, 'options': options, 'model': file_hash(model)}}
+        'key_settings': {'tool': kind, 'options': options, 'model': file_hash(model),
+                         'map': file_hash(map_path) if map_path else None,
+                         'code': code_version()}}
     missions = [(n, str(p.resolve())) for n, p in zip(names, logs)]
     t0 = time.perf_counter()
     with engine.client(args.workers, args.scheduler, args.timeout) as c:
@@ -189,7 +202,8 @@ def _logs_campaign(args: argparse.Namespace, say: Any) -> int:
                 by_name = {r['name']: r for r in refit_ok}
                 refit = [by_name.get(r['name'], r) for r in records]
     meta = {'out': str(out), 'cluster': cluster, 'wall_s': time.perf_counter() - t0,
-            'settings': {'model': settings['model'], 'options': options,
+            'settings': {'model': settings['model'], 'map': map_path, 'options': options,
+                         'code': code_version(),
                          'retries': args.retries, 'cache': settings['cache']}}
     doc = report.write(out, kind, records, meta, refit=refit, effect_set=effect_set,
                        alpha=args.alpha, plots=not args.no_plots)
@@ -204,10 +218,30 @@ def _logs_campaign(args: argparse.Namespace, say: Any) -> int:
     return 0
 
 
+def _check_map(path: str | None) -> tuple[str | None, str | None]:
+    """The map's absolute path and kind (``bag`` or ``text``), read once here so that a bad
+    map is one error before any task runs; (None, None) without a map.
+
+    Raises:
+        CampaignError: the map is missing or invalid (the map reader's one-line reason).
+    """
+    if path is None:
+        return None, None
+    from auv_ident.realog.errors import RealLogError
+    from auv_ident.realog.mapping import load_map
+
+    try:
+        logmap = load_map(path)
+    except (RealLogError, OSError) as exc:
+        raise CampaignError(str(exc).splitlines()[0] if str(exc) else f'bad map {path}'
+                            ) from None
+    return str(pathlib.Path(path).resolve()), str(logmap.kind)
+
+
 def _montecarlo(args: argparse.Namespace, say: Any) -> int:
     import distributed
 
-    from auv_ident.campaign.montecarlo import run_chunk, summarise
+    from auv_ident.campaign.montecarlo import nominal_pilot, run_chunk, summarise, warm
 
     dist: Any = distributed
     draw = parse_draw(args)
@@ -216,13 +250,20 @@ def _montecarlo(args: argparse.Namespace, say: Any) -> int:
     chunks = [list(range(a, min(a + args.chunk, draw.runs)))
               for a in range(0, draw.runs, args.chunk)]
     t0 = time.perf_counter()
-    with engine.client(args.workers, args.scheduler, args.timeout) as c:
+    # the fixed cost once, here: the pilot designed (and, for the embedded cluster whose
+    # workers are forked from this process, the kernels loaded) before the cluster starts
+    pilot = nominal_pilot(draw.vehicle)
+    if args.scheduler is None:
+        warm(draw)
+    with engine.client(args.workers, args.scheduler, args.timeout, fork=True) as c:
         cluster = engine.describe(c)
         t_tasks = time.perf_counter()
         say(f'montecarlo: {draw.runs} runs in {len(chunks)} task(s) on '
             f'{cluster["workers"]} worker(s)')
+        shared = c.scatter(pilot, broadcast=True, hash=False)
         keys = [f'montecarlo-{i:05d}' for i in range(len(chunks))]
-        futures = [c.submit(run_chunk, draw, ch, key=k, retries=args.retries, pure=False)
+        futures = [c.submit(run_chunk, draw, ch, shared, key=k, retries=args.retries,
+                            pure=False)
                    for k, ch in zip(keys, chunks)]
         results: dict[str, list[dict[str, Any]]] = {}
         failed_tasks = []
@@ -234,7 +275,7 @@ def _montecarlo(args: argparse.Namespace, say: Any) -> int:
             say(f'[{n}/{len(futures)}] {time.perf_counter() - t0:7.1f} s  {fut.key}')
         tasks_wall = time.perf_counter() - t_tasks
         history = engine.task_history(c, keys)
-        del futures
+        del futures, shared
     wall = time.perf_counter() - t0
     runs = [r for k in keys for r in results.get(k, [])]
     summary = summarise(runs)
