@@ -150,10 +150,10 @@ def run_chunk(draw: Draw, runs: Sequence[int], pilot: tuple[Any, Any] | None = N
             vehicle = nominal.replace(**{k: nominal.values[k] * f
                                          for k, f in d['factors'].items()})
             env = parse_environment({'effects': d['effects']}) if d['effects'] else None
-            pilot = copy.deepcopy(template)  # a fresh pilot: no state from another run
+            fresh = copy.deepcopy(template)  # a fresh pilot: no state from another run
             run = run_closed_loop(vehicle, [(0.0, d['z_target'])], draw.duration, z0=draw.z0,
                                   u0=draw.u0, environment=env, settings=settings,
-                                  pilot=pilot)
+                                  pilot=fresh)
         except DivergenceError as exc:
             rec.update(tumbled=True, settling_time=math.nan, peak_pitch_deg=math.nan,
                        final_error=math.nan, reason=str(exc).splitlines()[0],
