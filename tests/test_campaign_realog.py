@@ -189,3 +189,46 @@ def test_code_version_is_in_the_cache_key(text_logs: tuple[pathlib.Path, list[fl
     upgraded = {**settings, 'key_settings': {'map': 'm', 'code': {**version, 'source': 'x'}}}
     rerun = run_mission('ident', 'dive_01', log, upgraded)
     assert not rerun['cached'] and rerun['quantities'] == first['quantities']
+
+
+def test_log_discovery_with_a_map(tmp_path: pathlib.Path) -> None:
+    from auv_ident.campaign import inputs
+    from auv_ident.campaign.errors import CampaignError
+
+    for name in ('a.txt', 'b.csv', 'c.log', 'd.dat', 'e.tsv', 'f.bag', 'g.mcap', 'h.yaml'):
+        (tmp_path / name).write_text('x\n')
+    db3 = tmp_path / 'sub' / 'dive7'          # a rosbag2 directory in sqlite3 storage
+    db3.mkdir(parents=True)
+    (db3 / 'metadata.yaml').write_text('x\n')
+    (db3 / 'dive7_0.db3').write_text('x\n')
+    text = [tmp_path / n for n in ('a.txt', 'b.csv', 'c.log', 'd.dat', 'e.tsv')]
+    assert inputs.find_logs([str(tmp_path)], 'text') == text
+    assert inputs.find_logs([str(tmp_path)], 'bag') == [tmp_path / 'f.bag', tmp_path / 'g.mcap',
+                                                       db3]
+    # a .db3 file names its bag directory; without a map only contract bags are logs
+    assert inputs.find_logs([str(db3 / 'dive7_0.db3')], 'bag') == [db3]
+    assert inputs.find_logs([str(tmp_path)]) == [tmp_path / 'g.mcap', db3]
+    # a .list file is a list for every kind; a .txt file is a list unless the logs are text
+    (tmp_path / 'l.list').write_text('b.csv\n# comment\nc.log\n')
+    assert inputs.find_logs([str(tmp_path / 'l.list')], 'text') == text[1:3]
+    assert inputs.find_logs([str(tmp_path / 'a.txt')], 'text') == [tmp_path / 'a.txt']
+    with pytest.raises(CampaignError, match="no log matches"):
+        inputs.find_logs([str(tmp_path / 'a.txt')], 'bag')      # read as a list naming 'x'
+    with pytest.raises(CampaignError, match=r'h\.yaml is neither a log the map \(kind: text\)'):
+        inputs.find_logs([str(tmp_path / 'h.yaml')], 'text')
+    assert inputs.mission_names([tmp_path / 'a.txt', tmp_path / 'x' / 'a.bag', db3]) == \
+        ['a', 'a-2', 'dive7']
+
+
+def test_bad_map_is_one_line_error(tmp_path: pathlib.Path) -> None:
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text(TEXT_MAP.read_text().replace('unit: cm,', 'unit: furlong,'))
+    (tmp_path / 'a.txt').write_text('x\n')
+    proc = _auv('campaign', 'ident', str(tmp_path / 'a.txt'), '--map', str(bad),
+                '--out', str(tmp_path / 'o'), timeout=120)
+    assert proc.returncode == 1
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f'error: {bad}') and 'furlong' in lines[0]
+    proc = _auv('campaign', 'ident', str(tmp_path / 'a.txt'), '--map', str(TEXT_MAP),
+                '--out', str(tmp_path / 'o'), f'--options=--map {TEXT_MAP}', timeout=120)
+    assert proc.returncode == 1 and 'campaign\'s own --map' in proc.stderr
