@@ -16,7 +16,8 @@ scheduler's own configuration for an external one).
 only; ``spawn`` otherwise): what this process has already imported, compiled (numba kernels)
 and built (a pilot designed here) the workers inherit instead of paying for it again. Used by
 the Monte Carlo, whose fixed cost per worker is exactly that; the campaign of logs keeps
-``spawn`` (a fresh interpreter per worker).
+``spawn`` (a fresh interpreter per worker). The embedded workers' statistical profiler (it
+samples the running task for a dashboard the embedded cluster does not start) is off.
 """
 from __future__ import annotations
 
@@ -85,6 +86,9 @@ def client(workers: int | None = None, scheduler: str | None = None,
             c.close()
         return
     n = workers or default_workers()
+    # the workers' statistical profiler samples the running task every 10 ms for a dashboard
+    # the embedded cluster does not have: off
+    quiet['distributed.worker.profile.enabled'] = False
     if fork and 'fork' in multiprocessing.get_all_start_methods():
         quiet['distributed.worker.multiprocessing-method'] = 'fork'
     with dask.config.set(quiet):
