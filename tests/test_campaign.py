@@ -63,7 +63,7 @@ def test_gap_campaign_report_cache_and_failed_mission(logs: tuple[pathlib.Path, 
                                                       tmp_path: pathlib.Path) -> None:
     d, missions = logs
     out = tmp_path / 'out'
-    proc = _auv('campaign', 'gap', str(d), '--model', str(A18M), '--out', str(out),
+    proc = _auv('campaign', 'gap', str(d), '--vehicle', str(A18M), '--out', str(out),
                 '--workers', '2', '--options=--no-plots')
     assert proc.returncode == 0, proc.stderr
     progress = [ln for ln in proc.stderr.splitlines() if ln.startswith('[')]
@@ -91,7 +91,7 @@ def test_gap_campaign_report_cache_and_failed_mission(logs: tuple[pathlib.Path, 
     md = (out / 'campaign.md').read_text()
     assert '| broken |' in md and 'mission_003' in md and '| joint fit [95 % interval] |' in md
     # again: every mission from the cache, same numbers
-    proc = _auv('campaign', 'gap', str(d), '--model', str(A18M), '--out', str(out),
+    proc = _auv('campaign', 'gap', str(d), '--vehicle', str(A18M), '--out', str(out),
                 '--workers', '1', '--options=--no-plots')
     assert proc.returncode == 0, proc.stderr
     again = json.loads((out / 'campaign.json').read_text())
@@ -187,12 +187,12 @@ def test_unreachable_scheduler_is_one_line_error(tmp_path: pathlib.Path) -> None
 
 
 def test_bad_input_is_one_line_error(tmp_path: pathlib.Path) -> None:
-    proc = _auv('campaign', 'gap', str(tmp_path / 'nothing*.mcap'), '--model', str(A18M),
+    proc = _auv('campaign', 'gap', str(tmp_path / 'nothing*.mcap'), '--vehicle', str(A18M),
                 '--out', str(tmp_path / 'o'), timeout=120)
     assert proc.returncode == 1 and proc.stderr.strip() == \
         f"error: no log matches '{tmp_path / 'nothing*.mcap'}'"
     (tmp_path / 'a.mcap').write_bytes(b'x')
-    proc = _auv('campaign', 'gap', str(tmp_path / 'a.mcap'), '--model', str(A18M),
+    proc = _auv('campaign', 'gap', str(tmp_path / 'a.mcap'), '--vehicle', str(A18M),
                 '--out', str(tmp_path / 'o'), '--options=--no-such-option', timeout=120)
     assert proc.returncode == 1
     assert proc.stderr.strip().startswith('error: --options for auv gap:')

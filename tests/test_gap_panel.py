@@ -136,7 +136,7 @@ def test_cli_bags_with_a_held_out_bag(vehicle, tmp_path: pathlib.Path) -> None: 
         bags.append(tmp_path / f'run{k}')
         synth.write_bag(bags[-1], log)
     out = tmp_path / 'out'
-    res = _cli('--model', str(A18M), str(bags[0]), str(bags[1]), '--holdout', str(bags[1]),
+    res = _cli('--vehicle', str(A18M), str(bags[0]), str(bags[1]), '--holdout', str(bags[1]),
                '--out', str(out), '--no-plots', '--quiet')
     assert res.returncode == 0, res.stderr
     report = json.loads((out / 'report.json').read_text())
@@ -149,14 +149,14 @@ def test_cli_bags_with_a_held_out_bag(vehicle, tmp_path: pathlib.Path) -> None: 
 
 
 def test_cli_errors(tmp_path: pathlib.Path) -> None:
-    res = _cli('--model', str(A18M), str(tmp_path / 'nope'), '--out', str(tmp_path / 'o'),
+    res = _cli('--vehicle', str(A18M), str(tmp_path / 'nope'), '--out', str(tmp_path / 'o'),
                '--quiet')
     assert res.returncode == 1
     assert res.stderr.startswith('error: ') and len(res.stderr.strip().splitlines()) == 1
-    res = _cli('--model', str(tmp_path / 'missing.yaml'), str(tmp_path / 'nope'),
+    res = _cli('--vehicle', str(tmp_path / 'missing.yaml'), str(tmp_path / 'nope'),
                '--out', str(tmp_path / 'o'))
     assert res.returncode == 1 and 'missing.yaml' in res.stderr
-    res = _cli('--model', str(A18M), str(tmp_path / 'a'), '--holdout', str(tmp_path / 'b'),
+    res = _cli('--vehicle', str(A18M), str(tmp_path / 'a'), '--holdout', str(tmp_path / 'b'),
                '--out', str(tmp_path / 'o'))
     assert res.returncode == 1 and 'not one of the bags' in res.stderr
 

@@ -209,7 +209,7 @@ def test_text_log_at_2hz_intervals_cover_the_vehicle_file(
 def _gap(args: list[str], out: pathlib.Path) -> dict[str, Any]:
     parser = argparse.ArgumentParser()
     gap_cli.add_arguments(parser)
-    assert gap_cli.run(parser.parse_args([*args, '--model', str(A18M), '--out', str(out),
+    assert gap_cli.run(parser.parse_args([*args, '--vehicle', str(A18M), '--out', str(out),
                                           '--no-plots', '--quiet'])) == 0
     report: dict[str, Any] = json.loads((out / 'report.json').read_text())
     return report

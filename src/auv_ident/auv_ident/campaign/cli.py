@@ -5,9 +5,12 @@ as its own task (``ident``: ``auv ident``), each writing its full report under
 ``DIR/missions/<name>/``, and gathers them into ``DIR/campaign.json`` and
 ``DIR/campaign.md`` with plots of every quantity against mission time and the drift and
 step tests. LOGS: bags (``.mcap`` files or bag directories), directories of bags, globs, or
-``.txt``/``.list`` files naming one log per line. Options of the single-log tool pass through
-``--options '...'``. Missions already done with the same log content and settings are taken
-from the cache. ``auv campaign montecarlo`` flies chunks of closed-loop runs per task.
+``.txt``/``.list`` files naming one log per line; with ``--map MAP`` the original logs of
+another vehicle (text logs, ROS 1 bags, rosbag2 bags of any message types) read through the
+mapping file, as ``auv ident --map`` / ``auv gap --map`` read them. Options of the single-log
+tool pass through ``--options '...'``. Missions already done with the same log content,
+settings and code version are taken from the cache. ``auv campaign montecarlo`` flies
+chunks of closed-loop runs per task.
 
 The cluster: an embedded local one (``--workers N``) or ``--scheduler ADDRESS``. Progress
 lines go to stderr; bad input is one line ``error: ...`` and exit status 1.
@@ -17,6 +20,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import math
 import pathlib
 import shlex
 import sys
@@ -25,9 +29,10 @@ from collections.abc import Sequence
 from typing import Any
 
 from auv_ident.campaign import engine, inputs, report
-from auv_ident.campaign.cache import file_hash
+from auv_ident.campaign.cache import code_version, file_hash
 from auv_ident.campaign.errors import CampaignError
 from auv_ident.campaign.runner import run_missions, stderr_lines
+from auv_sim.cli_options import add_vehicle_option
 
 ROOT = pathlib.Path(__file__).resolve().parents[4]
 DEFAULT_VEHICLE = ROOT / 'config' / 'a18m.yaml'
@@ -48,7 +53,11 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 def _logs(p: argparse.ArgumentParser) -> None:
     p.add_argument('logs', nargs='+', metavar='LOG',
-                   help='bags, directories of bags, globs or list files (.txt, .list)')
+                   help='bags, directories of bags, globs or list files (.list; .txt unless '
+                        'the map reads text logs)')
+    p.add_argument('--map', default=None, metavar='MAP',
+                   help='read the original logs (text logs, ROS 1 bags, rosbag2 .db3/.mcap) '
+                        'through this mapping file (see docs/real-logs.md)')
     p.add_argument('--options', default='', metavar="'OPTS'",
                    help='options passed to the single-log tool, as one word: '
                         '--options="--window 60"')
@@ -65,13 +74,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest='mode', required=True, metavar='ident|gap|montecarlo')
     ident = sub.add_parser('ident', help='identify the coefficients of every log')
     _logs(ident)
-    ident.add_argument('--base', default=str(DEFAULT_VEHICLE), metavar='VEHICLE.yaml',
-                       help='vehicle file the identified values replace (default: a18m)')
+    add_vehicle_option(ident, default=str(DEFAULT_VEHICLE), old_names=('--base',),
+                       help_text='vehicle file the identified values replace')
     _common(ident)
     gap = sub.add_parser('gap', help='sim-to-real gap diagnosis of every log')
     _logs(gap)
-    gap.add_argument('--model', required=True, metavar='VEHICLE.yaml',
-                     help='the nominal vehicle file')
+    add_vehicle_option(gap, required=True, old_names=('--model',),
+                       help_text='the nominal vehicle file')
     gap.add_argument('--no-refit', action='store_true',
                      help='skip the second pass that fits the effects named in any mission '
                           'in every mission')
@@ -93,8 +102,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     mc.add_argument('--z0', type=float, default=40.0, help='trim depth [m, down]')
     mc.add_argument('--u0', type=float, default=2.0, help='trim speed [m/s]')
     mc.add_argument('--band', type=float, default=0.1, help='settling band [m]')
-    mc.add_argument('--tumble-deg', type=float, default=60.0,
-                    help='|pitch| or |roll| beyond which a run counts as tumbled [deg]')
+    mc.add_argument('--tumble-angle', type=float, default=math.radians(60.0),
+                    help='|pitch| or |roll| beyond which a run counts as tumbled [rad] '
+                         '(default: 60 deg)')
     _common(mc)
 
 
@@ -133,7 +143,7 @@ def parse_draw(args: argparse.Namespace) -> Any:
     draw = Draw(vehicle=str(args.vehicle), runs=args.runs, seed=args.seed,
                 duration=args.duration, z0=args.z0, u0=args.u0, spreads=spreads,
                 effects=effects, step=_range(args.step, '--step'), band=args.band,
-                tumble_deg=args.tumble_deg)
+                tumble_angle=args.tumble_angle)
     draw.check()
     return draw
 
@@ -152,20 +162,26 @@ def _logs_campaign(args: argparse.Namespace, say: Any) -> int:
     from auv_ident.campaign.tasks import check_options
 
     kind = args.mode
-    model = args.model if kind == 'gap' else args.base
+    model = args.vehicle
     if not pathlib.Path(model).is_file():
         raise CampaignError(f'vehicle file {model} does not exist')
     options = shlex.split(args.options)
-    check_options(kind, model, options)
-    logs = inputs.find_logs(args.logs)
+    if '--map' in options or any(o.startswith('--map=') for o in options):
+        raise CampaignError('give the map as the campaign\'s own --map MAP, not in --options')
+    map_path, map_kind = _check_map(args.map)
+    check_options(kind, model, options, map_path)
+    logs = inputs.find_logs(args.logs, map_kind)
     names = inputs.mission_names(logs)
     out = pathlib.Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     settings: dict[str, Any] = {
         'model': str(pathlib.Path(model).resolve()), 'options': options, 'out': str(out),
+        'map': map_path,
         'cache': None if args.no_cache else str(pathlib.Path(args.cache or out / 'cache')
                                                 .resolve()),
-        'key_settings': {'tool': kind, 'options': options, 'model': file_hash(model)}}
+        'key_settings': {'tool': kind, 'options': options, 'model': file_hash(model),
+                         'map': file_hash(map_path) if map_path else None,
+                         'code': code_version()}}
     missions = [(n, str(p.resolve())) for n, p in zip(names, logs)]
     t0 = time.perf_counter()
     with engine.client(args.workers, args.scheduler, args.timeout) as c:
@@ -189,7 +205,8 @@ def _logs_campaign(args: argparse.Namespace, say: Any) -> int:
                 by_name = {r['name']: r for r in refit_ok}
                 refit = [by_name.get(r['name'], r) for r in records]
     meta = {'out': str(out), 'cluster': cluster, 'wall_s': time.perf_counter() - t0,
-            'settings': {'model': settings['model'], 'options': options,
+            'settings': {'model': settings['model'], 'map': map_path, 'options': options,
+                         'code': code_version(),
                          'retries': args.retries, 'cache': settings['cache']}}
     doc = report.write(out, kind, records, meta, refit=refit, effect_set=effect_set,
                        alpha=args.alpha, plots=not args.no_plots)
@@ -204,10 +221,30 @@ def _logs_campaign(args: argparse.Namespace, say: Any) -> int:
     return 0
 
 
+def _check_map(path: str | None) -> tuple[str | None, str | None]:
+    """The map's absolute path and kind (``bag`` or ``text``), read once here so that a bad
+    map is one error before any task runs; (None, None) without a map.
+
+    Raises:
+        CampaignError: the map is missing or invalid (the map reader's one-line reason).
+    """
+    if path is None:
+        return None, None
+    from auv_ident.realog.errors import RealLogError
+    from auv_ident.realog.mapping import load_map
+
+    try:
+        logmap = load_map(path)
+    except (RealLogError, OSError) as exc:
+        raise CampaignError(str(exc).splitlines()[0] if str(exc) else f'bad map {path}'
+                            ) from None
+    return str(pathlib.Path(path).resolve()), str(logmap.kind)
+
+
 def _montecarlo(args: argparse.Namespace, say: Any) -> int:
     import distributed
 
-    from auv_ident.campaign.montecarlo import run_chunk, summarise
+    from auv_ident.campaign.montecarlo import nominal_pilot, run_chunk, summarise, warm
 
     dist: Any = distributed
     draw = parse_draw(args)
@@ -216,13 +253,20 @@ def _montecarlo(args: argparse.Namespace, say: Any) -> int:
     chunks = [list(range(a, min(a + args.chunk, draw.runs)))
               for a in range(0, draw.runs, args.chunk)]
     t0 = time.perf_counter()
-    with engine.client(args.workers, args.scheduler, args.timeout) as c:
+    # the fixed cost once, here: the pilot designed (and, for the embedded cluster whose
+    # workers are forked from this process, the kernels loaded) before the cluster starts
+    pilot = nominal_pilot(draw.vehicle)
+    if args.scheduler is None:
+        warm(draw)
+    with engine.client(args.workers, args.scheduler, args.timeout, fork=True) as c:
         cluster = engine.describe(c)
         t_tasks = time.perf_counter()
         say(f'montecarlo: {draw.runs} runs in {len(chunks)} task(s) on '
             f'{cluster["workers"]} worker(s)')
+        shared = c.scatter(pilot, broadcast=True, hash=False)
         keys = [f'montecarlo-{i:05d}' for i in range(len(chunks))]
-        futures = [c.submit(run_chunk, draw, ch, key=k, retries=args.retries, pure=False)
+        futures = [c.submit(run_chunk, draw, ch, shared, key=k, retries=args.retries,
+                            pure=False)
                    for k, ch in zip(keys, chunks)]
         results: dict[str, list[dict[str, Any]]] = {}
         failed_tasks = []
@@ -234,7 +278,7 @@ def _montecarlo(args: argparse.Namespace, say: Any) -> int:
             say(f'[{n}/{len(futures)}] {time.perf_counter() - t0:7.1f} s  {fut.key}')
         tasks_wall = time.perf_counter() - t_tasks
         history = engine.task_history(c, keys)
-        del futures
+        del futures, shared
     wall = time.perf_counter() - t0
     runs = [r for k in keys for r in results.get(k, [])]
     summary = summarise(runs)
@@ -288,7 +332,8 @@ def _mc_markdown(doc: dict[str, Any]) -> str:
              f'- effects (uniform): {d["effects"] or "none"}', '',
              '| figure | value |', '| --- | --- |',
              f'| flown / failed draws | {s["flown"]} / {s["failed"]} |',
-             f'| tumbled (> {d["tumble_deg"]:g} deg or diverged) | {s["tumbled"]} |',
+             f'| tumbled (> {math.degrees(d["tumble_angle"]):g} deg or diverged) '
+             f'| {s["tumbled"]} |',
              f'| not settled within +-{d["band"]:g} m | {s["not_settled"]} |',
              f'| settling time, median | {q("settling_time", "s")} |',
              f'| peak pitch, median | {q("peak_pitch_deg", "deg")} |',

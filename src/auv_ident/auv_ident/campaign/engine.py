@@ -11,11 +11,19 @@ A worker that dies while running a task (killed, out of memory) makes the schedu
 task again on another worker, up to ``allowed_failures`` times
 (``distributed.scheduler.allowed-failures``; set here for the embedded cluster, and in the
 scheduler's own configuration for an external one).
+
+``fork=True`` starts the embedded cluster's worker processes by forking this process (POSIX
+only; ``spawn`` otherwise): what this process has already imported, compiled (numba kernels)
+and built (a pilot designed here) the workers inherit instead of paying for it again. Used by
+the Monte Carlo, whose fixed cost per worker is exactly that; the campaign of logs keeps
+``spawn`` (a fresh interpreter per worker). The embedded workers' statistical profiler (it
+samples the running task for a dashboard the embedded cluster does not start) is off.
 """
 from __future__ import annotations
 
 import contextlib
 import logging
+import multiprocessing
 import os
 from collections.abc import Iterator
 from typing import Any
@@ -37,7 +45,7 @@ def default_workers() -> int:
 @contextlib.contextmanager
 def client(workers: int | None = None, scheduler: str | None = None,
            timeout: float = CONNECT_TIMEOUT_S, allowed_failures: int = ALLOWED_FAILURES,
-           memory_limit: str | float | None = 'auto') -> Iterator[Any]:
+           memory_limit: str | float | None = 'auto', fork: bool = False) -> Iterator[Any]:
     """A :class:`distributed.Client` for the campaign, closed (and its cluster shut down) on
     exit.
 
@@ -47,6 +55,8 @@ def client(workers: int | None = None, scheduler: str | None = None,
         timeout: seconds to wait for ``scheduler`` to answer.
         allowed_failures: task restarts after worker deaths (embedded cluster).
         memory_limit: per-worker memory limit of the embedded cluster (Dask's syntax).
+        fork: start the embedded cluster's workers by forking this process (see the module
+            docstring); ignored with ``scheduler`` and where fork is not available.
 
     Raises:
         CampaignError: bad worker count, or no scheduler answering at ``scheduler``.
@@ -76,6 +86,11 @@ def client(workers: int | None = None, scheduler: str | None = None,
             c.close()
         return
     n = workers or default_workers()
+    # the workers' statistical profiler samples the running task every 10 ms for a dashboard
+    # the embedded cluster does not have: off
+    quiet['distributed.worker.profile.enabled'] = False
+    if fork and 'fork' in multiprocessing.get_all_start_methods():
+        quiet['distributed.worker.multiprocessing-method'] = 'fork'
     with dask.config.set(quiet):
         cluster = dist.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                dashboard_address=None, silence_logs=logging.CRITICAL,

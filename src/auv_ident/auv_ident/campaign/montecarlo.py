@@ -15,10 +15,17 @@ into tasks or on the number of workers. Each run:
   the drawn one with :func:`auv_depth_lqr.closed_loop.run_closed_loop` (the simulator's RK4
   with its actuator model; the lockstep protocol of the node graph).
 
+The fixed cost of a command (imports, the simulator's compiled kernels, the pilot's design:
+several CPU-seconds) is paid once: :func:`nominal_pilot` designs the pilot once per process and
+:func:`warm` loads the kernels by flying the draw's first run for a second; the command does
+both on the client, then forks the embedded cluster's workers from it (they inherit both), or
+on an external cluster scatters the designed pilot to the workers (:func:`run_chunk`'s
+``pilot``), whose processes outlive the command and load the kernels once.
+
 Outputs per run: ``settling_time`` [s] (within ``band`` of the target to the end; NaN if
 never), ``peak_pitch_deg``, ``final_error`` [m] (``|z(T) - z_target|``), ``tumbled`` (the
-state diverged or ``|pitch|`` or ``|roll|`` exceeded ``tumble_deg``), ``steps`` (integration
-steps, for throughput).
+state diverged or ``|pitch|`` or ``|roll|`` exceeded ``tumble_angle`` [rad]), ``steps``
+(integration steps, for throughput).
 """
 from __future__ import annotations
 
@@ -51,7 +58,7 @@ class Draw:
         default_factory=dict)
     step: tuple[float, float] = (5.0, 20.0)
     band: float = 0.1
-    tumble_deg: float = 60.0
+    tumble_angle: float = math.radians(60.0)  # rad
 
     def check(self) -> None:
         """Raises CampaignError naming the first bad field."""
@@ -62,7 +69,7 @@ class Draw:
         if self.runs < 1:
             raise CampaignError(f'--runs must be >= 1, got {self.runs}')
         for name, value in (('duration', self.duration), ('u0', self.u0), ('band', self.band),
-                            ('tumble_deg', self.tumble_deg)):
+                            ('tumble_angle', self.tumble_angle)):
             if not (math.isfinite(value) and value > 0):
                 raise CampaignError(f'{name} must be finite and > 0, got {value}')
         for key, rel in self.spreads.items():
@@ -98,9 +105,7 @@ def draw_run(draw: Draw, i: int) -> dict[str, Any]:
 
 
 @functools.lru_cache(maxsize=4)
-def _nominal_pilot(vehicle: str, _stamp: tuple[int, int]) -> Any:
-    """The nominal vehicle and its pilot, designed once per worker process and file version
-    (``_stamp``: the file's mtime and size)."""
+def _nominal_pilot(vehicle: str, _stamp: tuple[int, int]) -> tuple[Any, Any]:
     from auv_depth_lqr.pilot import DepthPilot, PilotSettings
     from auv_sim.params import load_vehicle
 
@@ -108,18 +113,34 @@ def _nominal_pilot(vehicle: str, _stamp: tuple[int, int]) -> Any:
     return nominal, DepthPilot.for_vehicle(nominal, PilotSettings())
 
 
-def run_chunk(draw: Draw, runs: Sequence[int]) -> list[dict[str, Any]]:
-    """Fly runs ``runs`` of ``draw`` one after the other; one output dict per run."""
+def nominal_pilot(vehicle: str) -> tuple[Any, Any]:
+    """The nominal vehicle and the depth pilot designed on it, designed once per process and
+    file version (the file's mtime and size)."""
+    st = os.stat(vehicle)
+    return _nominal_pilot(vehicle, (st.st_mtime_ns, st.st_size))
+
+
+def warm(draw: Draw) -> None:
+    """Design the pilot and load the simulator's compiled kernels in this process: the draw's
+    first run flown for 1 s (the same code path as the runs)."""
+    run_chunk(dataclasses.replace(draw, duration=1.0), [0])
+
+
+def run_chunk(draw: Draw, runs: Sequence[int], pilot: tuple[Any, Any] | None = None
+              ) -> list[dict[str, Any]]:
+    """Fly runs ``runs`` of ``draw`` one after the other; one output dict per run.
+
+    ``pilot``: the nominal vehicle and its designed pilot (:func:`nominal_pilot`), when
+    designed elsewhere (scattered by the client); designed here otherwise."""
     from auv_depth_lqr.closed_loop import run_closed_loop
     from auv_depth_lqr.errors import AuvLqrError
     from auv_depth_lqr.metrics import step_metrics
     from auv_sim.environment import parse_environment
     from auv_sim.errors import AuvSimError, DivergenceError
 
-    st = os.stat(draw.vehicle)
-    nominal, template = _nominal_pilot(draw.vehicle, (st.st_mtime_ns, st.st_size))
+    nominal, template = pilot if pilot is not None else nominal_pilot(draw.vehicle)
     settings = template.settings
-    tumble = math.radians(draw.tumble_deg)
+    tumble = draw.tumble_angle
     out = []
     for i in runs:
         d = draw_run(draw, i)
@@ -129,10 +150,10 @@ def run_chunk(draw: Draw, runs: Sequence[int]) -> list[dict[str, Any]]:
             vehicle = nominal.replace(**{k: nominal.values[k] * f
                                          for k, f in d['factors'].items()})
             env = parse_environment({'effects': d['effects']}) if d['effects'] else None
-            pilot = copy.deepcopy(template)  # a fresh pilot: no state from another run
+            fresh = copy.deepcopy(template)  # a fresh pilot: no state from another run
             run = run_closed_loop(vehicle, [(0.0, d['z_target'])], draw.duration, z0=draw.z0,
                                   u0=draw.u0, environment=env, settings=settings,
-                                  pilot=pilot)
+                                  pilot=fresh)
         except DivergenceError as exc:
             rec.update(tumbled=True, settling_time=math.nan, peak_pitch_deg=math.nan,
                        final_error=math.nan, reason=str(exc).splitlines()[0],

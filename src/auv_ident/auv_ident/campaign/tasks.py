@@ -6,6 +6,12 @@ tool's full report into the mission's own directory, then extracts the few numbe
 campaign report tabulates. A mission whose log the tool rejects (damaged bag, too little
 excitation, ...) returns a ``failed`` record with the tool's one-line reason; the campaign
 goes on. Records are cached by the log's content hash and the settings (:mod:`.cache`).
+
+With a map (``settings['map']``) the tools read the original log through it
+(:mod:`auv_ident.realog`); the mission's time and duration are then those of the imported
+log's time base: the first and last state samples the import kept (from the import report the
+tool writes, or the joint pass's own import), a date when the clock is absolute (stamps after
+:data:`EPOCH_MIN_S`), else no date (a log timed from its own start) but a duration.
 """
 from __future__ import annotations
 
@@ -29,6 +35,24 @@ KINDS = ('ident', 'gap')
 INPUT_ERRORS: tuple[type[Exception], ...] = (IdentError, ValueError, OSError)
 
 MissionTask = Callable[[str, str, str, Mapping[str, Any]], dict[str, Any]]
+#: Stamps at or after this [s since the Unix epoch, 1990-01-01 UTC] are a date; earlier ones
+#: are taken as a clock started with the log (text logs timed from 0).
+EPOCH_MIN_S = 631_152_000.0
+
+
+def import_span(imports: Sequence[Mapping[str, Any]]) -> tuple[float | None, float | None]:
+    """First and last kept state stamps [s] of imported logs, from their import reports
+    (:func:`auv_ident.realog.importer.import_log`: ``segments``); (None, None) if none."""
+    segs = [s for imp in imports for s in imp.get('segments') or []]
+    if not segs:
+        return None, None
+    return min(float(s['start']) for s in segs), max(float(s['end']) for s in segs)
+
+
+def _timing(start: float | None, end: float | None) -> dict[str, Any]:
+    """``start_time`` (a date, or None for a clock started with the log) and ``duration_s``."""
+    return {'start_time': start if start is not None and start >= EPOCH_MIN_S else None,
+            'duration_s': None if start is None or end is None else end - start}
 
 
 def log_span(path: str | os.PathLike[str]) -> tuple[float | None, float | None]:
@@ -38,7 +62,7 @@ def log_span(path: str | os.PathLike[str]) -> tuple[float | None, float | None]:
     read: the single-log tool then says what is wrong with the bag."""
     from mcap.reader import make_reader
 
-    from auv_ident.bag import bag_files, read_arrays
+    from auv_bag import bag_files, read_arrays
 
     starts, ends = [], []
     try:
@@ -75,14 +99,17 @@ def _tool_args(kind: str, bag: str, out: str, settings: Mapping[str, Any]
     parser = argparse.ArgumentParser(prog=f'auv {kind}', add_help=False)
     if kind == 'gap':
         gap_cli.add_arguments(parser)
-        argv = [bag, '--model', str(settings['model']), '--out', out, '--quiet']
+        argv = [bag, '--vehicle', str(settings['model']), '--out', out, '--quiet']
     else:
         cli.add_arguments(parser)
-        argv = [bag, '--base', str(settings['model']), '--out', out]
+        argv = [bag, '--vehicle', str(settings['model']), '--out', out]
+    if settings.get('map'):
+        argv += ['--map', str(settings['map'])]
     return parser.parse_args([*argv, *settings.get('options', [])])
 
 
-def check_options(kind: str, model: str, options: Sequence[str]) -> None:
+def check_options(kind: str, model: str, options: Sequence[str],
+                  map_path: str | None = None) -> None:
     """Parse the pass-through options with the tool's own parser (bad ones fail now, once,
     not in every task).
 
@@ -93,7 +120,8 @@ def check_options(kind: str, model: str, options: Sequence[str]) -> None:
 
     try:
         with contextlib.redirect_stderr(io.StringIO()) as err:
-            _tool_args(kind, 'LOG', 'OUT', {'model': model, 'options': list(options)})
+            _tool_args(kind, 'LOG', 'OUT', {'model': model, 'options': list(options),
+                                            'map': map_path})
     except SystemExit:
         lines = [ln for ln in err.getvalue().splitlines() if ln.strip()]
         raise CampaignError(f'--options for auv {kind}: '
@@ -145,26 +173,42 @@ def _run_gap(bag: str, out: pathlib.Path, settings: Mapping[str, Any]) -> dict[s
         raise _ToolFailed(reason.removeprefix('error: '))
     report = json.loads((out / 'report.json').read_text())
     details = json.loads((out / 'details.json').read_text())
-    return {'verdict': report['verdict'], 'best': report['best'],
+    inputs = json.loads((out / 'inputs.json').read_text())
+    return {'span': import_span(inputs.get('imports') or []),
+            'verdict': report['verdict'], 'best': report['best'],
             'ambiguous_with': list(report.get('ambiguous_with') or []),
             'held_out_shrink': report.get('held_out', {}).get('shrink'),
             'quantities': gap_quantities(report, details)}
 
 
-def _run_gap_joint(bag: str, out: pathlib.Path, settings: Mapping[str, Any]
-                   ) -> dict[str, Any]:
-    """The campaign's effect set fitted jointly to one log by the diagnosis' own
-    equation-error fit (:class:`auv_ident.gap.fit.EquationFit`, training windows, its 95 %
-    cluster-robust intervals), written to ``out/joint.json``."""
-    from auv_ident.gap.fit import EquationFit
-    from auv_ident.gap.logs import load_bag
-    from auv_ident.gap.problem import EffectSet, Problem
-    from auv_sim.params import load_vehicle
+def gap_logs(bag: str, map_path: str | None) -> tuple[list[Any], list[dict[str, Any]]]:
+    """The diagnosis' log pieces of one log, read as ``auv gap`` reads it (a contract bag, or
+    the original log through ``map_path``), and the import reports (empty for a bag)."""
+    from auv_ident.gap.logs import from_contract_arrays, load_bag
 
-    args = _tool_args('gap', bag, str(out), settings)
-    vehicle = load_vehicle(args.vehicle)
-    problem = Problem(vehicle, load_bag(bag), window=args.window)
-    effects = EffectSet(list(settings['effect_set']), vehicle)
+    if not map_path:
+        return list(load_bag(bag)), []
+    from auv_ident.realog.importer import contract_arrays, import_log
+    from auv_ident.realog.mapping import load_map
+
+    imported = import_log(load_map(map_path), bag)
+    return (list(from_contract_arrays(imported.name, contract_arrays(imported))),
+            [dict(imported.report)])
+
+
+def joint_fit(vehicle: Any, logs: Sequence[Any], window: float, effect_names: Sequence[str]
+              ) -> tuple[str, dict[str, dict[str, Any]]]:
+    """Fit the effects ``effect_names`` jointly to ``logs`` with the diagnosis' own
+    equation-error fit (:class:`auv_ident.gap.fit.EquationFit`: its training windows of
+    ``window`` [s], its 95 % cluster-robust intervals). Returns the set's label and
+    ``effect.param`` -> value, interval (None where not identified), unit, identified.
+
+    The only place the campaign calls into the diagnosis' fitting code."""
+    from auv_ident.gap.fit import EquationFit
+    from auv_ident.gap.problem import EffectSet, Problem
+
+    problem = Problem(vehicle, list(logs), window=window)
+    effects = EffectSet(list(effect_names), vehicle)
     fit = EquationFit(problem).fit(effects)
     quantities = {}
     for (effect, p), v, lo, hi, active in zip(effects.params, fit.values, fit.lo95, fit.hi95,
@@ -172,11 +216,27 @@ def _run_gap_joint(bag: str, out: pathlib.Path, settings: Mapping[str, Any]
         quantities[f'{effect}.{p.name}'] = {
             'value': float(v), 'ci95': _interval([lo, hi]) if active else None,
             'unit': p.unit, 'identified': bool(active)}
+    return str(effects.label), quantities
+
+
+def _run_gap_joint(bag: str, out: pathlib.Path, settings: Mapping[str, Any]
+                   ) -> dict[str, Any]:
+    """The campaign's effect set fitted jointly to one log (:func:`joint_fit`), the log read
+    as ``auv gap`` reads it (with the vehicle's limits widened to what was logged, as there),
+    written to ``out/joint.json``."""
+    from auv_ident.limits import as_logged
+    from auv_sim.params import load_vehicle
+
+    args = _tool_args('gap', bag, str(out), settings)
+    logs, imports = gap_logs(bag, settings.get('map'))
+    unique = {id(lg.commands): lg.commands for lg in logs}
+    vehicle, _ = as_logged(load_vehicle(args.vehicle), list(unique.values()))
+    label, quantities = joint_fit(vehicle, logs, args.window, settings['effect_set'])
     out.mkdir(parents=True, exist_ok=True)
-    (out / 'joint.json').write_text(json.dumps({'effects': effects.label,
+    (out / 'joint.json').write_text(json.dumps({'effects': label,
                                                 'quantities': quantities}, indent=1) + '\n')
-    return {'verdict': 'joint_fit', 'best': effects.label, 'ambiguous_with': [],
-            'quantities': quantities}
+    return {'span': import_span(imports), 'verdict': 'joint_fit', 'best': label,
+            'ambiguous_with': [], 'quantities': quantities}
 
 
 def _run_ident(bag: str, out: pathlib.Path, settings: Mapping[str, Any]) -> dict[str, Any]:
@@ -186,7 +246,8 @@ def _run_ident(bag: str, out: pathlib.Path, settings: Mapping[str, Any]) -> dict
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
         cli.run(args)
     report = json.loads((out / 'report.json').read_text())
-    return {'verdict': 'identified', 'best': None, 'ambiguous_with': [],
+    return {'span': import_span(report.get('imports') or []),
+            'verdict': 'identified', 'best': None, 'ambiguous_with': [],
             'source': report.get('source'), 'quantities': ident_quantities(report)}
 
 
@@ -202,12 +263,12 @@ def run_mission(kind: str, name: str, bag: str, settings: Mapping[str, Any]
     ``out`` (campaign directory; the tool writes into ``out/missions/<name>[-refit]``),
     ``cache`` (cache directory or None), ``key_settings`` (what the cache key covers),
     ``effect_set`` (gap only: fit this set of effects jointly, see :func:`_run_gap_joint`).
+    ``map`` (mapping file or None: the logs are original logs read through it).
     """
     t0 = time.perf_counter()
-    start, end = log_span(bag)
+    mapped = bool(settings.get('map'))
     record: dict[str, Any] = {
-        'name': name, 'log': bag, 'start_time': start,
-        'duration_s': None if start is None or end is None else end - start,
+        'name': name, 'log': bag, **_timing(*((None, None) if mapped else log_span(bag))),
         'status': 'ok', 'reason': None, 'cached': False}
     try:
         log_hash = content_hash(bag)
@@ -235,6 +296,9 @@ def run_mission(kind: str, name: str, bag: str, settings: Mapping[str, Any]
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         return {**record, 'status': 'failed', 'reason': reason,
                 'elapsed_s': time.perf_counter() - t0}
+    span = result.pop('span', (None, None))
+    if mapped:
+        record.update(_timing(*span))
     record.update(result)
     record['report'] = str(out / ('joint.json' if settings.get('effect_set') else 'report.md'))
     record['elapsed_s'] = time.perf_counter() - t0
