@@ -26,7 +26,14 @@ from auv_ident.identify import (
 from auv_ident.motion import actuator_positions, consistent_kernel, noise_sigma, reconstruct
 from auv_sim.environment import Environment
 from auv_sim.missions import load_mission, run_mission
-from auv_sim.model import actuator_steps, rk4_steps, wrench_series
+from auv_sim.model import (
+    HYDRO_AXIS,
+    HYDRO_TERMS,
+    actuator_steps,
+    hydro_basis_series,
+    rk4_steps,
+    wrench_series,
+)
 from auv_sim.params import VehicleParams, load_vehicle
 from auv_sim.simulator import Record
 
@@ -291,3 +298,25 @@ def test_actuator_steps_are_the_simulators_actuators_bit_for_bit(base: VehiclePa
         assert actuator_steps(alone, cmd, P, base.dt, k) == -1
         assert np.array_equal(alone[12:15], full[12:15])
     assert np.all(alone[:12] == 0.0)
+
+
+def test_hydrodynamic_wrench_is_the_term_table_times_the_coefficients(base: VehicleParams
+                                                                     ) -> None:
+    # the table identification reads (HYDRO_TERMS, HYDRO_AXIS) against the model's kernel,
+    # with every coefficient and the environment's cross-flow drag non-zero
+    rng = np.random.default_rng(5)
+    vehicle = base.replace(**{k: -float(rng.uniform(1.0, 200.0)) for k in (
+        'Yvv', 'Zww', 'Mqq', 'Nrr')}, **{k: float(rng.uniform(-5.0, 5.0)) for k in (
+            'Yrr', 'Zqq', 'Mww', 'Nvv')})
+    extra = {'Zww': -30.0, 'Mqq': -4.0, 'Yvv': -20.0, 'Nrr': -3.0}
+    env = Environment(effects={'crossflow_drag': extra})
+    n = 200
+    X = np.zeros((n, 15))
+    X[:, 6] = rng.uniform(-0.5, 3.0, n)
+    X[:, 7:12] = rng.uniform(-0.3, 0.3, (n, 5))
+    W = wrench_series(np.zeros(n), X, vehicle.as_array(), env.env_vector(), env.profile())
+    basis = hydro_basis_series(np.ascontiguousarray(X[:, 6:12]), vehicle.as_array())
+    expected = np.zeros((n, 6))
+    for k, (name, axis) in enumerate(zip(HYDRO_TERMS, HYDRO_AXIS)):
+        expected[:, axis] += (vehicle.values[name] + extra.get(name, 0.0)) * basis[:, k]
+    np.testing.assert_allclose(W[:, 0], expected, rtol=1e-13, atol=1e-10)

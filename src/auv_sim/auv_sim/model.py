@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit, prange
+from numba.misc.special import literally
 
 from auv_sim.params import PARAM_NAMES
 
@@ -256,14 +257,20 @@ def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
     aur = _sabs(ur)
 
     # --- hydrodynamic damping, lift and drag: the basis terms times their coefficients ---
-    basis = hydro_basis(ur, vr, wr, p, q, r, P)
-    for j in range(6):
-        out[0, j] = 0.0 * ur
-    for k in range(NH):
-        c = P[HYDRO_PARAM[k]]
-        if HYDRO_ENV[k] >= 0:
-            c += env[HYDRO_ENV[k]]
-        out[0, HYDRO_AXIS[k]] += c * basis[k]
+    # (the sums of HYDRO_PARAM x basis on each HYDRO_AXIS, written out for speed)
+    (b_ksh, b_cyuv, b_cyur, b_yvv, b_yrr, b_cz0, b_czuw, b_czuq, b_zww, b_zqq, b_clup,
+     b_cm0, b_cmuw, b_cmuq, b_mww, b_mqq, b_cnuv, b_cnur, b_nvv, b_nrr) = hydro_basis(
+        ur, vr, wr, p, q, r, P)
+    out[0, 0] = P[I_KSH] * b_ksh
+    out[0, 1] = (P[I_CYUV] * b_cyuv + P[I_CYUR] * b_cyur + (P[I_YVV] + env[E_YVV]) * b_yvv
+                 + P[I_YRR] * b_yrr)
+    out[0, 2] = (P[I_CZ0] * b_cz0 + P[I_CZUW] * b_czuw + P[I_CZUQ] * b_czuq
+                 + (P[I_ZWW] + env[E_ZWW]) * b_zww + P[I_ZQQ] * b_zqq)
+    out[0, 3] = P[I_CLUP] * b_clup
+    out[0, 4] = (P[I_CM0] * b_cm0 + P[I_CMUW] * b_cmuw + P[I_CMUQ] * b_cmuq + P[I_MWW] * b_mww
+                 + (P[I_MQQ] + env[E_MQQ]) * b_mqq)
+    out[0, 5] = (P[I_CNUV] * b_cnuv + P[I_CNUR] * b_cnur + P[I_NVV] * b_nvv
+                 + (P[I_NRR] + env[E_NRR]) * b_nrr)
 
     # --- Coriolis and centripetal ---
     # rigid body: f = -m (w x v + w x (w x r_g)), m_o = -(w x I_o w) - m r_g x (w x v)
@@ -433,17 +440,11 @@ def actuator_dynamics(t, x, cmd, P, env, prof, xdot, work):  # type: ignore[no-u
 
 
 @njit(cache=True)
-def _rhs(vehicle, t, x, cmd, P, env, prof, xdot, work):  # type: ignore[no-untyped-def]
-    """:func:`dynamics` (``vehicle``) or :func:`actuator_dynamics` (not)."""
-    if vehicle:
-        dynamics(t, x, cmd, P, env, prof, xdot, work)
-    else:
-        actuator_dynamics(t, x, cmd, P, env, prof, xdot, work)
-
-
-@njit(cache=True)
 def _rk4(t0, x, cmd, P, env, prof, dt, nsteps, vehicle):  # type: ignore[no-untyped-def]
-    """Classic RK4 of :func:`_rhs`; returns as :func:`rk4_steps`."""
+    """Classic RK4 of :func:`dynamics` (``vehicle``) or :func:`actuator_dynamics` (not);
+    returns as :func:`rk4_steps`. ``vehicle`` is a compile-time constant: one specialisation
+    each, the other branch pruned (a run-time branch costs the vehicle 30 % in speed)."""
+    literally(vehicle)
     n = x.shape[0]
     k1 = np.empty(n)
     k2 = np.empty(n)
@@ -453,16 +454,28 @@ def _rk4(t0, x, cmd, P, env, prof, dt, nsteps, vehicle):  # type: ignore[no-unty
     work = np.empty((4, 6))
     for s in range(nsteps):
         t = t0 + s * dt
-        _rhs(vehicle, t, x, cmd, P, env, prof, k1, work)
+        if vehicle:
+            dynamics(t, x, cmd, P, env, prof, k1, work)
+        else:
+            actuator_dynamics(t, x, cmd, P, env, prof, k1, work)
         for i in range(n):
             xt[i] = x[i] + 0.5 * dt * k1[i]
-        _rhs(vehicle, t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
+        if vehicle:
+            dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
+        else:
+            actuator_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
         for i in range(n):
             xt[i] = x[i] + 0.5 * dt * k2[i]
-        _rhs(vehicle, t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
+        if vehicle:
+            dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
+        else:
+            actuator_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
         for i in range(n):
             xt[i] = x[i] + dt * k3[i]
-        _rhs(vehicle, t + dt, xt, cmd, P, env, prof, k4, work)
+        if vehicle:
+            dynamics(t + dt, xt, cmd, P, env, prof, k4, work)
+        else:
+            actuator_dynamics(t + dt, xt, cmd, P, env, prof, k4, work)
         ok = True
         for i in range(n):
             xt[i] = x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
