@@ -315,7 +315,8 @@ def test_hydrodynamic_wrench_is_the_term_table_times_the_coefficients(base: Vehi
     X[:, 6] = rng.uniform(-0.5, 3.0, n)
     X[:, 7:12] = rng.uniform(-0.3, 0.3, (n, 5))
     W = wrench_series(np.zeros(n), X, vehicle.as_array(), env.env_vector(), env.profile())
-    basis = hydro_basis_series(np.ascontiguousarray(X[:, 6:12]), vehicle.as_array())
+    basis = hydro_basis_series(np.ascontiguousarray(X[:, 6:12]), vehicle.as_array(),
+                               np.arange(len(HYDRO_TERMS)))
     expected = np.zeros((n, 6))
     for k, (name, axis) in enumerate(zip(HYDRO_TERMS, HYDRO_AXIS)):
         expected[:, axis] += (vehicle.values[name] + extra.get(name, 0.0)) * basis[:, k]

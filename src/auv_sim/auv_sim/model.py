@@ -200,16 +200,17 @@ def hydro_basis(ur, vr, wr, p, q, r, P):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True)
-def hydro_basis_series(NU, P):  # type: ignore[no-untyped-def]
+def hydro_basis_series(NU, P, terms):  # type: ignore[no-untyped-def]
     """:func:`hydro_basis` for N velocities through the water ``NU`` (N x 6, body FRD
-    [m/s, rad/s]): an N x :data:`NH` array, column k the wrench component
-    ``HYDRO_AXIS[k]`` [N or N m] of a unit coefficient ``HYDRO_TERMS[k]``."""
+    [m/s, rad/s]), the terms of indices ``terms`` (into :data:`HYDRO_TERMS`) only: an
+    N x len(terms) array, column j the wrench component ``HYDRO_AXIS[terms[j]]`` [N or N m]
+    of a unit coefficient ``HYDRO_TERMS[terms[j]]``."""
     n = NU.shape[0]
-    out = np.empty((n, NH))
+    out = np.empty((n, terms.shape[0]))
     for i in range(n):
         b = hydro_basis(NU[i, 0], NU[i, 1], NU[i, 2], NU[i, 3], NU[i, 4], NU[i, 5], P)
-        for k in range(NH):
-            out[i, k] = b[k]
+        for j in range(terms.shape[0]):
+            out[i, j] = b[terms[j]]
     return out
 
 

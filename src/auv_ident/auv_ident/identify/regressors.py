@@ -23,7 +23,13 @@ from auv_sim.params import VehicleParams
 def component_terms(equation: Equation) -> tuple[str, ...]:
     """Names of the model's hydrodynamic terms on the equation's wrench component (in
     :data:`auv_sim.model.HYDRO_TERMS` order)."""
-    return tuple(k for k, a in zip(HYDRO_TERMS, HYDRO_AXIS) if a == equation.axis)
+    return tuple(HYDRO_TERMS[k] for k in _term_indices(equation))
+
+
+def _term_indices(equation: Equation) -> np.ndarray:
+    """Indices into :data:`auv_sim.model.HYDRO_TERMS` of the terms on the equation's
+    component."""
+    return np.flatnonzero(np.asarray(HYDRO_AXIS) == equation.axis)
 
 
 def regressor_columns(equation: Equation, nu: np.ndarray, params: VehicleParams
@@ -31,8 +37,10 @@ def regressor_columns(equation: Equation, nu: np.ndarray, params: VehicleParams
     """Column of every model term on the equation's component (:func:`component_terms`)
     for velocities ``nu`` (N, 6) body FRD [m/s, rad/s]; columns in N (forces) or N m
     (moments) per unit coefficient, from :func:`auv_sim.model.hydro_basis_series`."""
-    basis = hydro_basis_series(np.ascontiguousarray(nu, dtype=np.float64), params.as_array())
-    return {k: basis[:, i] for i, k in enumerate(HYDRO_TERMS) if HYDRO_AXIS[i] == equation.axis}
+    terms = _term_indices(equation)
+    basis = hydro_basis_series(np.ascontiguousarray(nu, dtype=np.float64), params.as_array(),
+                               terms)
+    return {HYDRO_TERMS[k]: basis[:, j] for j, k in enumerate(terms)}
 
 
 def _stepped_columns(equation: Equation, nu: np.ndarray, channel: int, step: float,
