@@ -9,13 +9,16 @@ sensor noise as in the round-trip test). Timed, median of ``repeats`` runs each:
 * ``identify_forces_s``: force records plus the five regressions from the force topic;
 * ``identify_motion_s``: forces reconstructed from motion plus the five regressions;
 * ``nelder_mead_s``: the report's bounded Nelder-Mead on the same data (comparison only);
-* ``total_*_s``: bags to coefficients (read + identify).
+* ``total_*_s``: bags to coefficients (read + identify);
+* ``coefficients_*``: the identified coefficients (the vehicle file's to rounding from the
+  force topic).
 
 Run: ``. .venv/bin/auv-env && python bench/bench_ident.py`` (writes bench/results/ident.json).
 """
 from __future__ import annotations
 
 import json
+import os
 import pathlib
 import platform
 import tempfile
@@ -38,6 +41,7 @@ def run(repeats: int = 3) -> dict[str, Any]:
     from auv_sim.params import load_vehicle
 
     params = load_vehicle(ROOT / 'config' / 'a18m.yaml')
+    load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
         root = pathlib.Path(tmp)
         recs = {name: run_mission(params, load_mission(name)) for name in set(SEQUENCE)}
@@ -85,7 +89,11 @@ def run(repeats: int = 3) -> dict[str, Any]:
         'meets_target': bool(read_f + fit_f < TARGET_S and read_m + fit_m < TARGET_S),
         'coefficients_forces': result_f.values(),
         'coefficients_motion': result_m.values(),
-        'machine': {'python': platform.python_version(), 'processor': platform.machine()},
+        'machine': {'python': platform.python_version(), 'processor': platform.machine(),
+                    'cpus': os.cpu_count(),
+                    # 1-minute load average at the start and at the end of the run: timings
+                    # taken on a busy machine are longer than on an idle one
+                    'load_average': [load_before, os.getloadavg()[0]]},
     }
 
 

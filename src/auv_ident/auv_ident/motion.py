@@ -9,8 +9,9 @@ model leaves of ``M nu_dot`` (Fossen's form, body FRD about the body origin)::
 with ``M`` the rigid-body plus added mass of the base vehicle (:func:`auv_sim.params.mass_matrix`)
 and the other wrenches from :func:`auv_sim.model.wrench_series` on the logged attitude and
 velocities and on actuator positions reconstructed from the logged commands through the
-vehicle's own actuator model (:func:`auv_sim.model.actuator_rates`: angle limit, rate limit,
-first-order lag; RK4 on the simulator's step grid, so a simulated log is reproduced exactly).
+vehicle's own actuator model and integrator (:func:`auv_sim.model.actuator_steps`: the
+simulator's RK4 of :func:`auv_sim.model.actuator_rates` (angle limit, rate limit, first-order
+lag) on its step grid, so a simulated log is reproduced exactly).
 
 Derivative and filter (the window choice). ``nu_dot`` is a Savitzky-Golay derivative
 (``scipy.signal.savgol_filter``, ``deriv=1``, ``polyorder=2``) over a window of
@@ -54,7 +55,7 @@ from scipy.signal import savgol_coeffs, savgol_filter
 from auv_ident.errors import IdentificationError
 from auv_ident.identify import ForceRecord, NoisePropagation
 from auv_sim.environment import Environment
-from auv_sim.model import NX, actuator_rates, wrench_series
+from auv_sim.model import NX, actuator_steps, wrench_series
 from auv_sim.params import VehicleParams, mass_matrix
 
 STATE_TOPIC = '/auv/state'
@@ -160,17 +161,13 @@ def segments(t: np.ndarray, tolerance: float = 0.25) -> list[slice]:
 @njit(cache=True)
 def _integrate_actuators(x0, ev_step, ev_channel, ev_value,  # type: ignore[no-untyped-def]
                          cmd0, P, dt, nsteps):
-    """Actuator positions (nsteps+1, 3) on the grid ``k dt`` by the simulator's RK4 with
-    :func:`auv_sim.model.actuator_rates`; command events take effect at their step."""
+    """Actuator positions (nsteps+1, 3) on the grid ``k dt`` by the simulator's RK4 and
+    actuator model (:func:`auv_sim.model.actuator_steps`); command events take effect at
+    their step."""
     out = np.empty((nsteps + 1, 3))
-    x = np.zeros(15)
+    x = np.zeros(NX)
     x[12:15] = x0
     cmd = cmd0.copy()
-    k1 = np.zeros(15)
-    k2 = np.zeros(15)
-    k3 = np.zeros(15)
-    k4 = np.zeros(15)
-    xt = x.copy()
     e = 0
     ne = ev_step.shape[0]
     for s in range(nsteps + 1):
@@ -180,20 +177,8 @@ def _integrate_actuators(x0, ev_step, ev_channel, ev_value,  # type: ignore[no-u
         out[s, 0] = x[12]
         out[s, 1] = x[13]
         out[s, 2] = x[14]
-        if s == nsteps:
-            break
-        actuator_rates(x, cmd, P, k1)
-        for i in range(12, 15):
-            xt[i] = x[i] + 0.5 * dt * k1[i]
-        actuator_rates(xt, cmd, P, k2)
-        for i in range(12, 15):
-            xt[i] = x[i] + 0.5 * dt * k2[i]
-        actuator_rates(xt, cmd, P, k3)
-        for i in range(12, 15):
-            xt[i] = x[i] + dt * k3[i]
-        actuator_rates(xt, cmd, P, k4)
-        for i in range(12, 15):
-            x[i] = x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        if s < nsteps:
+            actuator_steps(x, cmd, P, dt, 1)
     return out
 
 

@@ -19,14 +19,23 @@ from auv_ident.identify import (
     flat_top_lag,
     identify,
     nelder_mead,
+    regressor_columns,
     sensor_noise_meat,
     solve,
 )
 from auv_ident.motion import actuator_positions, consistent_kernel, noise_sigma, reconstruct
 from auv_sim.environment import Environment
 from auv_sim.missions import load_mission, run_mission
-from auv_sim.model import wrench_series
+from auv_sim.model import (
+    HYDRO_AXIS,
+    HYDRO_TERMS,
+    actuator_steps,
+    hydro_basis_series,
+    rk4_steps,
+    wrench_series,
+)
 from auv_sim.params import VehicleParams, load_vehicle
+from auv_sim.simulator import Record
 
 A18M = pathlib.Path(__file__).resolve().parents[3] / 'config' / 'a18m.yaml'
 DT = 0.02
@@ -140,22 +149,25 @@ def test_savgol_derivative_is_the_consistent_kernel_of_the_derivative() -> None:
     np.testing.assert_allclose(sg[m:-m], filt[m:-m], atol=2e-4)  # trapezoid rule at 50 Hz
 
 
-def test_actuators_are_reconstructed_exactly_from_the_commands(base: VehicleParams) -> None:
+def pitch_mission(base: VehicleParams) -> tuple[Record, dict[str, tuple[np.ndarray, np.ndarray]]]:
+    """The pitch mission flown by the simulator and its command changes (stamps [s],
+    set-points) per actuator, as a log holds them."""
     rec = run_mission(base, load_mission('pitch'))
     cmds = {}
     for j, ch in enumerate(('bar', 'helm', 'thrust')):
         change = np.flatnonzero(np.diff(rec.cmd[:, j], prepend=np.nan) != 0)
         cmds[ch] = (rec.t[change], rec.cmd[change, j])
+    return rec, cmds
+
+
+def test_actuators_are_reconstructed_exactly_from_the_commands(base: VehicleParams) -> None:
+    rec, cmds = pitch_mission(base)
     pos = actuator_positions(rec.t, cmds, base)
     np.testing.assert_allclose(pos, rec.x[:, 12:15], rtol=0, atol=1e-12)
 
 
 def test_forces_from_motion_match_the_filtered_true_forces(base: VehicleParams) -> None:
-    rec = run_mission(base, load_mission('pitch'))
-    cmds = {}
-    for j, ch in enumerate(('bar', 'helm', 'thrust')):
-        change = np.flatnonzero(np.diff(rec.cmd[:, j], prepend=np.nan) != 0)
-        cmds[ch] = (rec.t[change], rec.cmd[change, j])
+    rec, cmds = pitch_mission(base)
     fr = reconstruct(rec.t, rec.x[:, :12], cmds, base)
     true = np.column_stack([np.convolve(rec.wrench[:, 0, j], fr.kernel, mode='same')
                             for j in range(6)])
@@ -168,11 +180,7 @@ def test_forces_from_motion_match_the_filtered_true_forces(base: VehicleParams) 
 
 def _pitch_log(base: VehicleParams, noise: np.ndarray | None, seed: int = 0
                ) -> tuple[np.ndarray, np.ndarray, dict[str, tuple[np.ndarray, np.ndarray]]]:
-    rec = run_mission(base, load_mission('pitch'))
-    cmds = {}
-    for j, ch in enumerate(('bar', 'helm', 'thrust')):
-        change = np.flatnonzero(np.diff(rec.cmd[:, j], prepend=np.nan) != 0)
-        cmds[ch] = (rec.t[change], rec.cmd[change, j])
+    rec, cmds = pitch_mission(base)
     state = rec.x[:, :12].copy()
     if noise is not None:
         state += np.random.default_rng(seed).standard_normal(state.shape) * noise
@@ -230,3 +238,86 @@ def test_flat_top_lag_covers_the_memory_of_a_moving_average() -> None:
     lag = flat_top_lag(ma[:, None])
     assert 29 <= lag <= 45
     assert flat_top_lag(white[:, None], minimum=50) == 50
+
+
+def test_regressor_columns_are_the_report_terms_for_unit_coefficients(base: VehicleParams
+                                                                      ) -> None:
+    # hand-worked from the report's section 2 and Prestero's cross-flow drag
+    nu = np.array([[2.0, 0.1, -0.05, 0.1, 0.02, -0.03],
+                   [0.5, 0.0, 0.2, 0.0, -0.1, 0.0]])
+    qs = 0.5 * base.rho * base.S_ref
+    L = base.L_ref
+    heave = regressor_columns(EQUATIONS['heave'], nu, base)
+    assert list(heave) == ['CZ0', 'CZuw', 'CZuq', 'Zww', 'Zqq']
+    np.testing.assert_allclose(heave['CZ0'], [qs * 4.0, qs * 0.25], rtol=1e-14)
+    np.testing.assert_allclose(heave['CZuw'], [qs * 2.0 * -0.05, qs * 0.5 * 0.2], rtol=1e-14)
+    np.testing.assert_allclose(heave['CZuq'], [qs * L * 2.0 * 0.02, qs * L * 0.5 * -0.1],
+                               rtol=1e-14)
+    np.testing.assert_allclose(heave['Zww'], [-0.0025, 0.04], rtol=1e-14)
+    np.testing.assert_allclose(heave['Zqq'], [0.0004, -0.01], rtol=1e-14)
+    yaw = regressor_columns(EQUATIONS['yaw'], nu, base)
+    np.testing.assert_allclose(yaw['CNur'], [qs * L * L * 2.0 * -0.03, 0.0], atol=1e-14)
+    np.testing.assert_allclose(yaw['Nrr'], [-0.0009, 0.0], atol=1e-18)
+    # surge: ITTC-1957 with the Reynolds number held at 1e5 below it
+    surge = regressor_columns(EQUATIONS['surge'], nu, base)['Ksh']
+    for k, u in enumerate((2.0, 0.5)):
+        re = max(u * L / base.nu_water, 1.0e5)
+        assert surge[k] == pytest.approx(-qs * 0.075 / (math.log10(re) - 2.0) ** 2 * u * u,
+                                         rel=1e-13)
+
+
+def test_cross_flow_drag_of_the_vehicle_is_a_fixed_term(base: VehicleParams) -> None:
+    crossflow = {'Zww': -120.0, 'Zqq': -0.6, 'Mww': 8.0, 'Mqq': -9.0, 'Yvv': -130.0,
+                 'Yrr': 0.6, 'Nvv': -7.0, 'Nrr': -10.0}
+    vehicle = base.replace(**crossflow)
+    data = synthetic(vehicle)
+    result = identify([data], vehicle)
+    assert result.fits['heave'].fixed == {'CZ0': vehicle.CZ0, 'Zww': -120.0, 'Zqq': -0.6}
+    assert result.fits['yaw'].fixed == {'Nvv': -7.0, 'Nrr': -10.0}
+    for name, c in result.coefficients.items():
+        assert c.value == pytest.approx(vehicle.values[name], rel=1e-9), name
+    # the same data fitted without the known drag: the coefficients absorb it, and the 95 %
+    # interval no longer holds the true value
+    lo, hi = identify([data], base).coefficients['CZuw'].ci95
+    assert not lo <= vehicle.CZuw <= hi
+
+
+def test_actuator_steps_are_the_simulators_actuators_bit_for_bit(base: VehicleParams) -> None:
+    P = base.as_array()
+    env = Environment()
+    rng = np.random.default_rng(3)
+    full = np.zeros(15)
+    full[6] = 1.8
+    full[14] = 20.0
+    alone = np.zeros(15)
+    alone[12:15] = full[12:15]
+    for _ in range(40):
+        cmd = np.array([rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6), rng.uniform(-5, 80)])
+        k = int(rng.integers(1, 50))
+        assert rk4_steps(0.0, full, cmd, P, env.env_vector(), env.profile(), base.dt, k) == -1
+        assert actuator_steps(alone, cmd, P, base.dt, k) == -1
+        assert np.array_equal(alone[12:15], full[12:15])
+    assert np.all(alone[:12] == 0.0)
+
+
+def test_hydrodynamic_wrench_is_the_term_table_times_the_coefficients(base: VehicleParams
+                                                                     ) -> None:
+    # the table identification reads (HYDRO_TERMS, HYDRO_AXIS) against the model's kernel,
+    # with every coefficient and the environment's cross-flow drag non-zero
+    rng = np.random.default_rng(5)
+    vehicle = base.replace(**{k: -float(rng.uniform(1.0, 200.0)) for k in (
+        'Yvv', 'Zww', 'Mqq', 'Nrr')}, **{k: float(rng.uniform(-5.0, 5.0)) for k in (
+            'Yrr', 'Zqq', 'Mww', 'Nvv')})
+    extra = {'Zww': -30.0, 'Mqq': -4.0, 'Yvv': -20.0, 'Nrr': -3.0}
+    env = Environment(effects={'crossflow_drag': extra})
+    n = 200
+    X = np.zeros((n, 15))
+    X[:, 6] = rng.uniform(-0.5, 3.0, n)
+    X[:, 7:12] = rng.uniform(-0.3, 0.3, (n, 5))
+    W = wrench_series(np.zeros(n), X, vehicle.as_array(), env.env_vector(), env.profile())
+    basis = hydro_basis_series(np.ascontiguousarray(X[:, 6:12]), vehicle.as_array(),
+                               np.arange(len(HYDRO_TERMS)))
+    expected = np.zeros((n, 6))
+    for k, (name, axis) in enumerate(zip(HYDRO_TERMS, HYDRO_AXIS)):
+        expected[:, axis] += (vehicle.values[name] + extra.get(name, 0.0)) * basis[:, k]
+    np.testing.assert_allclose(W[:, 0], expected, rtol=1e-13, atol=1e-10)

@@ -1,0 +1,229 @@
+"""The linear regressions: pool records into ``b = A theta``, check identifiability, solve.
+
+Every regression is linear in its coefficients (see :mod:`auv_ident.identify.regressors`), so
+the sum of squares ``J(theta) = |b - A theta|^2`` is a quadratic form in ``theta``: it has one
+minimum (unique when ``A`` has full column rank), found exactly by a linear least-squares
+solve; there are no local minima for a Nelder-Mead search (the report's ``fminsearchbnd``) to
+avoid. :func:`nelder_mead` runs that search on the same data so the two can be compared. The
+terms of the equation's component that are not fitted (``CZ0`` and ``CM0`` unless fitted, as
+the report does; the vehicle file's cross-flow drag) are moved to ``b`` with their base
+values (reported under ``fixed``).
+
+For forces from motion the design is the projection of the regressors on lead/lag
+instruments (two-stage least squares): ``theta = (D'A)^-1 D'b``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from scipy import optimize
+
+from auv_ident.errors import IdentificationError, NotIdentifiableError
+from auv_ident.identify.equations import EXCITATION, Equation, excitation_amplitude
+from auv_ident.identify.records import ForceRecord, check_record
+from auv_ident.identify.regressors import component_terms, filtered, unbiased_columns
+from auv_sim.params import VehicleParams
+
+#: Column-scaled condition number above which an equation is declared not identifiable.
+COND_MAX = 1.0e3
+
+
+@dataclasses.dataclass
+class LinearSystem:
+    """``b = A theta`` of one equation, pooled over records (rows with finite ``b`` only)."""
+
+    equation: Equation
+    names: tuple[str, ...]           # fitted coefficients, columns of A
+    A: np.ndarray                    # (n, p) design the solve uses (= regressors, or their
+    #                                  projection on the instruments for motion data)
+    regressors: np.ndarray           # (n, p) regressors as measured
+    b: np.ndarray                    # (n,) measured component minus the fixed terms
+    measured: np.ndarray             # (n,) measured component (the force itself)
+    fixed: dict[str, float]          # coefficients moved to b with their base values
+    t: np.ndarray                    # (n,) stamps [s]
+    record_index: np.ndarray         # (n,) index of the record each row comes from
+    record_names: tuple[str, ...]
+    excitation: np.ndarray           # (n, 6) nu as filtered like A, for excitation checks
+    instrumented: bool = False       # A is the instrument projection (two-stage LS)
+    rows: np.ndarray | None = None   # (n,) sample index of each row in its record
+    records: tuple[ForceRecord, ...] = ()
+
+    def sum_of_squares(self, theta: np.ndarray) -> float:
+        """The report's objective ``J(theta) = sum (b - A theta)^2`` [N^2 or (N m)^2]."""
+        r = self.b - self.A @ theta
+        return float(r @ r)
+
+
+def build_system(records: Sequence[ForceRecord], equation: Equation, base: VehicleParams,
+                 fit_offset: bool = False) -> LinearSystem:
+    """Pool the records into ``b = A theta`` for ``equation``.
+
+    The offset coefficient (CZ0, CM0) is a column when ``fit_offset``, else its base value
+    times its column is subtracted from the measured component (report 2.2).
+    """
+    names = equation.coefficients if (equation.offset is None or not fit_offset) else (
+        (equation.offset, *equation.coefficients))
+    fixed = {} if (equation.offset is None or fit_offset) else {
+        equation.offset: base.values[equation.offset]}
+    # the model's other terms on this component are known (not fitted): moved to b like
+    # the offset, when the base vehicle has them
+    fixed.update({k: base.values[k] for k in component_terms(equation)
+                  if k not in names and k not in fixed and base.values[k] != 0.0})
+    parts_a, parts_b, parts_m, parts_t, parts_i, parts_x = [], [], [], [], [], []
+    parts_z: list[np.ndarray] = []
+    parts_r: list[np.ndarray] = []
+    for i, rec in enumerate(records):
+        check_record(rec)
+        cols = unbiased_columns(equation, rec, base)
+        stacked = filtered(np.column_stack([cols[k] for k in (*names, *fixed)]), rec.kernel)
+        meas = rec.tau[:, equation.axis]
+        ok = np.isfinite(meas)
+        if rec.kernel is not None:
+            # instruments: the filtered regressors one window before and after (noise-free
+            # parts only: their noise windows do not overlap those of row t)
+            lag = len(rec.kernel)
+            k = len(names)
+            inst = np.full((len(meas), 2 * k), np.nan)
+            if len(meas) > 4 * lag:
+                inst[2 * lag:-2 * lag, :k] = 0.5 * (stacked[lag:-3 * lag, :k]
+                                                    + stacked[3 * lag:-lag, :k])
+                inst[2 * lag:-2 * lag, k:] = 0.5 * (stacked[:-4 * lag, :k]
+                                                    + stacked[4 * lag:, :k])
+            ok &= np.all(np.isfinite(inst), axis=1)
+            parts_z.append(inst[ok])
+        a = stacked[ok, :len(names)]
+        b = meas[ok].copy()
+        for j, (_name, value) in enumerate(fixed.items()):
+            b -= value * stacked[ok, len(names) + j]
+        parts_a.append(a)
+        parts_b.append(b)
+        parts_m.append(meas[ok])
+        parts_t.append(rec.t[ok])
+        parts_i.append(np.full(int(ok.sum()), i))
+        parts_r.append(np.flatnonzero(ok))
+        parts_x.append(filtered(rec.nu, rec.kernel)[ok])
+    if not parts_a:
+        raise IdentificationError('no data: give at least one record')
+    A = np.concatenate(parts_a)
+    design = A
+    if parts_z:
+        if len(parts_z) != len(parts_a):
+            raise IdentificationError('records mix filtered and unfiltered forces; use one')
+        Z = np.concatenate(parts_z)
+        if len(Z) > 0:
+            zs = column_scale(Z)
+            design = (Z / zs) @ np.linalg.lstsq(Z / zs, A, rcond=None)[0]
+    return LinearSystem(
+        equation=equation, names=tuple(names), A=design, regressors=A,
+        b=np.concatenate(parts_b), measured=np.concatenate(parts_m), fixed=fixed,
+        t=np.concatenate(parts_t), record_index=np.concatenate(parts_i),
+        record_names=tuple(r.name for r in records), excitation=np.concatenate(parts_x),
+        instrumented=bool(parts_z), rows=np.concatenate(parts_r), records=tuple(records))
+
+
+def check_identifiable(system: LinearSystem) -> None:
+    """Raise NotIdentifiableError if a coefficient of ``system`` lacks excitation, or if two
+    coefficients cannot be told apart (column-scaled condition number above COND_MAX)."""
+    p = len(system.names)
+    if len(system.b) < 10 * p:
+        raise NotIdentifiableError(
+            f'{system.equation.name} equation: only {len(system.b)} usable samples for '
+            f'{p} coefficient(s) ({", ".join(system.names)}); record a longer manoeuvre')
+    for name in system.names:
+        exc = EXCITATION[name]
+        amp = excitation_amplitude(name, system.excitation[:, exc.variable])
+        if amp < exc.threshold:
+            kind = 'never exceeds' if name == 'Ksh' else 'never varies by more than'
+            raise NotIdentifiableError(
+                f'{name}: {exc.what} {kind} {amp * exc.scale:.3g} {exc.unit} in these data '
+                f'(99th percentile; needs {exc.threshold * exc.scale:.3g} {exc.unit}); '
+                f'{exc.manoeuvre}')
+    cond, corr = conditioning(system.A)
+    if not math.isfinite(cond) or cond > COND_MAX:
+        if p == 1:
+            raise NotIdentifiableError(
+                f'{system.names[0]}: its regressor is zero in these data; '
+                f'{EXCITATION[system.names[0]].manoeuvre}')
+        c = np.abs(np.nan_to_num(corr, nan=1.0)) - np.eye(p)
+        i, j = np.unravel_index(int(np.argmax(c)), c.shape)
+        a, b = system.names[min(i, j)], system.names[max(i, j)]
+        raise NotIdentifiableError(
+            f'{a} and {b} cannot be told apart in these data (regressor condition number '
+            f'{cond:.3g} > {COND_MAX:.0f}, correlation {corr[i, j]:+.5f}); '
+            f'{EXCITATION[b].manoeuvre} with varied lengths and speeds')
+
+
+def column_scale(A: np.ndarray) -> np.ndarray:
+    """Euclidean norm of each column of ``A`` (1 for a zero column), for scaling."""
+    s = np.sqrt(np.sum(A * A, axis=0))
+    return np.where(s > 0, s, 1.0)
+
+
+def conditioning(A: np.ndarray) -> tuple[float, np.ndarray]:
+    """Condition number of the column-scaled ``A`` and the correlation of its LS estimate."""
+    As = A / column_scale(A)
+    sv = np.linalg.svd(As, compute_uv=False)
+    cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
+    try:
+        cov = np.linalg.inv(As.T @ As)
+        d = np.sqrt(np.diag(cov))
+        corr = cov / np.outer(d, d)
+    except np.linalg.LinAlgError:
+        corr = np.full((A.shape[1], A.shape[1]), np.nan)
+    return cond, corr
+
+
+def solve(system: LinearSystem, bounds: Mapping[str, tuple[float, float]] | None = None
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares coefficients of ``system`` and a mask of those stopped on a bound.
+
+    Unbounded: an SVD least-squares solve of the column-scaled problem. With ``bounds``
+    (name -> (lo, hi), missing names unbounded): scipy's bounded-variable least squares
+    (``lsq_linear``, method ``bvls``), exact for this convex quadratic problem.
+    """
+    scale = column_scale(system.A)
+    As = system.A / scale
+    lo = np.array([(bounds or {}).get(n, (-math.inf, math.inf))[0] for n in system.names])
+    hi = np.array([(bounds or {}).get(n, (-math.inf, math.inf))[1] for n in system.names])
+    if bounds and (np.any(np.isfinite(lo)) or np.any(np.isfinite(hi))):
+        res = optimize.lsq_linear(As, system.b, bounds=(lo * scale, hi * scale),
+                                  method='bvls', tol=1e-12, lsmr_tol='auto')
+        theta = res.x / scale
+        at_bound = res.active_mask != 0
+    else:
+        theta = np.linalg.lstsq(As, system.b, rcond=None)[0] / scale
+        at_bound = np.zeros(len(theta), bool)
+    return theta, at_bound
+
+
+def nelder_mead(system: LinearSystem, x0: Sequence[float] | None = None,
+                bounds: Mapping[str, tuple[float, float]] | None = None,
+                xatol: float = 1e-10) -> np.ndarray:
+    """The report's method on the same data: bounded Nelder-Mead on ``J(theta)``.
+
+    The search runs on coefficients scaled by their column norms (so one tolerance fits all)
+    from ``x0`` (default: zeros), with scipy's ``minimize(method='Nelder-Mead', bounds=...)``;
+    the objective is :meth:`LinearSystem.sum_of_squares` evaluated on every sample.
+    """
+    scale = column_scale(system.A)
+    p = len(system.names)
+    start = np.zeros(p) if x0 is None else np.asarray(x0, float) * scale
+    lim = [((bounds or {}).get(n, (-math.inf, math.inf))) for n in system.names]
+    nm_bounds = [(lo * s if math.isfinite(lo) else None, hi * s if math.isfinite(hi) else None)
+                 for (lo, hi), s in zip(lim, scale)]
+    f0 = max(system.sum_of_squares(np.zeros(p)), 1e-300)
+
+    def objective(z: np.ndarray) -> float:
+        return system.sum_of_squares(z / scale) / f0
+
+    best = start
+    for _ in range(3):  # restarts from the last point shrink the simplex anew
+        res = optimize.minimize(objective, best, method='Nelder-Mead', bounds=nm_bounds,
+                                options={'xatol': xatol, 'fatol': 1e-15, 'maxiter': 20000,
+                                         'maxfev': 40000, 'adaptive': True})
+        best = res.x
+    return np.asarray(best / scale)
+
