@@ -72,7 +72,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--equations', nargs='+', choices=list(EQUATIONS), default=None,
                         help='equations to fit (default: all)')
     parser.add_argument('--errors', choices=ERROR_METHODS, default='hac',
-                        help='standard errors: hac (default), ess or iid')
+                        help='covariance estimator of the standard errors (default: %(default)s; '
+                             'see docs/identification.md)')
     parser.add_argument('--window', type=float, default=WINDOW_S,
                         help='derivative window for forces from motion [s] (default 1)')
     parser.add_argument('--no-nelder-mead', action='store_true',
