@@ -159,7 +159,7 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
         bounds_wall = time.perf_counter() - wall0
 
         def bound_of(m: Manoeuvre) -> float:
-            return bounds[(m.z1 - m.z0, m.u0)]
+            return bounds[(round(m.z1 - m.z0, 6), m.u0)]
 
         results: dict[str, Any] = {}
         if table:
@@ -216,6 +216,9 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
         'all': _shares(rows),
         'pilot_told_water_speed': _shares([r for r in rows if r['water_speed_told']]),
         'pilot_not_told_water_speed': _shares([r for r in rows if not r['water_speed_told']]),
+        'by_change': {f'{dz:+g} m': _shares([r for r in rows
+                                             if round(r['z1_m'] - r['z0_m'], 6) == dz])
+                      for dz in MC_CHANGES},
         'failures': failures[:50],
         'wall_s': round(mc_wall, 1),
         'wall_per_plant_s': round(mc_wall / max(plants, 1), 3),
@@ -242,9 +245,17 @@ def main() -> None:
     parser.add_argument('--workers', type=int, default=2, help='processes')
     parser.add_argument('--seed', type=int, default=2026, help='Monte-Carlo seed')
     parser.add_argument('--no-table', action='store_true',
-                        help='Monte Carlo only (no per-effect table, no identified model)')
+                        help='Monte Carlo only; the per-effect table and identified-model '
+                             'figures already in the results file are kept')
     args = parser.parse_args()
     figures = run(args.plants, args.workers, args.seed, table=not args.no_table)
+    previous = pathlib.Path(__file__).resolve().parent / 'results' / 'robustness.json'
+    if args.no_table and previous.exists():
+        kept = json.loads(previous.read_text())
+        for key in ('per_effect', 'per_effect_all_pass', 'per_effect_wall_s',
+                    'identified_model'):
+            if key in kept:
+                figures[key] = kept[key]
     save_figures('robustness', figures)
     summary = {k: v for k, v in figures.items() if k not in ('per_effect',)}
     summary['monte_carlo'] = {k: v for k, v in figures['monte_carlo'].items()

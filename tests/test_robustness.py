@@ -43,6 +43,7 @@ from auv_sim.params import VehicleParams, load_vehicle
 
 DEG = math.pi / 180
 CLIMB = Manoeuvre(40.0, 10.0, 2.0)
+DIVE = Manoeuvre(10.0, 40.0, 2.0)
 THETA_MAX = 25 * DEG
 
 #: A handful of the catalogue's plants: the hardest of each kind on this manoeuvre.
@@ -62,15 +63,16 @@ def bound(design: VehicleParams) -> float:
     return settling_bound(design, CLIMB.z0, CLIMB.z1, CLIMB.u0, THETA_MAX).settling_time
 
 
-def assert_flies(outcome: Outcome, run: ClosedLoopRun | None, bound: float) -> None:
+def assert_flies(outcome: Outcome, run: ClosedLoopRun | None, bound: float,
+                 manoeuvre: Manoeuvre = CLIMB) -> None:
     """The four criteria, measured here from the run's true state."""
     assert run is not None, outcome.error
     t, z, theta = run.record.t, run.record.x[:, 2], run.record.x[:, 4]
-    outside = np.flatnonzero(np.abs(z - CLIMB.z1) > 0.1)
+    outside = np.flatnonzero(np.abs(z - manoeuvre.z1) > 0.1)
     assert outside.size and outside[-1] < len(t) - 1, 'never settled'
     settled_at = float(t[outside[-1] + 1])
     peak = float(np.max(np.abs(theta)))
-    steady = abs(float(np.mean(z[t >= t[-1] - 10.0] - CLIMB.z1)))
+    steady = abs(float(np.mean(z[t >= t[-1] - 10.0] - manoeuvre.z1)))
     figures = (f'settled {settled_at:.1f} s = {settled_at / bound:.2f} x bound {bound:.1f} s, '
                f'peak pitch {math.degrees(peak):.1f} deg, steady error {steady:.3f} m')
     assert settled_at <= 2.0 * bound, figures
@@ -86,6 +88,17 @@ def test_pilot_flies_a_plant_off_its_model(name: str, design: VehicleParams,
                                            bound: float) -> None:
     outcome, run = fly(design, catalogue(design)[name], CLIMB, bound)
     assert_flies(outcome, run, bound)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    'measured: a vehicle 1 % of its weight light (+61 N) diving 10 -> 40 m settles in '
+    '2.35x the time-optimal bound (108 s against 92 s allowed) and is still 0.114 m off '
+    'on average over the last 10 s: the integral action removes a buoyancy offset too '
+    'slowly on a dive (the climb passes, 1.53x)'))
+def test_pilot_flies_a_light_vehicle_down(design: VehicleParams) -> None:
+    bound = settling_bound(design, DIVE.z0, DIVE.z1, DIVE.u0, THETA_MAX).settling_time
+    outcome, run = fly(design, catalogue(design)['buoyancy_+1pct'], DIVE, bound)
+    assert_flies(outcome, run, bound, DIVE)
 
 
 def _bench() -> Any:
@@ -106,13 +119,16 @@ def test_pilot_designed_on_an_identified_model_flies_the_true_vehicle(
         design: VehicleParams, bound: float, tmp_path: pathlib.Path) -> None:
     bench = _bench()
     truth = design.replace(**{k: design.values[k] * f for k, f in bench.IDENT_TRUTH.items()})
-    identified, coefficients = bench.identify_truth(truth, A18M, tmp_path)
-    # the identification moved the design toward the truth (it is a different file) ...
-    for name in ('CZuw', 'CMuw', 'CZuq', 'CMuq'):
-        assert identified.values[name] == pytest.approx(truth.values[name], rel=0.05), name
-        assert coefficients[name]['ci95'][0] < coefficients[name]['ci95'][1]
-    # ... but the plane's moment is not identified: the design keeps the base file's
+    identified, _ = bench.identify_truth(truth, A18M, tmp_path)
+    # the heave derivatives are identified to the truth (the base file is 20 % off) ...
+    for name in ('CZuw', 'CZuq'):
+        assert identified.values[name] == pytest.approx(truth.values[name], rel=0.02), name
+        assert abs(identified.values[name] / design.values[name] - 1) > 0.15, name
+    # ... the plane's moment is not identified: the design keeps the base file's, 15 % off
+    # the truth, and the pitch fit (forces from motion, control moment from the base CMbar)
+    # absorbs that error into CMuw and CMuq: the design is a biased model of the truth
     assert identified.CMbar == design.CMbar != truth.CMbar
+    assert abs(identified.CMuw / truth.CMuw - 1) > 0.05
     outcome, run = fly(identified, Plant('identified', base=truth), CLIMB, bound)
     assert_flies(outcome, run, bound)
 
