@@ -190,3 +190,21 @@ def test_a_bad_plant_parameter_is_named(design: VehicleParams) -> None:
     with pytest.raises(DesignError, match='plant bad'):
         Plant('bad', factors={'CMqq_typo': 1.1}).vehicle(design)
     assert Criteria().tumble == pytest.approx(35 * DEG)
+
+
+def test_a_uniform_current_is_invisible_to_a_pilot_told_its_water_speed(
+        design: VehicleParams, bound: float) -> None:
+    # Galilean invariance: a uniform horizontal current moves water and vehicle alike; a
+    # vehicle started trimmed in the water, flown by a pilot that knows its speed through
+    # the water, has the same depth history as in still water, whatever the current's
+    # direction (the pilot's own ground-speed inputs differ, its water-relative ones do not)
+    _, still = fly(design, Plant('still'), CLIMB, bound)
+    _, moving = fly(design, catalogue(design)['current_bow_45_0.3_told'], CLIMB, bound)
+    assert still is not None and moving is not None
+    assert np.max(np.abs(moving.record.x[:, 2] - still.record.x[:, 2])) < 1e-6
+    assert np.max(np.abs(moving.record.x[:, 4] - still.record.x[:, 4])) < 1e-8
+    # over ground it did move differently: the current carried it 0.3 m/s to the south-east
+    drift = moving.record.x[-1, :2] - still.record.x[-1, :2]
+    t_end = float(moving.record.t[-1])
+    assert drift == pytest.approx([-0.3 / math.sqrt(2) * t_end, 0.3 / math.sqrt(2) * t_end],
+                                  rel=1e-6)
