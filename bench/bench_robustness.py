@@ -1,0 +1,267 @@
+"""Robustness of the depth pilot on plants that are not its design model (A18M).
+
+The pilot is designed on ``config/a18m.yaml`` (default weights, theta_max 25 deg, 10 Hz) and
+flown with the offline closed loop (:func:`auv_depth_lqr.robustness.fly`: the 6-DOF simulator
+at its RK4 step, lockstep) on:
+
+* **per-effect table**: each effect or model error alone (:func:`catalogue`: current 0.3 m/s
+  from four directions, pilot told its water speed and not told; buoyancy +-1 % of the
+  weight; plane delay 0.3 s; plane lag 0.5 s; plane bias +-1 deg; pitch-sensor bias
+  +-0.5 deg; depth-sensor noise 0.05 m; CZuw, CMuw, CZuq, CMuq, CZbar, CMbar, Iy, Mqdot,
+  Zwdot each x0.7 and x1.3), on a 30 m climb (40 -> 10 m) and a 30 m dive (10 -> 40 m) at
+  2 m/s;
+* **identified model**: the true vehicle is the A18M with CZuw x1.2, CMuw x1.25, CZuq x1.2,
+  CMuq x0.75 and CMbar x0.85; its surge and pitch missions are simulated, written as bags
+  with navigation-grade sensor noise (:meth:`SensorNoise.realistic`) and no force topic, and
+  identified with ``auv ident --base config/a18m.yaml`` (forces from the motion); the pilot
+  designed on the identified file flies the true vehicle (CMbar is not identified by
+  ``auv ident``: the design keeps the base file's, 18 % off);
+* **Monte Carlo**: ``--plants`` plants (default 1000), every effect and error at once,
+  drawn by :func:`draw_plant` with :class:`Distribution` defaults (each of the nine
+  parameters x U(0.7, 1.3); current 0.3 m/s from U(0, 360) deg, pilot told its water speed
+  with probability 1/2; buoyancy U(-1, +1) % of the weight; plane delay U(0, 0.3) s; plane
+  lag U(0.1, 0.5) s; plane bias U(-1, 1) deg; pitch-sensor bias U(-0.5, 0.5) deg; depth
+  noise sigma U(0, 0.05) m), each flying a depth change drawn from -30, -10, +10, +30 m
+  (equal odds) from a start depth U(40, 60) m (climbs) or U(10, 30) m (dives) at 2 m/s.
+
+Criteria (:class:`Criteria`): settled within 2x the time-optimal bound of the design model
+(:func:`auv_depth_lqr.bound.settling_bound`, same change and speed), ``|theta| < 35 deg``
+(no tumble), pitch limit exceeded by at most 2 deg, ``|mean depth error|`` over the last 10 s
+below 0.1 m. Runs in a process pool (``--workers``, default 2). Run:
+``. .venv/bin/auv-env && python bench/bench_robustness.py --plants 1000``
+(writes ``bench/results/robustness.json``).
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import multiprocessing
+import pathlib
+import platform
+import tempfile
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from timing import save_figures
+
+from auv_depth_lqr.bound import settling_bound
+from auv_depth_lqr.robustness import (
+    Distribution,
+    Manoeuvre,
+    Plant,
+    catalogue,
+    draw_plant,
+    fly,
+)
+from auv_sim.params import VehicleParams, load_vehicle
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+VEHICLE = ROOT / 'config' / 'a18m.yaml'
+THETA_MAX = math.radians(25.0)
+U0 = 2.0
+TABLE_MANOEUVRES = {'climb_40_10': Manoeuvre(40.0, 10.0, U0),
+                    'dive_10_40': Manoeuvre(10.0, 40.0, U0)}
+MC_CHANGES = (-30.0, -10.0, 10.0, 30.0)
+#: The true vehicle of the identified-model case: factors on the A18M file.
+IDENT_TRUTH = {'CZuw': 1.2, 'CMuw': 1.25, 'CZuq': 1.2, 'CMuq': 0.75, 'CMbar': 0.85}
+IDENT_MISSIONS = ('surge', 'pitch')
+IDENT_SEEDS = (300, 301)
+
+
+def time_optimal_bound(change: tuple[float, float]) -> float:
+    """Time-optimal settling bound [s] of ``(dz [m], u0 [m/s])`` on the design model (the
+    vertical-plane model does not depend on the start depth)."""
+    dz, u0 = change
+    params = load_vehicle(VEHICLE)
+    z0 = 40.0 if dz < 0 else 10.0
+    return settling_bound(params, z0, z0 + dz, u0, THETA_MAX).settling_time
+
+
+def identify_truth(truth: VehicleParams, base_path: pathlib.Path, workdir: pathlib.Path,
+                   seeds: Sequence[int] = IDENT_SEEDS) -> tuple[VehicleParams, dict[str, Any]]:
+    """Identify ``truth`` with ``auv ident`` from its simulated surge and pitch missions
+    logged with realistic sensor noise (no force topic); returns the identified vehicle and
+    the identification's coefficients (value, ci95)."""
+    from auv_ident import cli
+    from auv_ident.simlog import SensorNoise, write_record
+    from auv_sim.missions import load_mission, run_mission
+
+    bags = []
+    for name, seed in zip(IDENT_MISSIONS, seeds):
+        rec = run_mission(truth, load_mission(name))
+        write_record(workdir / name, rec, forces=False, noise=SensorNoise.realistic(),
+                     seed=seed)
+        bags.append(str(workdir / name))
+    out = workdir / 'ident'
+    parser = argparse.ArgumentParser()
+    cli.add_arguments(parser)
+    args = parser.parse_args([*bags, '--base', str(base_path), '--out', str(out),
+                              '--equations', 'surge', 'heave', 'pitch', '--no-nelder-mead'])
+    if cli.run(args) != 0:
+        raise RuntimeError('auv ident failed')
+    report = json.loads((out / 'report.json').read_text())
+    return load_vehicle(out / 'vehicle.yaml'), report['coefficients']
+
+
+def _fly(job: tuple[VehicleParams, Plant, Manoeuvre, float]) -> dict[str, Any]:
+    design, plant, manoeuvre, bound = job
+    t0 = time.perf_counter()
+    outcome, _ = fly(design, plant, manoeuvre, bound)
+    figures = outcome.as_dict()
+    figures['wall_s'] = round(time.perf_counter() - t0, 2)
+    return figures
+
+
+def _draw_manoeuvre(rng: np.random.Generator) -> Manoeuvre:
+    dz = float(rng.choice(MC_CHANGES))
+    z0 = float(rng.uniform(40.0, 60.0) if dz < 0 else rng.uniform(10.0, 30.0))
+    return Manoeuvre(round(z0, 2), round(z0 + dz, 2), U0)
+
+
+def _shares(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    n = len(rows)
+    flown = [r for r in rows if not r['error']]
+
+    def share(key: str) -> float:
+        return round(sum(1 for r in flown if r['checks'][key]) / n, 4) if n else math.nan
+
+    ratios = [r['settling_over_bound'] for r in flown if r['settling_over_bound'] is not None]
+    return {
+        'plants': n,
+        'not_flown': n - len(flown),
+        'share_settled_within_2x_bound': share('settled'),
+        'share_tumbled': round(1.0 - share('no_tumble'), 4),
+        'share_pitch_limit_exceeded_by_more_than_2deg': round(1.0 - share('pitch_limit'), 4),
+        'share_all_criteria': round(sum(1 for r in flown if r['pass']) / n, 4),
+        'worst_steady_error_m': max((r['steady_error_m'] for r in flown), default=None),
+        'worst_settling_over_bound': max(ratios) if ratios else None,
+        'median_settling_over_bound': round(float(np.median(ratios)), 3) if ratios else None,
+        'worst_pitch_excess_deg': max((r['pitch_excess_deg'] for r in flown), default=None),
+        'worst_peak_pitch_deg': max((r['peak_pitch_deg'] for r in flown), default=None),
+        'share_recovery_used': round(sum(1 for r in flown if r['recovery_time_s'] > 0) / n, 4),
+    }
+
+
+def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
+        table: bool = True) -> dict[str, Any]:
+    """Per-effect table, identified-model case and Monte Carlo; returns the figures."""
+    design = load_vehicle(VEHICLE)
+    changes = sorted({(m.z1 - m.z0, m.u0) for m in TABLE_MANOEUVRES.values()}
+                     | {(dz, U0) for dz in MC_CHANGES})
+    wall0 = time.perf_counter()
+    ctx = multiprocessing.get_context('fork')
+    with ctx.Pool(workers) as pool:
+        bounds = dict(zip(changes, pool.map(time_optimal_bound, changes)))
+        bounds_wall = time.perf_counter() - wall0
+
+        def bound_of(m: Manoeuvre) -> float:
+            return bounds[(round(m.z1 - m.z0, 6), m.u0)]
+
+        results: dict[str, Any] = {}
+        if table:
+            t0 = time.perf_counter()
+            plants_table = catalogue(design)
+            jobs = [(design, p, m, bound_of(m)) for p in plants_table.values()
+                    for m in TABLE_MANOEUVRES.values()]
+            rows = pool.map(_fly, jobs)
+            per_effect: dict[str, dict[str, Any]] = {}
+            for (_, plant, manoeuvre, _b), row in zip(jobs, rows):
+                label = next(k for k, v in TABLE_MANOEUVRES.items() if v == manoeuvre)
+                per_effect.setdefault(plant.name, {})[label] = row
+            results['per_effect'] = per_effect
+            results['per_effect_all_pass'] = all(r['pass'] for v in per_effect.values()
+                                                 for r in v.values())
+            results['per_effect_wall_s'] = round(time.perf_counter() - t0, 1)
+
+            t0 = time.perf_counter()
+            truth = design.replace(**{k: design.values[k] * f for k, f in IDENT_TRUTH.items()})
+            with tempfile.TemporaryDirectory() as tmp:
+                identified, coefficients = identify_truth(truth, VEHICLE, pathlib.Path(tmp))
+            plant = Plant('identified_model', base=truth)
+            rows = pool.map(_fly, [(identified, plant, m, bound_of(m))
+                                   for m in TABLE_MANOEUVRES.values()])
+            results['identified_model'] = {
+                'truth_factors': IDENT_TRUTH,
+                'coefficients': {k: {'truth': truth.values[k], 'identified': v['value'],
+                                     'ci95': v['ci95'],
+                                     'error_pct': round(100 * (v['value'] / truth.values[k]
+                                                               - 1), 2)}
+                                 for k, v in coefficients.items()},
+                'flights': dict(zip(TABLE_MANOEUVRES, rows)),
+                'wall_s': round(time.perf_counter() - t0, 1),
+            }
+
+        t0 = time.perf_counter()
+        rng = np.random.default_rng(seed)
+        jobs = []
+        for i in range(plants):
+            plant = draw_plant(design, rng, f'mc{i:04d}')
+            manoeuvre = _draw_manoeuvre(rng)
+            jobs.append((design, plant, manoeuvre, bound_of(manoeuvre)))
+        rows = pool.map(_fly, jobs, chunksize=4)
+        mc_wall = time.perf_counter() - t0
+    for (_, plant, _m, _b), row in zip(jobs, rows):
+        row['water_speed_told'] = plant.water_speed_told
+    failures = [dict(row, factors={k: round(v, 3) for k, v in plant.factors.items()},
+                     effects=plant.effects, depth_noise_m=round(plant.depth_noise, 4))
+                for (_, plant, _m, _b), row in zip(jobs, rows) if not row['pass']]
+    monte_carlo = {
+        'seed': seed,
+        'distribution': dataclasses.asdict(Distribution()),
+        'changes_m': list(MC_CHANGES),
+        'all': _shares(rows),
+        'pilot_told_water_speed': _shares([r for r in rows if r['water_speed_told']]),
+        'pilot_not_told_water_speed': _shares([r for r in rows if not r['water_speed_told']]),
+        'by_change': {f'{dz:+g} m': _shares([r for r in rows
+                                             if round(r['z1_m'] - r['z0_m'], 6) == dz])
+                      for dz in MC_CHANGES},
+        'failures': failures,
+        'wall_s': round(mc_wall, 1),
+        'wall_per_plant_s': round(mc_wall / max(plants, 1), 3),
+    }
+    return {
+        'vehicle': VEHICLE.name, 'u0_m_s': U0, 'theta_max_deg': math.degrees(THETA_MAX),
+        'criteria': {'settle_within_bound_x': 2.0, 'tumble_deg': 35.0,
+                     'pitch_excess_max_deg': 2.0, 'steady_error_max_m': 0.1,
+                     'steady_window_s': 10.0},
+        'time_optimal_bounds_s': {f'{dz:+g} m at {u0:g} m/s': round(b, 2)
+                                  for (dz, u0), b in bounds.items()},
+        'bounds_wall_s': round(bounds_wall, 1),
+        **results,
+        'monte_carlo': monte_carlo,
+        'workers': workers,
+        'total_wall_s': round(time.perf_counter() - wall0, 1),
+        'python': platform.python_version(), 'machine': platform.machine(),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--plants', type=int, default=1000, help='Monte-Carlo plants')
+    parser.add_argument('--workers', type=int, default=2, help='processes')
+    parser.add_argument('--seed', type=int, default=2026, help='Monte-Carlo seed')
+    parser.add_argument('--no-table', action='store_true',
+                        help='Monte Carlo only; the per-effect table and identified-model '
+                             'figures already in the results file are kept')
+    args = parser.parse_args()
+    figures = run(args.plants, args.workers, args.seed, table=not args.no_table)
+    previous = pathlib.Path(__file__).resolve().parent / 'results' / 'robustness.json'
+    if args.no_table and previous.exists():
+        kept = json.loads(previous.read_text())
+        for key in ('per_effect', 'per_effect_all_pass', 'per_effect_wall_s',
+                    'identified_model'):
+            if key in kept:
+                figures[key] = kept[key]
+    save_figures('robustness', figures)
+    summary = {k: v for k, v in figures.items() if k not in ('per_effect',)}
+    summary['monte_carlo'] = {k: v for k, v in figures['monte_carlo'].items()
+                              if k != 'failures'}
+    print(json.dumps(summary, indent=2))
+
+
+if __name__ == '__main__':
+    main()
