@@ -77,6 +77,45 @@ ROWS: list[tuple[str, str, str]] = [
     ('identification, one hour of 50 Hz data: from forces / from motion',
      '{ident:total_forces_s:.2f} s / {ident:total_motion_s:.2f} s', '< 10 s'),
     ('gap diagnosis, 20-minute 50 Hz log', '{gap:total_s:.1f} s', '< 60 s'),
+    ('import of one hour of 50 Hz Odometry + Imu + FluidPressure + fin commands: time, peak '
+     'memory; rosbags per-message deserialisation of the same bag, same run',
+     '{import:import_s:.2f} s, {import:import_peak_rss_mb:.0f} MB; '
+     '{import:rosbags_deserialise_s:.1f} s (ratio {import:import_over_rosbags:.3f})',
+     '< 10 s, < 1 GB'),
+    ('REMUS 100 at 1.5 m/s, 20 -> 10 / 10 -> 30 / 5 -> 40 m: settling over the time-optimal '
+     'bound',
+     '{vehicles:vehicles.remus100.20->10m.settling_over_time_optimal_bound:.2f} / '
+     '{vehicles:vehicles.remus100.10->30m.settling_over_time_optimal_bound:.2f} / '
+     '{vehicles:vehicles.remus100.5->40m.settling_over_time_optimal_bound:.2f}', '<= 1.5'),
+    ('NPS AUV II, the same depth changes',
+     '{vehicles:vehicles.npsauv2.20->10m.settling_over_time_optimal_bound:.2f} / '
+     '{vehicles:vehicles.npsauv2.10->30m.settling_over_time_optimal_bound:.2f} / '
+     '{vehicles:vehicles.npsauv2.5->40m.settling_over_time_optimal_bound:.2f}', '<= 1.5'),
+    ('gap honesty panel: right effect in the catalogue; model coefficients named; '
+     'out-of-catalogue cases wrongly `explained`; false alarms on clean logs',
+     '{gap_honest:panel.inside_right}; {gap_honest:panel.coefficients_right}; '
+     '{gap_honest:panel.outside_wrongly_explained} of {gap_honest:panel.outside_cases}; '
+     '{gap_honest:panel.clean_false_alarms} of {gap_honest:panel.clean_cases}', '0 wrong'),
+    ('gap: 95 % interval coverage over 100 seeds, buoyancy error / plane delay (free run)',
+     '{gap_honest:coverage.buoyancy_offset.free_run_coverage:.2f} / '
+     '{gap_honest:coverage.actuator_delay.free_run_coverage:.2f}', '0.95'),
+    ('campaign of 40 simulated missions: buoyancy drift found; plane bias step found at its '
+     'mission',
+     '{campaign:gap_campaign.found.buoyancy_offset.dB.verdict} '
+     '({campaign:gap_campaign.found.buoyancy_offset.dB.slope_per_day:.2f} N/day, true 2.31); '
+     '{campaign:gap_campaign.found.bar_bias.bias.verdict} at '
+     '{campaign:gap_campaign.found.bar_bias.bias.step_mission} (true mission_020)', ''),
+    ('campaign: speed-up with 2 workers over 1; overhead per task; peak memory per worker',
+     '{campaign:gap_campaign.speed_up_2_workers:.2f}; '
+     '{campaign:gap_campaign.overhead_per_task_s:.4f} s; '
+     '{campaign:gap_campaign.worker_peak_rss_mb:.0f} MB', ''),
+    ('Monte Carlo through Dask over the bare runs, same run: per CPU second / wall clock',
+     '{campaign:montecarlo.engine_1_worker_over_bare_per_cpu_s:.2f} / '
+     '{campaign:montecarlo.engine_1_worker_over_bare:.2f}', '>= 0.8'),
+    ('Foxglove live view, 50 Hz state: delivered share; latency p95; bridge CPU',
+     '{foxglove:summary./auv/state.delivered.median:.3f}; '
+     '{foxglove:summary./auv/state.latency_ms_p95.median:.1f} ms; '
+     '{foxglove:summary.bridge_cpu_percent.median:.1f} % of a core', ''),
 ]
 
 _FIELD = re.compile(r'\{([a-z_0-9]+):([^:{}]+):?([^{}]*)\}')

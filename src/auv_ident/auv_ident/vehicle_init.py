@@ -101,6 +101,14 @@ def estimate(length: float, diameter: float, mass: float, reference: VehiclePara
         if key not in how:
             put(key, ref[key], 'dimensionless, kept as the reference\'s (similar hull and fins'
                                '; identify it with auv ident)')
+    # quadratic cross-flow drag (dimensional): 0.5 rho Cd D times the strip integral of x^k
+    # over the length, so D L^(k+1) with k = 0 (Yvv, Zww), 1 (Mww, Nvv), 2 (Yrr, Zqq) and
+    # 3 (Mqq, Nrr)
+    for key, k in (('Yvv', 0), ('Zww', 0), ('Mww', 1), ('Nvv', 1), ('Yrr', 2), ('Zqq', 2),
+                   ('Mqq', 3), ('Nrr', 3)):
+        if key in values:
+            put(key, ref[key] * sd * sl ** (k + 1),
+                f'{key} scaled with rho D L^{k + 1} (cross-flow strip theory)')
     for key in ('thrust_max', 'thrust_min'):
         put(key, ref[key] * sd ** 2, f'{key} scaled with the drag at equal speed (~ D^2)')
     for key in ('bar_max', 'bar_rate', 'bar_tau', 'helm_max', 'helm_rate', 'helm_tau',
