@@ -112,6 +112,15 @@ ROWS: list[tuple[str, str, str]] = [
     ('Monte Carlo through Dask over the bare runs, same run: per CPU second / wall clock',
      '{campaign:montecarlo.engine_1_worker_over_bare_per_cpu_s:.2f} / '
      '{campaign:montecarlo.engine_1_worker_over_bare:.2f}', '>= 0.8'),
+    ('pilot on plants that are not its design model, Monte Carlo (all errors at once, '
+     'coefficients x U(0.7, 1.3)): plants; settled within 2x the bound; tumbled; pitch limit '
+     'exceeded by > 2 deg; worst steady depth error',
+     '{robustness:monte_carlo.all.plants}; '
+     '{robustness:monte_carlo.all.share_settled_within_2x_bound:.1%}; '
+     '{robustness:monte_carlo.all.share_tumbled:.1%}; '
+     '{robustness:monte_carlo.all.share_pitch_limit_exceeded_by_more_than_2deg:.2%}; '
+     '{robustness:monte_carlo.all.worst_steady_error_m:.1f} m',
+     '1000; >= 99 %; 0; 0; < 0.1 m'),
     ('Foxglove live view, 50 Hz state: delivered share; latency p95; bridge CPU',
      '{foxglove:summary./auv/state.delivered.median:.3f}; '
      '{foxglove:summary./auv/state.latency_ms_p95.median:.1f} ms; '
