@@ -51,8 +51,11 @@ def test_scaled_vehicle_settings_follow_the_rules(a18m: VehicleParams) -> None:
     tuning = derive_tuning(scaled(a18m, k), THETA_MAX)
     r2 = math.sqrt(2.0)
     excursions = (0.1 * r2, 0.03 / r2, 0.6, 0.06, 4.5 * 2.0 * r2)
-    assert tuning.weights.Q == pytest.approx(tuple(1.0 / e**2 for e in excursions), rel=1e-3)
-    assert tuning.weights.R == pytest.approx(1.0 / 0.1**2, rel=1e-3)
+    q_diagonal = [1.0 / e**2 for e in excursions]
+    r_bar = 1.0 / 0.1**2
+    q_got, r_got = tuning.weights
+    assert q_got == pytest.approx(q_diagonal, rel=1e-3)
+    assert r_got == pytest.approx(r_bar, rel=1e-3)
     g = tuning.governor
     assert (g.accel_max, g.approach_length, g.landing_distance, g.max_lag,
             g.integrate_within) == pytest.approx((0.2, 16.0, 0.24, 1.0, 0.4), rel=1e-3)

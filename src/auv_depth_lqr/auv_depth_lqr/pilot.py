@@ -72,7 +72,8 @@ class PilotSettings:
     the vehicle's scales (:func:`auv_depth_lqr.tuning.derive_tuning`), ``report_4_4`` and
     ``report_5`` the report's fixed weights; ``safe_bar`` [rad] is the plane without state,
     ``None`` for the vehicle's derived one; the reference governor's settings are derived
-    from the vehicle (:func:`~auv_depth_lqr.tuning.derive_tuning`); ``bar_max`` / ``bar_rate`` default to the vehicle file's actuator limits;
+    from the vehicle (:func:`~auv_depth_lqr.tuning.derive_tuning`); ``bar_max`` /
+    ``bar_rate`` default to the vehicle file's actuator limits;
     ``speeds`` is the gain-scheduling grid [m/s]; ``water_speed`` [m/s], when given, is the
     surge speed through the water (from the propeller setting or a water-track log) that the
     pilot schedules on and flies its model at, instead of the measured surge over ground
