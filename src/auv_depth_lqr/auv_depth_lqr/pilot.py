@@ -29,15 +29,9 @@ import dataclasses
 import math
 from collections.abc import Sequence
 
-from auv_depth_lqr.controller import (
-    DepthController,
-    GainSchedule,
-    Limits,
-    PlaneState,
-    Weights,
-    preset,
-)
+from auv_depth_lqr.controller import DepthController, PlaneState
 from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
+from auv_depth_lqr.limits import Limits
 from auv_depth_lqr.recovery import (
     RECOVERY,
     EnvelopeMonitor,
@@ -45,7 +39,9 @@ from auv_depth_lqr.recovery import (
     Verdict,
     recovery_bar,
 )
+from auv_depth_lqr.schedule import GainSchedule
 from auv_depth_lqr.tuning import derive_tuning
+from auv_depth_lqr.weights import Weights, preset
 from auv_sim.errors import TrimError
 from auv_sim.params import VehicleParams
 from auv_sim.trim import VerticalPlane

@@ -29,7 +29,8 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from auv_depth_lqr.controller import GovernorSettings, Weights
+from auv_depth_lqr.governor import GovernorSettings
+from auv_depth_lqr.weights import Weights
 from auv_sim.params import VehicleParams
 
 __all__ = ['Scales', 'Tuning', 'derive_tuning', 'scales']

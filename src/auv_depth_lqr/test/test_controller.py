@@ -13,20 +13,14 @@ import numpy as np
 import pytest
 from standin import Run, linearize, settling_time, simulate
 
-from auv_depth_lqr.controller import (
-    DEFAULT_WEIGHTS,
-    PRESETS,
-    THETA_MAX_DEFAULT,
-    DepthController,
-    GainSchedule,
-    GovernorSettings,
-    Limits,
-    PlaneState,
-    preset,
-)
+from auv_depth_lqr.controller import DepthController, PlaneState
 from auv_depth_lqr.errors import DesignError, InvalidInputError, NotControllableError
+from auv_depth_lqr.governor import GovernorSettings
+from auv_depth_lqr.limits import THETA_MAX_DEFAULT, Limits
 from auv_depth_lqr.lqr import lqrd
+from auv_depth_lqr.schedule import GainSchedule
 from auv_depth_lqr.summary import design_summary
+from auv_depth_lqr.weights import DEFAULT_WEIGHTS, PRESETS, preset
 
 TS = 0.1                                   # s
 SPEEDS = (1.0, 1.5, 2.0, 2.5, 3.0)         # m/s; the stand-in cannot trim at 0.5 m/s
