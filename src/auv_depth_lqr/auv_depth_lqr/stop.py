@@ -25,7 +25,8 @@ def _hurwitz(coefficients: Sequence[float]) -> bool:
 
 
 class Brake(NamedTuple):
-    """Travel-frame stop of the reference (see :meth:`DepthController._limits_toward`).
+    """Travel-frame stop of the reference (see
+    :meth:`auv_depth_lqr.governor.ReferenceGovernor.limits_toward`).
 
     Over one sample, ``(P, V, A, J)`` (distance [m], speed [m/s], acceleration [m/s^2], jerk
     [m/s^3] along the travel) maps exactly to ``phi (P, V, A, J) + gam U`` under the series
