@@ -163,6 +163,8 @@ class DepthController:
             rate-limited from it; if omitted, the first command is only angle-limited.
         """
         self._xi = 0.0
+        self._z_prev: float | None = None
+        self._z_rate = 0.0
         self.reference.reset()
         self._bar_prev = None if bar_previous is None else finite('bar_previous', bar_previous)
 
@@ -220,10 +222,19 @@ class DepthController:
 
         self.reference.start(z)
         z_r, v_r, a_r, j_r, s_r = self.reference.advance(op, u, z_cmd)
-        # The reference waits for a vehicle that falls behind it by more than max_lag.
+        # Depth rate [m/s, down] from the measured depth, low-passed over stall_time: a vehicle
+        # whose depth no longer moves is held off by a steady disturbance (a vertical current,
+        # a buoyancy the model does not know), not by the transient of a manoeuvre.
+        if self._z_prev is not None:
+            alpha = ts / (settings.stall_time + ts)
+            self._z_rate += alpha * ((z - self._z_prev) / ts - self._z_rate)
+        stalled = self._z_prev is not None and abs(self._z_rate) <= settings.stall_speed
+        # The reference waits for a vehicle that falls behind it by more than max_lag, unless
+        # the vehicle has stalled: then the reference goes on to the command, at rest, where
+        # the integrator removes the offset.
         if v_r != 0.0:
             travel = math.copysign(1.0, v_r)
-            if travel * (z_r - z) > settings.max_lag:
+            if travel * (z_r - z) > settings.max_lag and not stalled:
                 z_r = z + travel * settings.max_lag
 
         # Feed-forward of the reference manoeuvre and the LQR correction around it.
@@ -266,14 +277,18 @@ class DepthController:
         limited = bar_linear - bar_cmd
         winds_up = abs(limited) > 1e-12 and pushes * limited > 0.0
         near = (abs(v_r) <= settings.integrate_below_speed
-                and abs(z - z_r) <= settings.integrate_within)
+                and (abs(z - z_r) <= settings.integrate_within or stalled))
         if near and not winds_up:
             self._xi += increment
         if k_xi != 0.0:
-            xi_max = lim.integral_bar_max / abs(k_xi)
+            # The integral term as a pitch offset of the attitude loop, at most
+            # integral_pitch_max (the plane's travel without an attitude gain).
+            reach = lim.integral_pitch_max * abs(k_theta) if k_theta != 0.0 else lim.bar_max
+            xi_max = reach / abs(k_xi)
             self._xi = min(max(self._xi, -xi_max), xi_max)
 
         self.reference.accept(Reference(z_r, v_r, a_r, j_r, s_r))
         self._bar_prev = bar_cmd
+        self._z_prev = z
         return bar_cmd
 

@@ -94,6 +94,14 @@ class GovernorSettings:
     """Largest distance [m] by which the governed reference may lead the vehicle in the
     direction of travel; when the vehicle falls further behind (a current, a speed lower
     than assumed) the reference waits for it instead of winding up the depth error."""
+    stall_time: float = 5.0
+    """Time constant [s] of the low-pass of the measured depth rate that tells a stalled
+    vehicle (see ``stall_speed``)."""
+    stall_speed: float = 0.01
+    """A vehicle whose low-passed depth rate is at most this [m/s] has stalled: held off the
+    reference by a steady disturbance. The reference then no longer waits for it
+    (``max_lag``) and the integrator runs at any distance from the reference at rest
+    (``integrate_within`` no longer applies), so integral action removes steady offsets."""
     pitch_guard: float = 0.97
     """Fraction of ``theta_max`` beyond which the depth feedback may not ask for more pitch:
     the pitch command ``theta_ref + (depth and integral terms) / K_theta`` of the LQR is
@@ -111,7 +119,7 @@ class GovernorSettings:
                               f'{share!r}')
         for name in ('accel_max', 'approach_length', 'jerk_time', 'landing_distance',
                      'integrate_within',
-                     'integrate_below_speed', 'max_lag'):
+                     'integrate_below_speed', 'max_lag', 'stall_time', 'stall_speed'):
             finite(f'GovernorSettings.{name}', getattr(self, name), positive=True)
 
 

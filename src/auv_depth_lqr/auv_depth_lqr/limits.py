@@ -24,22 +24,26 @@ class Limits:
     """BAR slew-rate limit [rad/s] (20 deg/s: typical fin servo, assumed)."""
     theta_max: float = THETA_MAX_DEFAULT
     """Pitch limit for large depth changes, symmetric [rad] (default 25 deg = 0.436 rad)."""
-    integral_bar_share: float = 0.32
-    """Largest share of ``bar_max`` the integral term ``|K_xi xi|`` may command [-]: bounds
-    the integrator to what trim errors can need (0.32: 8 deg of a 25 deg plane, ~2x the
-    report's trim BAR; a fraction, so that it scales with the vehicle's plane)."""
+    integral_pitch_share: float = 0.5
+    """Largest share of ``theta_max`` the integral term may command as pitch [-]: the LQR
+    turns ``K_xi xi`` into the pitch offset ``K_xi xi / K_theta`` of its attitude loop, so
+    the integrator is bounded by ``|K_xi xi| <= integral_pitch_share * theta_max *
+    |K_theta|`` (0.5: 12.5 deg at 25 deg; a vertical current of 0.1 m/s needs ~8 deg on
+    the REMUS 100, whose heave term the integrator must also cancel; the pitch guard
+    clips the depth and integral terms' pitch at ``pitch_guard * theta_max`` anyway)."""
 
     @property
-    def integral_bar_max(self) -> float:
-        """Largest BAR of the integral term [rad]: ``integral_bar_share * bar_max``."""
-        return self.integral_bar_share * self.bar_max
+    def integral_pitch_max(self) -> float:
+        """Largest pitch offset of the integral term [rad]:
+        ``integral_pitch_share * theta_max``."""
+        return self.integral_pitch_share * self.theta_max
 
     def __post_init__(self) -> None:
-        for name in ('bar_max', 'bar_rate_max', 'theta_max', 'integral_bar_share'):
+        for name in ('bar_max', 'bar_rate_max', 'theta_max', 'integral_pitch_share'):
             finite(f'Limits.{name}', getattr(self, name), positive=True)
-        if self.integral_bar_share > 1.0:
-            raise DesignError(f'Limits.integral_bar_share must be in (0, 1], got '
-                              f'{self.integral_bar_share!r}')
+        if self.integral_pitch_share > 1.0:
+            raise DesignError(f'Limits.integral_pitch_share must be in (0, 1], got '
+                              f'{self.integral_pitch_share!r}')
         if self.theta_max >= math.pi / 2:
             raise DesignError(f'Limits.theta_max must be < pi/2 rad, got {self.theta_max!r}')
 
