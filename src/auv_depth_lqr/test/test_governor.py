@@ -176,15 +176,27 @@ def test_reference_feedforward_stays_within_the_bar_budget(schedule: GainSchedul
 
 
 def test_reference_waits_for_a_vehicle_that_lags(schedule: GainSchedule) -> None:
-    """A vehicle stuck at 40 m: the reference leads it by at most max_lag."""
+    """A vehicle climbing at only 0.05 m/s: the reference leads it by at most max_lag."""
     governor = GovernorSettings()
     ctrl = DepthController(schedule, Limits(), TS, governor)
+    z = 40.0
     for _ in range(300):
-        ctrl.step(PlaneState(z=40.0, theta=0.0069, w=0.0138, q=0.0, u=2.0), 10.0)
+        ctrl.step(PlaneState(z=z, theta=0.0069, w=0.0138, q=0.0, u=2.0), 10.0)
         z_r = ctrl.governed_reference[0]  # type: ignore[index]
-        assert 40.0 - z_r <= governor.max_lag + 1e-9
+        assert z - z_r <= governor.max_lag + 1e-9
+        z -= 0.05 * TS
 
 
+def test_reference_goes_on_for_a_stalled_vehicle(schedule: GainSchedule) -> None:
+    """A vehicle held at 10.6 m (a steady disturbance), commanded to 10 m: once its depth
+    rate has settled below stall_speed the reference no longer waits (max_lag 0.5 m) but
+    reaches the command at rest, and the integrator runs (0.6 m beyond integrate_within)."""
+    governor = GovernorSettings()
+    ctrl = DepthController(schedule, Limits(), TS, governor)
+    for _ in range(600):
+        ctrl.step(PlaneState(z=10.6, theta=0.0069, w=0.0138, q=0.0, u=2.0), 10.0)
+    assert ctrl.governed_reference == (10.0, 0.0)
+    assert ctrl.integrator > 0.0
 def test_pitch_protection_caps_the_depth_feedback(schedule: GainSchedule) -> None:
     """Far below a reference held at rest, the pitch demand is capped at pitch_guard *
     theta_max: at that pitch, with no rate, the command is the trim BAR again."""
