@@ -12,7 +12,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from auv_depth_lqr.bound import _feasible, _Model, settling_bound
+from auv_depth_lqr.bound import PlaneModel, feasible, settling_bound
 from auv_depth_lqr.closed_loop import run_closed_loop
 from auv_depth_lqr.errors import DesignError
 from auv_depth_lqr.metrics import step_metrics
@@ -36,7 +36,7 @@ def bound(params):  # type: ignore[no-untyped-def]
 
 
 def test_the_plan_keeps_every_limit_and_settles_when_claimed(params, bound) -> None:  # type: ignore[no-untyped-def]
-    model = _Model(params, U0, STEP)
+    model = PlaneModel(params, U0, STEP)
     states = model.simulate(bound.states[0], bound.bar)
     np.testing.assert_allclose(states, bound.states, atol=1e-12)
     assert np.max(np.abs(bound.bar)) <= params.bar_max + 1e-12
@@ -50,12 +50,12 @@ def test_the_plan_keeps_every_limit_and_settles_when_claimed(params, bound) -> N
 
 
 def test_one_step_earlier_is_infeasible(params, bound) -> None:  # type: ignore[no-untyped-def]
-    model = _Model(params, U0, STEP)
+    model = PlaneModel(params, U0, STEP)
     trim = model.plane.trim(U0)
     n = int(round(bound.settling_time / STEP)) - 1
     n_hold = int(math.ceil(HOLD / STEP))
     start = np.r_[bound.bar[:n], np.full(n_hold, trim.bar)]
-    ok, _ = _feasible(model, bound.states[0], np.array([trim.w, 0.0, Z1, trim.theta]),
+    ok, _ = feasible(model, bound.states[0], np.array([trim.w, 0.0, Z1, trim.theta]),
                       trim.bar, Z1, n, start,
                       (params.bar_max, params.bar_rate * STEP, THETA_MAX, 0.1))
     assert not ok

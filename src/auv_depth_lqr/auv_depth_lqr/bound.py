@@ -33,7 +33,7 @@ from auv_depth_lqr.errors import DesignError
 from auv_sim.params import VehicleParams
 from auv_sim.trim import VerticalPlane
 
-__all__ = ['SettlingBound', 'settling_bound']
+__all__ = ['PlaneModel', 'SettlingBound', 'feasible', 'settling_bound']
 
 _H = 1e-30
 """Complex step [-]."""
@@ -55,7 +55,7 @@ class SettlingBound:
     """BAR held over each grid step (n,) [rad]."""
 
 
-class _Model:
+class PlaneModel:
     """RK4 steps of the vertical plane at surge speed ``u0`` (complex-capable)."""
 
     def __init__(self, params: VehicleParams, u0: float, step: float) -> None:
@@ -63,9 +63,12 @@ class _Model:
         self.u0, self.h = u0, step
 
     def rates(self, X: np.ndarray, bar: complex) -> np.ndarray:
+        """Time derivative of ``X = (w, q, z, theta)`` [m/s, rad/s, m, rad] at BAR ``bar``
+        [rad] (complex for the complex-step Jacobian)."""
         return self.plane.rates(np.r_[X, 0.0], bar, self.u0)[:4]
 
     def step(self, X: np.ndarray, bar: complex) -> np.ndarray:
+        """``X`` one RK4 step of ``h`` [s] later with ``bar`` [rad] held."""
         h = self.h
         k1 = self.rates(X, bar)
         k2 = self.rates(X + 0.5 * h * k1, bar)
@@ -75,6 +78,7 @@ class _Model:
         return out
 
     def simulate(self, X0: np.ndarray, bars: np.ndarray) -> np.ndarray:
+        """States (n + 1, 4) from ``X0`` under the BAR sequence ``bars`` (n,) [rad]."""
         out = [X0]
         X = X0
         for b in bars:
@@ -83,6 +87,7 @@ class _Model:
         return np.array(out)
 
     def jacobians(self, X: np.ndarray, bar: float) -> tuple[np.ndarray, np.ndarray]:
+        """Jacobians (4, 4) and (4,) of :meth:`step` in ``X`` and ``bar`` (complex step)."""
         A = np.empty((4, 4))
         for j in range(4):
             Xc = X.astype(complex)
@@ -116,7 +121,7 @@ class _Rows:
                              shape=(len(self.bounds), n_columns))
 
 
-def _stabilising_gain(model: _Model, X: np.ndarray, bar: float) -> np.ndarray:
+def _stabilising_gain(model: PlaneModel, X: np.ndarray, bar: float) -> np.ndarray:
     """Discrete LQR gain (4,) of the model's step at ``(X, bar)``: the rollout's feedback.
 
     Weights per unit excursion: 0.1 m/s heave, 0.05 rad/s pitch rate, 1 m depth, 0.1 rad
@@ -131,7 +136,7 @@ def _stabilising_gain(model: _Model, X: np.ndarray, bar: float) -> np.ndarray:
     return gain
 
 
-def _rollout(model: _Model, X0: np.ndarray, plan: np.ndarray, planned: np.ndarray,
+def _rollout(model: PlaneModel, X0: np.ndarray, plan: np.ndarray, planned: np.ndarray,
              gain: np.ndarray, bar_max: float, rate: float, bar_trim: float
              ) -> tuple[np.ndarray, np.ndarray]:
     """BAR sequence and nonlinear states when the LP's plan is flown with feedback on the
@@ -154,7 +159,7 @@ def _rollout(model: _Model, X0: np.ndarray, plan: np.ndarray, planned: np.ndarra
     return bars, np.array(out)
 
 
-def _feasible(model: _Model, X0: np.ndarray, trim: np.ndarray, bar_trim: float, z1: float,
+def feasible(model: PlaneModel, X0: np.ndarray, trim: np.ndarray, bar_trim: float, z1: float,
               n_settle: int, bars: np.ndarray, limits: tuple[float, float, float, float],
               iterations: int = 25) -> tuple[bool, np.ndarray]:
     """Sequential LP: is there a BAR sequence of ``bars.size`` steps that keeps the depth in
@@ -264,7 +269,7 @@ def settling_bound(params: VehicleParams, z0: float, z1: float, u0: float,
                           f'band of {band} m')
     bar_max = params.bar_max if bar_max is None else bar_max
     bar_rate = params.bar_rate if bar_rate is None else bar_rate
-    model = _Model(params, u0, step)
+    model = PlaneModel(params, u0, step)
     try:
         trim = model.plane.trim(u0)
     except Exception as exc:  # TrimError and numerical failures alike
@@ -277,7 +282,7 @@ def settling_bound(params: VehicleParams, z0: float, z1: float, u0: float,
     hi = int(math.ceil(1.5 * t_kin / step))
     found: np.ndarray | None = None
     while hi * step <= 4.0 * t_kin:
-        ok, bars = _feasible(model, X0, trim_state, trim.bar, z1, hi,
+        ok, bars = feasible(model, X0, trim_state, trim.bar, z1, hi,
                              np.full(hi + n_hold, trim.bar), limits)
         if ok:
             found = bars
@@ -290,7 +295,7 @@ def settling_bound(params: VehicleParams, z0: float, z1: float, u0: float,
     while hi - lo > 1:
         mid = (lo + hi) // 2
         start = np.r_[found[:mid], np.full(n_hold, trim.bar)]
-        ok, bars = _feasible(model, X0, trim_state, trim.bar, z1, mid, start, limits)
+        ok, bars = feasible(model, X0, trim_state, trim.bar, z1, mid, start, limits)
         if ok:
             hi, found = mid, bars
         else:

@@ -25,9 +25,9 @@ import math
 import pathlib
 from typing import Any
 
-from auv_depth_lqr.controller import PRESETS, preset
 from auv_depth_lqr.errors import DesignError
 from auv_depth_lqr.summary import design_summary
+from auv_depth_lqr.weights import PRESETS, preset
 from auv_sim.params import VehicleParams, load_vehicle
 from auv_sim.trim import Kinematics, VerticalPlane
 

@@ -28,6 +28,7 @@ from auv_depth_lqr.errors import DesignError, NotControllableError
 __all__ = [
     'Controllability',
     'LqrdResult',
+    'as_matrix',
     'check_controllable',
     'controllability',
     'lqrd',
@@ -70,7 +71,7 @@ class LqrdResult(NamedTuple):
     """Discrete cross weight (n, m)."""
 
 
-def _matrix(
+def as_matrix(
     name: str, value: ArrayLike, shape: tuple[int | None, int | None], expected: str
 ) -> Matrix:
     """Return ``value`` as a finite 2-D float array of ``shape`` (``None``: any size).
@@ -95,11 +96,11 @@ def _matrix(
 
 def _system(A: ArrayLike, B: ArrayLike) -> tuple[Matrix, Matrix]:
     """Check and return (A, B): A square (n, n), B (n, m)."""
-    a = _matrix('A', A, (None, None), '(n, n)')
+    a = as_matrix('A', A, (None, None), '(n, n)')
     n = a.shape[0]
     if a.shape != (n, n) or n == 0:
         raise DesignError(f'A must be square and non-empty, got shape {a.shape}')
-    b = _matrix('B', B, (n, None), f'(n, m) with n = {n}')
+    b = as_matrix('B', B, (n, None), f'(n, m) with n = {n}')
     if b.shape[1] == 0:
         raise DesignError(f'B must have at least one column, got shape {b.shape}')
     return a, b
@@ -292,9 +293,9 @@ def lqrd(
     """
     a, b = _system(A, B)
     n, m = b.shape
-    q = _symmetric('Q', _matrix('Q', Q, (n, n), f'(n, n) = ({n}, {n})'), definite=False)
-    r = _symmetric('R', _matrix('R', R, (m, m), f'(m, m) = ({m}, {m})'), definite=True)
-    nn = np.zeros((n, m)) if N is None else _matrix('N', N, (n, m), f'(n, m) = ({n}, {m})')
+    q = _symmetric('Q', as_matrix('Q', Q, (n, n), f'(n, n) = ({n}, {n})'), definite=False)
+    r = _symmetric('R', as_matrix('R', R, (m, m), f'(m, m) = ({m}, {m})'), definite=True)
+    nn = np.zeros((n, m)) if N is None else as_matrix('N', N, (n, m), f'(n, m) = ({n}, {m})')
     try:
         ts = float(Ts)
     except (TypeError, ValueError):

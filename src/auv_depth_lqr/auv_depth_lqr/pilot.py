@@ -10,7 +10,8 @@ pilot on a vehicle must also do:
   kept): a depth outside the envelope is never flown; before any command the pilot holds the
   first depth it measured, brought inside the envelope;
 * when no state has arrived for longer than ``state_timeout`` [s] it commands the documented
-  safe BAR (a gentle nose-up climb, default -0.12 rad = -6.9 deg: about +7 deg pitch and
+  safe BAR (a gentle nose-up climb; by default 0.275 ``bar_max`` to the nose-up side,
+  :func:`auv_depth_lqr.tuning.derive_tuning`: -0.12 rad = -6.9 deg, about +7 deg pitch and
   0.25 m/s climb for the A18M at 2 m/s) and says so; when state returns it resumes, with the
   controller reset so that no stale integrator or reference acts;
 * any failure of the controller on a sample gives the safe BAR, never an exception;
@@ -28,16 +29,9 @@ import dataclasses
 import math
 from collections.abc import Sequence
 
-from auv_depth_lqr.controller import (
-    DepthController,
-    GainSchedule,
-    GovernorSettings,
-    Limits,
-    PlaneState,
-    Weights,
-    preset,
-)
+from auv_depth_lqr.controller import DepthController, PlaneState
 from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
+from auv_depth_lqr.limits import Limits
 from auv_depth_lqr.recovery import (
     RECOVERY,
     EnvelopeMonitor,
@@ -45,12 +39,18 @@ from auv_depth_lqr.recovery import (
     Verdict,
     recovery_bar,
 )
+from auv_depth_lqr.schedule import GainSchedule
+from auv_depth_lqr.tuning import derive_tuning
+from auv_depth_lqr.weights import Weights, preset
 from auv_sim.errors import TrimError
 from auv_sim.params import VehicleParams
 from auv_sim.trim import VerticalPlane
 
 SAFE_BAR_DEFAULT = -0.12
-"""Safe dive-plane angle [rad] without state: a gentle climb (nose up) on the A18M."""
+"""Safe dive-plane angle [rad] without state of the A18M: a gentle climb (nose up); the
+default of the node's ``safe_bar`` parameter. :meth:`DepthPilot.for_vehicle` derives the
+vehicle's own (:func:`auv_depth_lqr.tuning.derive_tuning`) when ``PilotSettings.safe_bar``
+is ``None``."""
 
 DEFAULT_SPEEDS = tuple(round(0.5 + 0.1 * k, 1) for k in range(36))
 """Gain-scheduling grid [m/s]: 0.5 to 4.0 m/s every 0.1 m/s, less the speeds the vehicle
@@ -64,8 +64,12 @@ settling 0.20 deg/s, against 0.03 deg/s on this grid). The design takes ~2 ms pe
 class PilotSettings:
     """Design and run-time settings of the depth pilot (SI units, radians).
 
-    ``weights``: a preset name (``default``, ``report_4_4``, ``report_5``) or a
-    :class:`Weights`; ``bar_max`` / ``bar_rate`` default to the vehicle file's actuator limits;
+    ``weights``: a preset name or a :class:`Weights`; ``'default'`` is Bryson's rule on
+    the vehicle's scales (:func:`auv_depth_lqr.tuning.derive_tuning`), ``report_4_4`` and
+    ``report_5`` the report's fixed weights; ``safe_bar`` [rad] is the plane without state,
+    ``None`` for the vehicle's derived one; the reference governor's settings are derived
+    from the vehicle (:func:`~auv_depth_lqr.tuning.derive_tuning`); ``bar_max`` /
+    ``bar_rate`` default to the vehicle file's actuator limits;
     ``speeds`` is the gain-scheduling grid [m/s]; ``water_speed`` [m/s], when given, is the
     surge speed through the water (from the propeller setting or a water-track log) that the
     pilot schedules on and flies its model at, instead of the measured surge over ground
@@ -83,7 +87,7 @@ class PilotSettings:
     bar_rate: float | None = None
     speeds: Sequence[float] = DEFAULT_SPEEDS
     state_timeout: float = 0.5
-    safe_bar: float = SAFE_BAR_DEFAULT
+    safe_bar: float | None = None
     water_speed: float | None = None
     publish_delay: float = 0.01
     recovery: RecoverySettings = dataclasses.field(default_factory=RecoverySettings)
@@ -97,7 +101,7 @@ class PilotSettings:
                 and 0.0 <= self.publish_delay < 0.5 / self.rate_hz):
             raise DesignError(f'pilot setting publish_delay = {self.publish_delay!r} s must be '
                               f'>= 0 and below half the sample period ({0.5 / self.rate_hz:g} s)')
-        if not math.isfinite(self.safe_bar):
+        if self.safe_bar is not None and not math.isfinite(self.safe_bar):
             raise DesignError(f'pilot setting safe_bar = {self.safe_bar!r} must be finite')
         if self.water_speed is not None and not (
                 isinstance(self.water_speed, (int, float)) and math.isfinite(self.water_speed)
@@ -155,18 +159,26 @@ def trimmable_speeds(params: VehicleParams, speeds: Sequence[float]) -> tuple[fl
 
 
 def build_controller(params: VehicleParams, settings: PilotSettings) -> DepthController:
-    """Gain-scheduled LQR depth controller of a vehicle (see :mod:`auv_depth_lqr.controller`)."""
-    weights = preset(settings.weights) if isinstance(settings.weights, str) else settings.weights
-    Q, R = weights.matrices()
+    """Gain-scheduled LQR depth controller of a vehicle (see :mod:`auv_depth_lqr.controller`),
+    its weights (``'default'``) and governor derived from the vehicle file
+    (:func:`auv_depth_lqr.tuning.derive_tuning`)."""
     bar_max = settings.bar_max if settings.bar_max is not None else params.bar_max
     bar_rate = settings.bar_rate if settings.bar_rate is not None else params.bar_rate
-    if not abs(settings.safe_bar) <= bar_max:
+    tuning = derive_tuning(params, settings.theta_max, bar_max)
+    if isinstance(settings.weights, Weights):
+        weights = settings.weights
+    elif settings.weights == 'default':
+        weights = tuning.weights
+    else:
+        weights = preset(settings.weights)
+    Q, R = weights.matrices()
+    if settings.safe_bar is not None and not abs(settings.safe_bar) <= bar_max:
         raise DesignError(f'safe_bar = {settings.safe_bar} rad is beyond bar_max = {bar_max}')
     schedule = GainSchedule.design(vehicle_linearization(params),
                                    speeds=trimmable_speeds(params, settings.speeds),
                                    Q=Q, R=R, Ts=settings.Ts)
     limits = Limits(bar_max=bar_max, bar_rate_max=bar_rate, theta_max=settings.theta_max)
-    return DepthController(schedule, limits, settings.Ts, GovernorSettings())
+    return DepthController(schedule, limits, settings.Ts, tuning.governor)
 
 
 class DepthPilot:
@@ -178,6 +190,9 @@ class DepthPilot:
                 and 0.0 <= depth_min < depth_max):
             raise DesignError(f'depth envelope [{depth_min!r}, {depth_max!r}] m must be finite '
                               'with 0 <= depth_min < depth_max')
+        if settings.safe_bar is None:
+            raise DesignError('pilot setting safe_bar is None: give it, or build the pilot '
+                              'with DepthPilot.for_vehicle, which derives it')
         self.controller = controller
         self.depth_min = float(depth_min)
         self.depth_max = float(depth_max)
@@ -200,6 +215,10 @@ class DepthPilot:
         file's unless ``depth_min`` / ``depth_max`` narrow it (DesignError if they are
         outside the file's rated envelope)."""
         settings = settings or PilotSettings()
+        if settings.safe_bar is None:
+            bar_max = settings.bar_max if settings.bar_max is not None else params.bar_max
+            settings = dataclasses.replace(
+                settings, safe_bar=derive_tuning(params, settings.theta_max, bar_max).safe_bar)
         lo = params.depth_min if depth_min is None else depth_min
         hi = params.depth_max if depth_max is None else depth_max
         for name, value in (('depth_min', lo), ('depth_max', hi)):
@@ -297,6 +316,7 @@ class DepthPilot:
 
     def _safe(self) -> float:
         """The safe BAR, reached no faster than the plane's rate limit allows."""
+        assert self.settings.safe_bar is not None
         return self._slewed(self.settings.safe_bar)
 
     def _slewed(self, target: float) -> float:

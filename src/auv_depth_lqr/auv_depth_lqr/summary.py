@@ -10,9 +10,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from auv_depth_lqr.controller import DEFAULT_WEIGHTS, Linearize, check_linearization
 from auv_depth_lqr.errors import DesignError
 from auv_depth_lqr.lqr import controllability, lqrd
+from auv_depth_lqr.schedule import Linearize, check_linearization
+from auv_depth_lqr.weights import DEFAULT_WEIGHTS
 
 __all__ = ['STATE_NAMES', 'design_summary']
 

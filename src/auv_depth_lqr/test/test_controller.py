@@ -13,20 +13,14 @@ import numpy as np
 import pytest
 from standin import Run, linearize, settling_time, simulate
 
-from auv_depth_lqr.controller import (
-    DEFAULT_WEIGHTS,
-    PRESETS,
-    THETA_MAX_DEFAULT,
-    DepthController,
-    GainSchedule,
-    GovernorSettings,
-    Limits,
-    PlaneState,
-    preset,
-)
+from auv_depth_lqr.controller import DepthController, PlaneState
 from auv_depth_lqr.errors import DesignError, InvalidInputError, NotControllableError
+from auv_depth_lqr.governor import GovernorSettings
+from auv_depth_lqr.limits import THETA_MAX_DEFAULT, Limits
 from auv_depth_lqr.lqr import lqrd
+from auv_depth_lqr.schedule import GainSchedule
 from auv_depth_lqr.summary import design_summary
+from auv_depth_lqr.weights import DEFAULT_WEIGHTS, PRESETS, preset
 
 TS = 0.1                                   # s
 SPEEDS = (1.0, 1.5, 2.0, 2.5, 3.0)         # m/s; the stand-in cannot trim at 0.5 m/s
@@ -211,7 +205,7 @@ def test_rate_limit_applies_from_the_given_previous_bar(schedule: GainSchedule) 
 def test_integrator_stays_bounded_when_the_vehicle_cannot_follow(
     schedule: GainSchedule
 ) -> None:
-    """Vehicle stuck 0.3 m off the reference: xi is clamped to its BAR share and stops."""
+    """Vehicle stuck 0.3 m off the reference: xi is clamped to its pitch share and stops."""
     limits = Limits()
     ctrl = DepthController(schedule, limits, TS)
     stuck = PlaneState(z=10.3, theta=0.0069, w=0.0138, q=0.0, u=2.0)
@@ -219,8 +213,8 @@ def test_integrator_stays_bounded_when_the_vehicle_cannot_follow(
     for _ in range(3000):
         ctrl.step(stuck, 10.0)
         xi.append(ctrl.integrator)
-    k_xi = abs(schedule.at(2.0).K[4])
-    assert abs(k_xi * xi[-1]) <= limits.integral_bar_max + 1e-12
+    k_xi, k_theta = abs(schedule.at(2.0).K[4]), abs(schedule.at(2.0).K[3])
+    assert abs(k_xi * xi[-1]) <= limits.integral_pitch_max * k_theta + 1e-12
     assert xi[-1] == xi[-100]  # not integrating any more
 
 

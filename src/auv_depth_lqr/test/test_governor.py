@@ -8,16 +8,12 @@ import numpy as np
 import pytest
 from standin import linearize
 
-from auv_depth_lqr.controller import (
-    DepthController,
-    GainSchedule,
-    GovernorSettings,
-    Limits,
-    PlaneState,
-    _Brake,
-    _stop_distance,
-)
+from auv_depth_lqr.controller import DepthController, PlaneState
 from auv_depth_lqr.errors import DesignError
+from auv_depth_lqr.governor import GovernorSettings
+from auv_depth_lqr.limits import Limits
+from auv_depth_lqr.schedule import GainSchedule
+from auv_depth_lqr.stop import Brake, stop_distance
 
 TS = 0.1  # s
 
@@ -42,8 +38,8 @@ def _fine_sample(state: np.ndarray, u: float, b: np.ndarray, n: int = 200) -> np
     return state
 
 
-def oracle_stop(v: float, a: float, j: float, u: float, brake: _Brake, b: np.ndarray) -> float:
-    """The stop of :func:`_stop_distance` by brute force: every switch sample tried, each
+def oracle_stop(v: float, a: float, j: float, u: float, brake: Brake, b: np.ndarray) -> float:
+    """The stop of :func:`stop_distance` by brute force: every switch sample tried, each
     sample integrated finely; the switch interpolated the same way."""
     a_end = -brake.v_land / brake.landing
 
@@ -91,20 +87,20 @@ def test_stop_distance_matches_the_finely_integrated_stop(
     ctrl = DepthController(schedule, Limits(), TS)
     op = schedule.at(2.0)
     landing = ctrl.governor.approach_length / 2.0  # s, as for a command flown at 2 m/s
-    _, _, brake = ctrl._limits_toward(op, 2.0, -1.0, landing)
+    _, _, brake = ctrl.reference.limits_toward(op, 2.0, -1.0, landing)
     b = op.F[:, 3]
     u = b[0] * v + b[1] * a + b[2] * j
     expected = oracle_stop(v, a, j, u, brake, b)
-    assert _stop_distance(v, a, j, u, brake) == pytest.approx(expected, abs=1e-6)
+    assert stop_distance(v, a, j, u, brake) == pytest.approx(expected, abs=1e-6)
 
 
 def test_stop_distance_is_longer_from_faster_and_mirrored_away() -> None:
     """More speed, longer stop; a motion away from the target gives a negative distance."""
     b = np.array([0.134, 5.28, 8.07, 5.87])  # A18M series at 2 m/s [rad per m s^(k-1)]
-    brake = _Brake.build(b, -0.47, 0.0, 0.028, 3.5, 0.043, TS)
-    d = [_stop_distance(v, 0.0, 0.0, b[0] * v, brake) for v in (0.2, 0.4, 0.6, 0.8)]
+    brake = Brake.build(b, -0.47, 0.0, 0.028, 3.5, 0.043, TS)
+    d = [stop_distance(v, 0.0, 0.0, b[0] * v, brake) for v in (0.2, 0.4, 0.6, 0.8)]
     assert all(x < y for x, y in itertools.pairwise(d))
-    assert _stop_distance(-0.4, 0.0, 0.0, -b[0] * 0.4, brake) < 0.0
+    assert stop_distance(-0.4, 0.0, 0.0, -b[0] * 0.4, brake) < 0.0
 
 
 @pytest.mark.parametrize('u0', [1.0, 2.0, 3.0])
@@ -171,22 +167,36 @@ def test_reference_feedforward_stays_within_the_bar_budget(schedule: GainSchedul
     z, worst = 40.0, 0.0
     for _ in range(1200):
         ctrl.step(PlaneState(z=z, theta=0.0, w=0.0, q=0.0, u=2.0), 10.0)
-        _, bar_ff = ctrl.feedforward(op, 2.0, ctrl._v_r, ctrl._a_r, ctrl._j_r, ctrl._s_r)
+        ref = ctrl.reference.reference
+        assert ref is not None
+        _, bar_ff = ctrl.feedforward(op, 2.0, ref.v, ref.a, ref.j, ref.s)
         worst = max(worst, abs(bar_ff))
         z = ctrl.governed_reference[0]  # type: ignore[index]
     assert worst <= governor.bar_margin * limits.bar_max + 1e-5  # rad; exact to O(Ts^2)
 
 
 def test_reference_waits_for_a_vehicle_that_lags(schedule: GainSchedule) -> None:
-    """A vehicle stuck at 40 m: the reference leads it by at most max_lag."""
+    """A vehicle climbing at only 0.05 m/s: the reference leads it by at most max_lag."""
     governor = GovernorSettings()
     ctrl = DepthController(schedule, Limits(), TS, governor)
+    z = 40.0
     for _ in range(300):
-        ctrl.step(PlaneState(z=40.0, theta=0.0069, w=0.0138, q=0.0, u=2.0), 10.0)
+        ctrl.step(PlaneState(z=z, theta=0.0069, w=0.0138, q=0.0, u=2.0), 10.0)
         z_r = ctrl.governed_reference[0]  # type: ignore[index]
-        assert 40.0 - z_r <= governor.max_lag + 1e-9
+        assert z - z_r <= governor.max_lag + 1e-9
+        z -= 0.05 * TS
 
 
+def test_reference_goes_on_for_a_stalled_vehicle(schedule: GainSchedule) -> None:
+    """A vehicle held at 10.6 m (a steady disturbance), commanded to 10 m: once its depth
+    rate has settled below stall_speed the reference no longer waits (max_lag 0.5 m) but
+    reaches the command at rest, and the integrator runs (0.6 m beyond integrate_within)."""
+    governor = GovernorSettings()
+    ctrl = DepthController(schedule, Limits(), TS, governor)
+    for _ in range(600):
+        ctrl.step(PlaneState(z=10.6, theta=0.0069, w=0.0138, q=0.0, u=2.0), 10.0)
+    assert ctrl.governed_reference == (10.0, 0.0)
+    assert ctrl.integrator > 0.0
 def test_pitch_protection_caps_the_depth_feedback(schedule: GainSchedule) -> None:
     """Far below a reference held at rest, the pitch demand is capped at pitch_guard *
     theta_max: at that pitch, with no rate, the command is the trim BAR again."""

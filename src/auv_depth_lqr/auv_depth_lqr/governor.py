@@ -1,0 +1,364 @@
+"""The reference governor: a depth command becomes a flyable vertical-speed profile.
+
+Units: depth [m] and vertical speed [m/s] NED (positive down), acceleration [m/s^2], jerk
+[m/s^3], snap [m/s^4]; BAR [rad]; surge ``u`` [m/s]. :class:`GovernorSettings` are its
+settings, :class:`ReferenceGovernor` the planner (re-planned every sample, stop planned by
+:mod:`auv_depth_lqr.stop`, the latest braking found by :mod:`auv_depth_lqr.roots`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+from auv_depth_lqr.errors import DesignError
+from auv_depth_lqr.limits import Limits
+from auv_depth_lqr.roots import largest_root_below
+from auv_depth_lqr.schedule import GainSchedule, OperatingPoint
+from auv_depth_lqr.stop import Brake, kinematic_map, series_map, stable_series, stop_distance
+from auv_depth_lqr.validate import finite
+
+__all__ = ['GovernorSettings', 'Reference', 'ReferenceGovernor']
+
+
+@dataclass(frozen=True)
+class GovernorSettings:
+    """Reference governor: how a depth step becomes a flyable vertical-speed profile.
+
+    The governed reference ``(z_r, v_r, a_r, j_r, s_r)`` (depth [m], vertical speed [m/s],
+    acceleration [m/s^2], jerk [m/s^3], snap [m/s^4], NED down) is a near time-optimal
+    motion to the commanded depth, re-planned every sample (:meth:`ReferenceGovernor.advance`),
+    that ends on a short exponential landing. Its feed-forward BAR is the vehicle's linear
+    model series ``bar_e + b_0 v + b_1 a + b_2 j + b_3 s`` (:class:`OperatingPoint`), and
+    the reference is built so that this BAR is one the plane can fly:
+
+    * ``|v_r|``: steady climbs/dives whose pitch stays within ``margin * theta_max`` and BAR
+      within ``margin * bar_max`` (:meth:`GainSchedule.vertical_speed_bounds`);
+    * the feed-forward BAR within ``bar_margin * bar_max`` and moving at most at
+      ``bar_rate_margin`` times the plane's rate: it bounds the pitch-up (the restoring
+      moment of a steep climb eats the plane's authority) and shapes the stop;
+    * a stop holds the feed-forward BAR at ``brake_bar_share`` of that budget on the
+      braking side (the vehicle pitches back at the rate the plane allows), then releases
+      it towards the landing's BAR (plus ``release_bar_share`` of the room beyond) so that
+      the landing starts with the attitude at rest (see :func:`stop_distance`);
+    * the speed-up: ``|a_r| <= accel_max``, ``|j_r| <= accel_max / jerk_time``.
+
+    The reference never overshoots the commanded depth; it waits for a vehicle that falls
+    more than ``max_lag`` behind it. The defaults were chosen on the A18M model at 1.5-3 m/s
+    (``bench/bench_closed_loop.py``) against the settling, overshoot and quiet-attitude
+    targets; the time-optimal bound of :mod:`auv_depth_lqr.bound` is about 10 % faster.
+    """
+
+    margin: float = 0.97
+    """Fraction of ``theta_max`` and ``u sin(theta_max)`` that the steady climb or dive of the
+    reference may use; the rest is left to the feedback [-]."""
+    bar_margin: float = 0.98
+    """Fraction of ``bar_max`` that the feed-forward BAR of the reference may use [-]."""
+    accel_max: float = 0.2
+    """Largest vertical acceleration of the reference [m/s^2]; it bounds the pitch rate of
+    the transitions, ``~ accel_max / u`` [rad/s] (0.05 rad/s = 2.9 deg/s at 2 m/s)."""
+    jerk_time: float = 1.0
+    """Shortest time for the reference acceleration to go from 0 to ``accel_max`` [s]
+    (jerk limit ``accel_max / jerk_time``); it bounds the pitch acceleration."""
+    approach_length: float = 8.0
+    """Distance run through the water during one time constant of the final exponential
+    approach (the landing) [m]: the time constant is ``approach_length / u`` [s] (4 s at
+    2 m/s), so it follows the vehicle's attitude dynamics, which scale with ``1 / u``. The
+    pitch left to take out once the vehicle is within a +-0.1 m band, and the pitch rate
+    that takes it out, shrink with it: this keeps the attitude quiet once the depth has
+    settled."""
+    landing_distance: float = 0.12
+    """Length of the landing [m]: the stop ends on it at the speed
+    ``landing_distance / approach time`` [m/s], i.e. with the same pitch above the trim
+    at any speed."""
+    integrate_within: float = 0.2
+    """The depth integrator runs only while ``|z - z_r|`` is at most this [m]."""
+    integrate_below_speed: float = 0.005
+    """The depth integrator runs only while ``|v_r|`` is at most this [m/s]: the manoeuvre
+    itself is flown on the feed-forward and the proportional feedback, so transient tracking
+    errors of a climb or of its final approach do not wind the integrator up."""
+    brake_bar_share: float = 0.9
+    """Fraction of the feed-forward BAR budget (``bar_margin * bar_max``) that a planned stop
+    may use; the rest is left to the feedback, which must absorb the tracking errors of the
+    braking, where they become overshoot [-]."""
+    release_bar_share: float = 0.1
+    """How far beyond the landing's BAR (about the trim) the release of a stop moves the
+    feed-forward BAR, as a fraction of the room to the other end of the budget [-]."""
+    bar_rate_margin: float = 0.9
+    """Fraction of the BAR rate limit that the feed-forward BAR of the reference may use
+    [-]; the stop is planned with the BAR moving at that rate."""
+    jerk_bar_share: float = 0.28
+    """Fraction of ``bar_margin * bar_max`` that the jerk term ``b_2 j`` of the speed-up may
+    use; it bounds the jerk (the pitch acceleration) of the speed-up [-]."""
+    max_lag: float = 0.5
+    """Largest distance [m] by which the governed reference may lead the vehicle in the
+    direction of travel; when the vehicle falls further behind (a current, a speed lower
+    than assumed) the reference waits for it instead of winding up the depth error."""
+    stall_time: float = 5.0
+    """Time constant [s] of the low-pass of the measured depth rate that tells a stalled
+    vehicle (see ``stall_speed``)."""
+    stall_speed: float = 0.01
+    """A vehicle whose low-passed depth rate is at most this [m/s] has stalled: held off the
+    reference by a steady disturbance. The reference then no longer waits for it
+    (``max_lag``) and the integrator runs at any distance from the reference at rest
+    (``integrate_within`` no longer applies), so integral action removes steady offsets."""
+    pitch_guard: float = 0.97
+    """Fraction of ``theta_max`` beyond which the depth feedback may not ask for more pitch:
+    the pitch command ``theta_ref + (depth and integral terms) / K_theta`` of the LQR is
+    clipped there (pitch envelope protection; inactive in normal flight) [-]."""
+
+    def __post_init__(self) -> None:
+        for name in ('margin', 'bar_margin', 'brake_bar_share', 'pitch_guard',
+                     'jerk_bar_share', 'bar_rate_margin'):
+            value = finite(f'GovernorSettings.{name}', getattr(self, name), positive=True)
+            if value > 1.0:
+                raise DesignError(f'GovernorSettings.{name} must be in (0, 1], got {value!r}')
+        share = finite('GovernorSettings.release_bar_share', self.release_bar_share)
+        if not 0.0 <= share < 1.0:
+            raise DesignError(f'GovernorSettings.release_bar_share must be in [0, 1), got '
+                              f'{share!r}')
+        for name in ('accel_max', 'approach_length', 'jerk_time', 'landing_distance',
+                     'integrate_within',
+                     'integrate_below_speed', 'max_lag', 'stall_time', 'stall_speed'):
+            finite(f'GovernorSettings.{name}', getattr(self, name), positive=True)
+
+
+
+class Reference(NamedTuple):
+    """The governed reference at one sample (NED, positive down)."""
+
+    z: float
+    """Depth [m]."""
+    v: float
+    """Vertical speed [m/s]."""
+    a: float
+    """Vertical acceleration [m/s^2]."""
+    j: float
+    """Vertical jerk [m/s^3]."""
+    s: float
+    """Vertical snap, held over the sample [m/s^4]."""
+
+
+class ReferenceGovernor:
+    """The governed reference of a :class:`GainSchedule` within :class:`Limits`.
+
+    :meth:`start` it at the measured depth, :meth:`advance` it once per sample and
+    :meth:`accept` the reference actually flown (the controller may hold it back for a
+    vehicle that lags). An open-loop-unstable vehicle (no stable series at some grid speed)
+    cannot stop by holding its plane: its stop is planned kinematically
+    (:attr:`kinematic_stop`, :func:`~auv_depth_lqr.stop.kinematic_map`).
+    """
+
+    def __init__(self, design: GainSchedule, limits: Limits, settings: GovernorSettings,
+                 ts: float) -> None:
+        self.design, self.limits, self.settings, self.ts = design, limits, settings, ts
+        # One-sample maps of the stop model at the grid speeds, interpolated like the gains.
+        self.kinematic_stop = not all(stable_series([float(x) for x in design.F[k, :, 3]])
+                                      for k in range(design.speeds.size))
+        self.stop_tau = 0.5 * settings.jerk_time
+        """Time constant of the kinematic stop [s]."""
+        self.stop_maps = [
+            kinematic_map(self.stop_tau, ts) if self.kinematic_stop
+            else series_map([float(x) for x in design.F[k, :, 3]], ts)
+            for k in range(design.speeds.size)]
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the reference (the next :meth:`start` sets it)."""
+        self._z_r: float | None = None
+        self._v_r = 0.0
+        self._a_r = 0.0
+        self._j_r = 0.0
+        self._s_r = 0.0
+        self._landing: tuple[float, float] | None = None
+        self._switch_hint = [0]
+        self._s_root: float | None = None
+
+    @property
+    def reference(self) -> Reference | None:
+        """The last accepted reference, ``None`` before :meth:`start`."""
+        if self._z_r is None:
+            return None
+        return Reference(self._z_r, self._v_r, self._a_r, self._j_r, self._s_r)
+
+    def start(self, z: float) -> None:
+        """Start the reference at rest at depth ``z`` [m] unless it is running."""
+        if self._z_r is None:
+            self._z_r, self._v_r, self._a_r, self._j_r, self._s_r = z, 0.0, 0.0, 0.0, 0.0
+
+    def accept(self, ref: Reference) -> None:
+        """Store ``ref`` as the reference flown this sample."""
+        self._z_r, self._v_r, self._a_r, self._j_r, self._s_r = ref
+
+    def limits_toward(self, op: OperatingPoint, u: float, travel: float, landing: float
+                       ) -> tuple[float, float, Brake]:
+        """Limits of the reference for a motion in ``travel`` (+1 down, -1 up).
+
+        Returns ``(v_cap, jerk, brake)``: the steady vertical speed it may reach [m/s, > 0,
+        along ``travel``], the jerk limit of its speed-up [m/s^3] and the model of its stop
+        (:class:`Brake`, :func:`stop_distance`). In the travel frame (speed ``V``,
+        acceleration ``A``, jerk ``J``, snap ``S``, all along ``travel``) the feed-forward
+        input ``U = travel (BAR - bar_e)`` of the series is ``b_0 V + b_1 A + b_2 J + b_3 S``
+        (linear kinematics). A stop moves that input at ``bar_rate_margin`` times the plane's
+        rate to the braking end of ``brake_bar_share * bar_margin * bar_max`` and holds it,
+        then releases it at the same rate towards the landing's input plus
+        ``release_bar_share`` of the room beyond it, until the deceleration is down to that of
+        the landing (time constant ``landing`` [s]). The speed-up jerk is at most
+        ``accel_max / jerk_time`` and ``b_2 jerk`` at most ``jerk_bar_share`` of the budget.
+        """
+        settings, lim = self.settings, self.limits
+        b = op.F[:, 3]
+        budget = settings.bar_margin * lim.bar_max
+        jerk = settings.accel_max / settings.jerk_time
+        if b[2] != 0.0:
+            jerk = min(jerk, settings.jerk_bar_share * budget / abs(float(b[2])))
+        v_lo, v_hi = GainSchedule.vertical_speed_bounds(op, u, lim, settings.margin)
+        v_cap = v_hi if travel > 0.0 else -v_lo
+        v_land = settings.landing_distance / landing
+        share = settings.brake_bar_share * budget
+        sign = 1.0 if float(b[1]) >= 0.0 else -1.0
+        u_brake = -sign * share - travel * op.bar_e
+        u_other = sign * share - travel * op.bar_e
+        b0, b1 = float(b[0]), float(b[1])
+        u_land = b0 * v_land - b1 * v_land / landing  # the landing's input at its start
+        u_release = u_land + settings.release_bar_share * (u_other - u_land)
+        du = settings.bar_rate_margin * lim.bar_rate_max * self.ts
+        if self.kinematic_stop:
+            # Input: the commanded acceleration along the travel [m/s^2], moved no faster than
+            # the jerk limit. The stop brakes at the deceleration that the braking share of
+            # the plane's room (about the trim, on the side where b_1 (-travel a) lies) holds,
+            # at most accel_max.
+            side = -travel * (1.0 if b1 >= 0.0 else -1.0)
+            room = max(budget - side * op.bar_e, 0.0)
+            a_stop = settings.accel_max if b1 == 0.0 else min(
+                settings.accel_max, settings.brake_bar_share * room / abs(b1))
+            u_brake, u_other = -a_stop, a_stop
+            u_land = -v_land / landing
+            u_release = u_land + settings.release_bar_share * (u_other - u_land)
+            du = jerk * self.ts
+        _, i, j, w = self.design.weights(u)
+        (phi_i, gam_i), (phi_j, gam_j) = self.stop_maps[i], self.stop_maps[j]
+        brake = Brake(tuple((1.0 - w) * x + w * y for x, y in zip(phi_i, phi_j)),
+                       tuple((1.0 - w) * x + w * y for x, y in zip(gam_i, gam_j)),
+                       u_brake, u_release, max(du, 1e-9), landing, v_land)
+        return v_cap, jerk, brake
+
+
+    def advance(self, op: OperatingPoint, u: float, z_cmd: float) -> Reference:
+        """The governed reference one sample on (:class:`Reference`); not stored (see
+        :meth:`accept`).
+
+        A time-optimal point-to-point motion, re-planned at every sample (so it follows a
+        new command, a new speed or a reference held back by the vehicle). The snap ``s_r``
+        [m/s^4], constant over the sample, moves the jerk towards the speed-up profile: the
+        acceleration goes towards ``sqrt(2 jerk dv + (jerk c)^2) - jerk c`` (``dv`` the speed
+        still to gain up to ``v_cap``, ``c = jerk_time / 2``) at most at the jerk limit. The
+        feed-forward BAR ``bar_e + b_0 v_lin + b_1 a + b_2 j + b_3 s`` stays inside
+        ``bar_margin * bar_max`` and moves at most at ``bar_rate_margin`` times the plane's
+        rate, so the reference is one the plane can fly. If the stop from the state after the
+        sample (:func:`stop_distance`) would pass the target, the snap is instead the largest
+        one whose stop ends on the target (regula falsi from the last sample's root; the rate
+        limit gives way before the target does): the reference brakes as late as the plane
+        allows and never overshoots.
+        """
+        settings, lim, ts = self.settings, self.limits, self.ts
+        assert self._z_r is not None, 'start() the governor first'
+        # The landing's time constant is fixed per command (at the speed of its first sample):
+        # a landing that changed with every wobble of the measured speed would re-plan itself.
+        if self._landing is None or self._landing[0] != z_cmd:
+            self._landing = (z_cmd, settings.approach_length / max(u, 0.1))
+        error = z_cmd - self._z_r
+        travel = 1.0 if error > 0.0 or (error == 0.0 and self._v_r > 0.0) else -1.0
+        E, V = travel * error, travel * self._v_r
+        A, J = travel * self._a_r, travel * self._j_r
+        if E < 1e-3 and abs(V) < 1e-3 and abs(A) < 2e-3 and abs(J) < 2e-3:
+            return Reference(z_cmd, 0.0, 0.0, 0.0, 0.0)
+        v_cap, jerk, brake = self.limits_toward(op, u, travel, self._landing[1])
+        landing, v_land = brake.landing, brake.v_land
+        if 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E:
+            # Final approach: the exponential e(t) = E exp(-t / landing).
+            e1 = E * math.exp(-ts / landing)
+            v1 = e1 / landing
+            return Reference(z_cmd - travel * e1, travel * v1, -travel * v1 / landing,
+                             travel * v1 / landing**2, -travel * v1 / landing**3)
+        b = [float(x) for x in op.F[:, 3]]
+        # Feed-forward input U = b0 V + b1 A + b2 J + b3 S at the end of the sample, linear
+        # in the snap S held over it; BAR = bar_e + travel U (exact kinematics in b0's term).
+        _, v0, a0, j0 = _constant_snap(V, A, J, 0.0, ts)
+        lin0 = travel * GainSchedule.linear_speed(op, u, travel * v0)
+        centre = b[0] * lin0 + b[1] * a0 + b[2] * j0
+        slope = b[3] + b[2] * ts + b[1] * ts * ts / 2.0 + b[0] * ts ** 3 / 6.0
+        budget = settings.bar_margin * lim.bar_max
+        u_hi, u_lo = budget - travel * op.bar_e, -budget - travel * op.bar_e
+        s_cap = settings.accel_max / ts ** 2
+        if slope != 0.0 and not self.kinematic_stop:
+            ends = sorted(((u_lo - centre) / slope, (u_hi - centre) / slope))
+            s_lo, s_hi = ends
+            s_floor = s_lo
+            lin_prev = travel * GainSchedule.linear_speed(op, u, self._v_r)
+            u_prev = b[0] * lin_prev + b[1] * A + b[2] * J + b[3] * travel * self._s_r
+            rate = sorted(((u_prev - brake.du - centre) / slope,
+                           (u_prev + brake.du - centre) / slope))
+            if rate[0] <= s_hi and rate[1] >= s_lo:
+                s_lo, s_hi = max(s_lo, rate[0]), min(s_hi, rate[1])
+        else:
+            s_lo = s_floor = -s_cap
+            s_hi = s_cap
+        if self.kinematic_stop:
+            # The series of an unstable vehicle lets profiles that grow at its unstable rates
+            # through the plane budget at no cost: bound the reference's jerk (twice the
+            # speed-up's) and, beyond accel_max, turn its acceleration back.
+            j_lim = 2.0 * jerk
+            k_lo, k_hi = (-j_lim - J) / ts, (j_lim - J) / ts
+            if settings.accel_max < A:
+                k_hi = min(k_hi, (-j_lim - J) / ts + 1e-9)
+            elif -settings.accel_max > A:
+                k_lo = max(k_lo, (j_lim - J) / ts - 1e-9)
+            s_lo, s_hi = max(s_lo, k_lo), min(s_hi, k_hi)
+            if s_lo > s_hi:
+                s_lo = s_hi = min(max(0.0, k_lo), k_hi)
+            s_floor = max(s_floor, k_lo)
+        # Speed-up: the jerk goes towards what brings the acceleration to a_goal.
+        dv = v_cap - V - 0.5 * A * settings.jerk_time  # the jerk lags jerk_time behind
+        lag = 0.5 * settings.jerk_time * jerk
+        a_goal = math.copysign(math.sqrt(2.0 * jerk * abs(dv) + lag * lag) - lag, dv)
+        a_goal = min(a_goal, settings.accel_max)
+        j_goal = (a_goal - A) / settings.jerk_time
+        j_goal = max(j_goal, -jerk) if A < 0.0 else min(max(j_goal, -jerk), jerk)
+        s = min(max((j_goal - J) / ts, s_lo), s_hi)
+
+        hint = self._switch_hint
+        hint[0] = max(hint[0] - 1, 0)
+
+        def overshoot(s_try: float) -> float:
+            dz, v1, a1, j1 = _constant_snap(V, A, J, s_try, ts)
+            u1 = (a1 + 2.0 * self.stop_tau * j1 + self.stop_tau ** 2 * s_try
+                  if self.kinematic_stop else b[0] * v1 + b[1] * a1 + b[2] * j1 + b[3] * s_try)
+            return dz + stop_distance(v1, a1, j1, u1, brake, hint) - E
+
+        f_hi = overshoot(s)
+        if f_hi > 0.0:
+            lo, hi = s_lo, s
+            f_lo = overshoot(lo)
+            if f_lo >= 0.0 and s_floor < s_lo:
+                lo, hi = s_floor, s_lo  # the rate limit gives way before the target does
+                f_lo, f_hi = overshoot(lo), f_lo
+            s = lo if f_lo >= 0.0 else largest_root_below(overshoot, lo, hi, f_lo, f_hi,
+                                                           self._s_root)
+            self._s_root = s
+        dz, v1, a1, j1 = _constant_snap(V, A, J, s, ts)
+        if v1 > v_cap:  # the speed-up's momentum: never beyond the climb/dive bound
+            v1, a1, j1 = v_cap, min(a1, 0.0), min(j1, 0.0)
+        return Reference(self._z_r + travel * dz, travel * v1, travel * a1, travel * j1,
+                         travel * s)
+
+
+
+def _constant_snap(v: float, a: float, j: float, s: float, t: float
+                   ) -> tuple[float, float, float, float]:
+    """Distance [m], speed [m/s], acceleration [m/s^2] and jerk [m/s^3] after ``t`` [s] at
+    constant snap ``s`` [m/s^4]."""
+    t2 = t * t
+    return (v * t + a * t2 / 2.0 + j * t2 * t / 6.0 + s * t2 * t2 / 24.0,
+            v + a * t + j * t2 / 2.0 + s * t2 * t / 6.0, a + j * t + s * t2 / 2.0, j + s * t)
+
