@@ -77,7 +77,8 @@ def load(name: str) -> ModuleType:
 
 
 def _top_parser() -> argparse.ArgumentParser:
-    lines = [f'  {name:<11} {entry.summary}' for name, entry in SUBCOMMANDS.items()]
+    width = max(len(name) for name in SUBCOMMANDS)
+    lines = [f'  {name:<{width}}  {entry.summary}' for name, entry in SUBCOMMANDS.items()]
     return argparse.ArgumentParser(
         prog='auv',
         description='Depth control of torpedo AUVs: simulate, control, record, identify.',
