@@ -10,21 +10,15 @@ nearly fixed ratio (regressor correlation 0.999 even with the pseudo-random helm
 short transients separate them, and the sway force is small beside the (m - Yvdot) v_dot
 noise; their intervals are about +-12 %, +-4 % and +-5 %.
 
-The 95 % intervals are calibrated, not conservative: a 200-replication Monte Carlo
-(``python tools/ident_coverage.py --runs 200``) gives coverage between 93 % and 95.5 % for
-every coefficient. So a single noise realisation misses a given coefficient's interval about
-5 % of the time by design: at the noise seeds used here (100, 101, 102, fixed before the
-intervals were calibrated and not chosen for passing) CMuq's interval misses, its error
-being 2.04 standard errors. Coverage is therefore asserted over 20 replications with seeds
-fixed the same way (100 + 3k + (0, 1, 2), k = 0..19, the first being the bags' seeds): at
-most 4 misses per coefficient (for a calibrated interval the chance of 5 or more is 1.6 %
-per coefficient) and an rms of error / standard error of at least 0.6 (an interval too wide
-by 1.7x or more; a calibrated one falls below 0.6 with a chance under 1 %) and at most 1.6.
+The 95 % intervals are calibrated, not conservative: their coverage over 100 noise
+replications is a benchmark (``python bench/bench_ident_coverage.py``, figures in
+``bench/results/ident_coverage.json``), not a test. So a single noise realisation misses a
+given coefficient's interval about 5 % of the time by design; the tests here assert the
+interval's shape only.
 """
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import os
 import pathlib
@@ -123,35 +117,6 @@ def test_from_motion_with_sensor_noise_well_excited_within_3_percent(
     for name, c in report['coefficients'].items():
         lo, hi = c['ci95']
         assert lo < c['value'] < hi and c['std_error'] > 0, name
-
-
-def _coverage_tool() -> Any:
-    spec = importlib.util.spec_from_file_location('ident_coverage',
-                                                  ROOT / 'tools' / 'ident_coverage.py')
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_from_motion_95_percent_intervals_cover_over_20_noise_realisations() -> None:
-    tool = _coverage_tool()
-    base = load_vehicle(A18M)
-    recs = {m: run_mission(base, load_mission(m)) for m in MISSIONS}
-    z: dict[str, list[float]] = {}
-    missed: dict[str, list[int]] = {}
-    for k in range(20):
-        seeds = tuple(NOISE_SEEDS[0] + 3 * k + i for i in range(len(MISSIONS)))
-        result = tool.identify_replication(base, recs, SensorNoise.realistic(), seeds)
-        for name, c in result.coefficients.items():
-            true = base.values[name]
-            z.setdefault(name, []).append((c.value - true) / c.std_error)
-            if not c.ci95[0] <= true <= c.ci95[1]:
-                missed.setdefault(name, []).append(k)
-    for name, zs in z.items():
-        rms = float(np.sqrt(np.mean(np.square(zs))))
-        assert len(missed.get(name, [])) <= 4, (name, missed[name], rms)
-        assert 0.6 <= rms <= 1.6, (name, rms)
 
 
 # --- bad input: one line "error: ...", exit status 1, as a real command -------------------

@@ -25,6 +25,12 @@ from auv_sim.frames import state_to_odometry
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 BEST_EFFORT = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+#: Deadline of every wait [s]: a safety net, not a timing check. Each awaited event comes well
+#: within a second on an idle machine; on a 2-core machine at load 20 a node's start-up alone
+#: can take tens of seconds.
+DEADLINE_S = 120.0
+#: The pilot node's last start-up line (logged once its subscriptions and timers exist).
+READY_LINE = 'deg pitch limit, depth envelope'
 #: A user's script: a default-QoS publisher, one command once a subscriber matches.
 USER_SCRIPT = '''
 import time
@@ -55,6 +61,17 @@ class PilotProcess:
         self.lines: list[str] = []
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
+
+    def wait_ready(self, timeout: float = DEADLINE_S) -> None:
+        """Wait for the node's start-up line; fail with its output if it exits or is late."""
+        end = time.monotonic() + timeout
+        while self.count(READY_LINE) == 0:
+            if self.proc.poll() is not None:
+                self._reader.join(5)
+                pytest.fail(f'the pilot exited ({self.proc.returncode}): {self.output}')
+            if time.monotonic() > end:
+                pytest.fail(f'the pilot did not start within {timeout} s: {self.output}')
+            time.sleep(0.05)
 
     def _read(self) -> None:
         assert self.proc.stdout is not None
@@ -119,31 +136,31 @@ def test_commands_from_latched_default_and_best_effort_publishers(ros_env, probe
     latched.publish(Float64(data=22.0))
     pilot = PilotProcess(ros_env, '-p', 'state_timeout:=5.0')
     try:
-        spin_until(probe, lambda: pilot.count('depth command 22 m accepted') > 0, 40,
+        spin_until(probe, lambda: pilot.count('depth command 22 m accepted') > 0, DEADLINE_S,
                    'the latched command')
         # a plain script: default QoS (reliable, volatile, keep last 10), as a new user writes
         plain = probe.create_publisher(Float64, '/auv/depth_command', 10)
-        spin_until(probe, lambda: plain.get_subscription_count() >= 1, 20, 'matching')
+        spin_until(probe, lambda: plain.get_subscription_count() >= 1, DEADLINE_S, 'matching')
         plain.publish(Float64(data=15.0))
-        spin_until(probe, lambda: pilot.count('depth command 15 m accepted') > 0, 20,
+        spin_until(probe, lambda: pilot.count('depth command 15 m accepted') > 0, DEADLINE_S,
                    'the default-QoS command')
         # the same from a user's script in its own process
         script = subprocess.run([sys.executable, '-c', USER_SCRIPT], env=ros_env,
                                 capture_output=True, text=True, timeout=60)
         assert script.returncode == 0, script.stderr
-        spin_until(probe, lambda: pilot.count('depth command 12 m accepted') > 0, 20,
+        spin_until(probe, lambda: pilot.count('depth command 12 m accepted') > 0, DEADLINE_S,
                    "the user script's command")
         # the latched subscription cannot match it: said, not silent; another one serves it
         spin_until(probe, lambda: pilot.count('another subscription of the pilot receives')
-                   > 0, 20, 'the incompatible-QoS report')
+                   > 0, DEADLINE_S, 'the incompatible-QoS report')
         # a best-effort publisher (sent again until it arrives: best effort may drop)
         quick = probe.create_publisher(Float64, '/auv/depth_command', BEST_EFFORT)
-        spin_until(probe, lambda: pilot.count('depth command 18 m accepted') > 0, 20,
+        spin_until(probe, lambda: pilot.count('depth command 18 m accepted') > 0, DEADLINE_S,
                    'the best-effort command', every=lambda: quick.publish(Float64(data=18.0)))
         # a best-effort state publisher does not match the reliable state subscription:
         # a warning says so and how to fix it
         state = probe.create_publisher(VehicleState, '/auv/state', BEST_EFFORT)
-        spin_until(probe, lambda: pilot.count('state_reliability:=best_effort') > 0, 20,
+        spin_until(probe, lambda: pilot.count('state_reliability:=best_effort') > 0, DEADLINE_S,
                    'the state QoS warning', every=lambda: state.publish(level_state()))
         time.sleep(0.5)
         assert pilot.proc.poll() is None
@@ -162,14 +179,14 @@ def diagnostics_of(statuses: list[DiagnosticStatus]) -> dict[str, str]:
 
 def set_remote_parameter(node: Node, client: Any, name: str, value: object
                          ) -> tuple[bool, str]:
-    """Set one parameter through a SetParameters ``client`` (10 s deadline); returns
+    """Set one parameter through a SetParameters ``client`` (deadline DEADLINE_S); returns
     (successful, reason)."""
     from rclpy.parameter import Parameter
 
     request = client.srv_type.Request()
     request.parameters = [Parameter(name, value=value).to_parameter_msg()]
     future = client.call_async(request)
-    rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
+    rclpy.spin_until_future_complete(node, future, timeout_sec=DEADLINE_S)
     assert future.done(), f'set_parameters {name} timed out'
     result = future.result().results[0]
     return result.successful, result.reason
@@ -193,18 +210,18 @@ def test_depth_envelope_refuses_or_clamps_over_dds(ros_env, probe) -> None:
     def command(z: float, expect: str) -> None:
         before = pilot.count(expect)
         commands.publish(Float64(data=z))
-        spin_until(probe, lambda: pilot.count(expect) > before, 20, f'{expect!r} for {z}')
+        spin_until(probe, lambda: pilot.count(expect) > before, DEADLINE_S, f'{expect!r} for {z}')
 
     def set_parameter(name: str, value: object) -> tuple[bool, str]:
         return set_remote_parameter(probe, client, name, value)
 
     def diagnosed_command() -> str:
         statuses.clear()
-        spin_until(probe, lambda: bool(statuses), 10, 'a diagnostics message')
+        spin_until(probe, lambda: bool(statuses), DEADLINE_S, 'a diagnostics message')
         return diagnostics_of(statuses)['depth_command_m']
 
     try:
-        spin_until(probe, lambda: commands.get_subscription_count() >= 1, 40, 'matching')
+        spin_until(probe, lambda: commands.get_subscription_count() >= 1, DEADLINE_S, 'matching')
         assert client.wait_for_service(timeout_sec=30.0)
         command(30.0, 'depth command 30 m accepted')
         for bad, needle in ((60.0, 'depth command 60 m is outside the depth envelope [5, 50]'),
@@ -247,13 +264,13 @@ def test_recovery_mode_on_diagnostics_and_back(ros_env, probe) -> None:
     pilot = PilotProcess(ros_env, '-p', 'recovery_resume_time:=1.0')
     pitch = [0.00689]
     try:
-        spin_until(probe, lambda: state.get_subscription_count() >= 1, 40, 'matching')
+        spin_until(probe, lambda: state.get_subscription_count() >= 1, DEADLINE_S, 'matching')
         spin_until(probe, lambda: bool(statuses) and statuses[-1].level == DiagnosticStatus.OK,
-                   20, 'OK diagnostics in level flight',
+                   DEADLINE_S, 'OK diagnostics in level flight',
                    every=lambda: state.publish(level_state(pitch[0])))
         # 40 deg nose up: beyond the 25 deg limit plus the 5 deg margin
         pitch[0] = math.radians(40.0)
-        spin_until(probe, lambda: statuses[-1].level == DiagnosticStatus.WARN, 20,
+        spin_until(probe, lambda: statuses[-1].level == DiagnosticStatus.WARN, DEADLINE_S,
                    'WARN diagnostics', every=lambda: state.publish(level_state(pitch[0])))
         warn = diagnostics_of(statuses)
         assert warn['mode'] == 'recovery' and warn['status'] == 'recovery'
@@ -262,7 +279,7 @@ def test_recovery_mode_on_diagnostics_and_back(ros_env, probe) -> None:
         assert float(warn['pitch_deg']) == pytest.approx(40.0, abs=0.01)
         # level again: after the residual window (2 s) and the resume time (1 s), OK again
         pitch[0] = 0.00689
-        spin_until(probe, lambda: statuses[-1].level == DiagnosticStatus.OK, 30,
+        spin_until(probe, lambda: statuses[-1].level == DiagnosticStatus.OK, DEADLINE_S,
                    'OK diagnostics after recovery',
                    every=lambda: state.publish(level_state(pitch[0])))
         back = diagnostics_of(statuses)
@@ -301,7 +318,7 @@ def test_odometry_input_gives_the_vehicle_state_commands_on_remapped_topics(
         spin_until(probe, lambda: by_state.count('depth command 30 m accepted') == 1
                    and by_odom.count('depth command 30 m accepted') == 1
                    and state_pub.get_subscription_count() >= 1
-                   and odom_pub.get_subscription_count() >= 1, 40, 'both pilots ready')
+                   and odom_pub.get_subscription_count() >= 1, DEADLINE_S, 'both pilots ready')
         assert 'state from /nav/odometry (enu_flu)' in by_odom.output
         for k in range(80):
             t = 0.1 * k
@@ -326,7 +343,7 @@ def test_odometry_input_gives_the_vehicle_state_commands_on_remapped_topics(
             state_pub.publish(msg)
             odom_pub.publish(odom)
             spin_until(probe, lambda s=stamp_ns: s in bars['state'] and s in bars['odom'],
-                       10, f'both answers to the state at {t:.1f} s')
+                       DEADLINE_S, f'both answers to the state at {t:.1f} s')
     finally:
         by_state.stop()
         by_odom.stop()

@@ -11,7 +11,7 @@ import pytest
 import rclpy
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64
-from test_pilot_interfaces import set_remote_parameter
+from test_pilot_interfaces import DEADLINE_S, PilotProcess, set_remote_parameter
 
 from auv_depth_lqr.pilot import SAFE_BAR_DEFAULT
 from auv_msgs.msg import ActuatorSetpoint, VehicleState
@@ -19,19 +19,14 @@ from auv_msgs.msg import ActuatorSetpoint, VehicleState
 
 @pytest.fixture
 def pilot_process(ros_env):  # type: ignore[no-untyped-def]
-    proc = subprocess.Popen([sys.executable, '-m', 'auv_depth_lqr.node', '--ros-args',
-                             '-p', 'state_timeout:=0.5'], env=ros_env,
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    yield proc, ros_env
-    proc.terminate()
-    try:
-        proc.wait(10)
-    except subprocess.TimeoutExpired:
-        proc.kill()
+    pilot = PilotProcess(ros_env, '-p', 'state_timeout:=0.5')
+    pilot.wait_ready()
+    yield pilot
+    pilot.stop()
 
 
 def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
-    proc, _ = pilot_process
+    proc = pilot_process.proc
     rclpy.init()
     node = rclpy.create_node('pilot_probe')
     bars: list[tuple[float, float]] = []
@@ -58,7 +53,7 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
             rclpy.spin_once(node, timeout_sec=0.005)
 
     try:
-        deadline = time.monotonic() + 20
+        deadline = time.monotonic() + DEADLINE_S
         while not bars and time.monotonic() < deadline:
             spin_for(0.1)
         assert bars, 'the pilot published nothing'
@@ -97,8 +92,8 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
     finally:
         node.destroy_node()
         rclpy.shutdown()
-    proc.terminate()
-    out, _ = proc.communicate(timeout=10)
+    pilot_process.stop()
+    out = pilot_process.output
     assert 'depth command 25 m accepted' in out
     assert out.count('rejected: depth command') == 4, out
     assert 'not finite' in out and 'outside the depth envelope' in out
@@ -137,7 +132,7 @@ def test_bad_parameter_at_start_exits_with_one_line_error(ros_env, ros_args: lis
 def test_parameter_changes_are_validated_and_applied(pilot_process) -> None:
     from rcl_interfaces.srv import SetParameters
 
-    proc, _ = pilot_process
+    proc = pilot_process.proc
     rclpy.init()
     node = rclpy.create_node('pilot_param_probe')
     stamps: list[int] = []
@@ -155,7 +150,7 @@ def test_parameter_changes_are_validated_and_applied(pilot_process) -> None:
             rclpy.spin_once(node, timeout_sec=0.01)
 
     try:
-        assert client.wait_for_service(timeout_sec=30.0)
+        assert client.wait_for_service(timeout_sec=DEADLINE_S)
         for name, bad, needle in (('rate', 0.0, 'rate_hz'), ('weights', 'bogus', 'bogus'),
                                   ('publish_delay', 0.06, 'publish_delay'),
                                   ('vehicle_file', '/nonexistent.yaml', 'nonexistent'),

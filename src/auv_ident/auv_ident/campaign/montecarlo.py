@@ -120,6 +120,12 @@ def nominal_pilot(vehicle: str) -> tuple[Any, Any]:
     return _nominal_pilot(vehicle, (st.st_mtime_ns, st.st_size))
 
 
+def forget_designs() -> None:
+    """Drop the pilots :func:`nominal_pilot` designed in this process (the next call designs
+    again, as a fresh worker does)."""
+    _nominal_pilot.cache_clear()
+
+
 def warm(draw: Draw) -> None:
     """Design the pilot and load the simulator's compiled kernels in this process: the draw's
     first run flown for 1 s (the same code path as the runs)."""
