@@ -12,8 +12,9 @@ Fossen's form, all terms on the right-hand side as the report writes it::
 The state vector ``x`` (15) is ``eta``, ``nu`` and the actuator positions
 ``(bar [rad], helm [rad], thrust [N])``; the command ``cmd`` (3) holds their set-points.
 ``f(t, x, cmd, P, env, prof)`` is pure; the one integrator (RK4, :func:`rk4_steps` and its
-kin below) runs it or one of its constrained forms. Kernels are compiled with numba; they are written so that complex arguments work
-too (``|a|`` continued as ``a sign(Re a)``), which gives exact complex-step Jacobians.
+kin below) runs it or one of its constrained forms. Kernels are compiled with numba; they are
+written so that complex arguments work too (``|a|`` continued as ``a sign(Re a)``), which
+gives exact complex-step Jacobians.
 
 Environment vector ``env`` (:data:`ENV_SIZE`, see :mod:`auv_sim.environment`) and the current
 profile table ``prof`` (K x 4 rows ``z [m], v_n, v_e, v_d [m/s]``) describe the water.
