@@ -120,6 +120,11 @@ def nominal_pilot(vehicle: str) -> tuple[Any, Any]:
     return _nominal_pilot(vehicle, (st.st_mtime_ns, st.st_size))
 
 
+def forget_pilots() -> None:
+    """Drop the pilots :func:`nominal_pilot` designed (the next call designs again)."""
+    _nominal_pilot.cache_clear()
+
+
 def warm(draw: Draw) -> None:
     """Design the pilot and load the simulator's compiled kernels in this process: the draw's
     first run flown for 1 s (the same code path as the runs)."""
