@@ -37,7 +37,8 @@ def _flight(vehicle: VehicleParams, duration: float,
 
 def test_the_flight_is_the_projects_closed_loop(vehicle: VehicleParams) -> None:
     log = synth.simulate(vehicle, None, _flight(vehicle, 40.0), noise=np.zeros(12))
-    run = run_closed_loop(vehicle, [(0.0, Z0), (5.0, Z1)], 40.0, z0=Z0, u0=U0)
+    run = run_closed_loop(vehicle, [(0.0, Z0), (5.0, Z1)], 40.0, z0=Z0, u0=U0,
+                          pilot=synth.new_pilot(vehicle, 10.0))  # the design is done once
     np.testing.assert_array_equal(log.t, run.record.t)
     np.testing.assert_allclose(log.true_state, run.record.x[:, :12], rtol=0, atol=1e-12)
     times, bars = log.commands['bar']  # one command per control instant, and one at the end

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from auv_bag import BagWriter, typestore
+from auv_ident.errors import IdentError
 from auv_sim.simulator import CHANNELS, Record
 
 if TYPE_CHECKING:
@@ -83,7 +84,7 @@ def write_record(path: str | os.PathLike[str], rec: Record, *, forces: bool = Tr
         sent['bar'] = bar_commands
     unknown = sorted(set(sent) - set(CHANNELS))
     if unknown:
-        raise ValueError(f'sent_commands: unknown channel {unknown[0]!r} (known: {CHANNELS})')
+        raise IdentError(f'sent_commands: unknown channel {unknown[0]!r} (known: {CHANNELS})')
     store = typestore()
     T = store.types
     Header, Time = T['std_msgs/msg/Header'], T['builtin_interfaces/msg/Time']
