@@ -64,6 +64,25 @@ def stamp_ns(t: float, t0_ns: int = 0) -> int:
     return t0_ns + int(round(t * NS_PER_S))
 
 
+def measured_state(rec: Record, noise: SensorNoise | None = None, seed: int = 0) -> np.ndarray:
+    """The state (N x 12, STATE_FIELDS order) a bag of ``rec`` carries: the record's measured
+    state plus, with ``noise``, white noise drawn from ``numpy.random.default_rng(seed)``."""
+    meas: np.ndarray = rec.measured[:, :12].copy()
+    if noise is not None:
+        meas += noise.draw(np.random.default_rng(seed), len(meas))
+    return meas
+
+
+def applied_commands(rec: Record) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per channel, the record's applied commands where they change (and at the first
+    sample): ``(times [s], values [rad or N])``."""
+    out = {}
+    for j, ch in enumerate(CHANNELS):
+        change = np.flatnonzero(np.diff(rec.cmd[:, j], prepend=np.nan) != 0)
+        out[ch] = (rec.t[change], rec.cmd[change, j])
+    return out
+
+
 def write_record(path: str | os.PathLike[str], rec: Record, *, forces: bool = True,
                  commands: bool = True, noise: SensorNoise | None = None, seed: int = 0,
                  depth_commands: Sequence[tuple[float, float]] = (),
@@ -79,10 +98,10 @@ def write_record(path: str | os.PathLike[str], rec: Record, *, forces: bool = Tr
     alone (e.g. the pilot's commands of a closed-loop run, one per control instant). All
     stamps and log times are ``t0_ns`` [ns] plus the simulated time.
     """
-    sent = dict(sent_commands or {})
+    sent = applied_commands(rec) | dict(sent_commands or {})
     if bar_commands is not None:
         sent['bar'] = bar_commands
-    unknown = sorted(set(sent) - set(CHANNELS))
+    unknown = sorted(set(sent_commands or {}) - set(CHANNELS))
     if unknown:
         raise IdentError(f'sent_commands: unknown channel {unknown[0]!r} (known: {CHANNELS})')
     store = typestore()
@@ -93,9 +112,7 @@ def write_record(path: str | os.PathLike[str], rec: Record, *, forces: bool = Tr
     Forces = T['auv_msgs/msg/HydrodynamicForces']
     Wrench, Vector3 = T['geometry_msgs/msg/Wrench'], T['geometry_msgs/msg/Vector3']
     Float64 = T['std_msgs/msg/Float64']
-    meas = rec.measured[:, :12].copy()
-    if noise is not None:
-        meas += noise.draw(np.random.default_rng(seed), len(meas))
+    meas = measured_state(rec, noise, seed)
 
     def header(t: float, frame: str) -> MsgType:
         ns = stamp_ns(t, t0_ns)
@@ -125,13 +142,8 @@ def write_record(path: str | os.PathLike[str], rec: Record, *, forces: bool = Tr
                     header=header(t, 'base_link_frd'), hydrodynamic=wrench(w[0]),
                     coriolis=wrench(w[1]), restoring=wrench(w[2]), actuators=wrench(w[3]))))
         if commands:
-            for j, ch in enumerate(CHANNELS):
-                if ch in sent:
-                    times, values = sent[ch]
-                else:
-                    change = np.flatnonzero(np.diff(rec.cmd[:, j], prepend=np.nan) != 0)
-                    times, values = rec.t[change], rec.cmd[change, j]
-                for t, v in zip(times, values):
+            for ch in CHANNELS:
+                for t, v in zip(*sent[ch]):
                     events.append((float(t), 0, f'/auv/{ch}_command',
                                    Setpoint(header=header(float(t), ch), value=float(v))))
         for t, z in depth_commands:
