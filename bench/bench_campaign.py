@@ -223,7 +223,7 @@ def run_montecarlo(tmp: pathlib.Path) -> dict[str, Any]:
 
     Figures per wall second and per CPU second (this process and its children: the
     scheduler, the workers; CPU time is far less sensitive to the load than wall time)."""
-    from auv_ident.campaign.montecarlo import Draw, forget_designs, run_chunk
+    from auv_ident.campaign.montecarlo import Draw, forget_pilots, run_chunk
 
     spreads = {'CZuw': 0.2, 'CMuq': 0.2, 'CMuw': 0.1}
     effects = {'buoyancy_offset': {'dB': (-30.0, 30.0)}}
@@ -242,7 +242,7 @@ def run_montecarlo(tmp: pathlib.Path) -> dict[str, Any]:
         bare = run_chunk(draw, range(MC_RUNS))
         bare_s, bare_cpu = time.perf_counter() - t0, _cpu_s() - c0
         steps = sum(r['steps'] for r in bare if r['status'] == 'ok')
-        forget_designs()
+        forget_pilots()
         c0 = _cpu_s()
         eng = _campaign([*args, '--out', str(tmp / f'mc1-{rep}'), '--workers', '1'])
         eng_cpu = _cpu_s() - c0

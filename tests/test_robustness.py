@@ -143,16 +143,30 @@ def test_the_criteria_fail_a_pilot_that_does_not_fly(design: VehicleParams,
     assert not outcome.checks['settled']
 
 
+class _DepthSeen(DepthPilot):
+    """A pilot that keeps the depths its :meth:`on_state` receives."""
+
+    seen: list[float]
+
+    def on_state(self, t: float, z: float, theta: float, w: float, q: float, u: float) -> None:
+        self.seen.append(z)
+        super().on_state(t, z, theta, w, q, u)
+
+
+class _NoisyProbe(NoisyDepthPilot, _DepthSeen):
+    """NoisyDepthPilot in front of _DepthSeen: the depth after the noise is added."""
+
+
 def test_depth_noise_reaches_the_pilot_with_its_standard_deviation(
         design: VehicleParams) -> None:
-    pilot = NoisyDepthPilot.for_vehicle(design, PilotSettings())
-    assert isinstance(pilot, NoisyDepthPilot)
+    pilot = _NoisyProbe.for_vehicle(design, PilotSettings())
+    assert isinstance(pilot, _NoisyProbe)
+    pilot.seen = []
     pilot.set_depth_noise(0.05, seed=3)
-    seen = []
     for k in range(4000):
         pilot.on_state(0.1 * k, z=20.0, theta=0.0, w=0.0, q=0.0, u=2.0)
-        assert pilot._state is not None
-        seen.append(pilot._state.z)
+    seen = pilot.seen
+    assert len(seen) == 4000
     # sample std of 4000 normal draws: 0.05 +- 2.2 % (2 standard errors)
     assert np.std(seen) == pytest.approx(0.05, rel=0.025)
     assert abs(np.mean(seen) - 20.0) < 4 * 0.05 / math.sqrt(4000)

@@ -4,11 +4,11 @@
 The three missions (surge, pitch, yaw) are simulated once with the vehicle file; for each of
 ``--runs`` replications, white sensor noise (default: :meth:`SensorNoise.realistic`, depth
 0.02 m, angles 0.1 deg, velocities 0.01 m/s, rates 0.1 deg/s) is added to the logged state
-exactly as :func:`auv_ident.simlog.write_record` does (``numpy.random.default_rng(seed)``,
-one draw per mission), the forces are reconstructed from the noisy motion
-(:func:`auv_ident.motion.records_from_topics`, in-memory topic arrays instead of bags) and
-the coefficients identified (:func:`auv_ident.identify.identify`). Replication ``k`` uses the
-noise seeds ``first + 3 k + (0, 1, 2)`` for (surge, pitch, yaw).
+by :func:`auv_ident.simlog.measured_state`, as :func:`auv_ident.simlog.write_record` adds
+it (``numpy.random.default_rng(seed)``, one draw per mission), the forces are reconstructed
+from the noisy motion (:func:`auv_ident.motion.records_from_topics`, in-memory topic arrays
+instead of bags) and the coefficients identified (:func:`auv_ident.identify.identify`).
+Replication ``k`` uses the noise seeds ``first + 3 k + (0, 1, 2)`` for (surge, pitch, yaw).
 
 Printed per coefficient: the coverage of the 95 % interval (fraction of runs whose interval
 holds the file's value, with its binomial standard error), the mean and the rms of
@@ -40,22 +40,20 @@ def topic_arrays(rec: Any, noise: Any, seed: int) -> dict[str, np.ndarray]:
     """The topic arrays a bag of ``rec`` written by ``write_record(..., forces=False,
     noise=noise, seed=seed)`` reads back as (state with noise; command change points)."""
     from auv_ident.motion import COMMAND_TOPICS, STATE_FIELDS, STATE_TOPIC
+    from auv_ident.simlog import applied_commands, measured_state
 
-    meas = rec.measured[:, :12].copy()
-    rng = np.random.default_rng(seed)
-    meas += rng.standard_normal(meas.shape) * noise.sigmas()
+    meas = measured_state(rec, noise, seed)
     t = np.round(np.asarray(rec.t, float) * 1e9) / 1e9
     st = np.zeros(len(t), dtype=[('t', float)] + [(f, float) for f in STATE_FIELDS])
     st['t'] = t
     for j, f in enumerate(STATE_FIELDS):
         st[f] = meas[:, j]
     arrays = {STATE_TOPIC: st}
-    for j, (_, topic) in enumerate(COMMAND_TOPICS.items()):
-        change = np.flatnonzero(np.diff(rec.cmd[:, j], prepend=np.nan) != 0)
-        arr = np.zeros(len(change), dtype=[('t', float), ('value', float)])
-        arr['t'] = t[change]
-        arr['value'] = rec.cmd[change, j]
-        arrays[topic] = arr
+    for ch, (times, values) in applied_commands(rec).items():
+        arr = np.zeros(len(times), dtype=[('t', float), ('value', float)])
+        arr['t'] = np.round(np.asarray(times, float) * 1e9) / 1e9
+        arr['value'] = values
+        arrays[COMMAND_TOPICS[ch]] = arr
     return arrays
 
 

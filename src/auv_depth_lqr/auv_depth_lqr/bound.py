@@ -6,8 +6,9 @@ pitch rate ``q`` [rad/s]; pitch ``theta`` positive nose up [rad]; BAR [rad]; tim
 The kinematic bound ``T_kin = |dz| / (u0 sin(theta_max))`` ignores that the vehicle must
 pitch up and down with a plane of finite angle and rate, and that at a steep pitch the
 restoring moment eats the plane's authority. :func:`settling_bound` answers the question
-exactly for the vehicle's nonlinear vertical-plane model (:class:`auv_sim.trim.VerticalPlane`,
-exact kinematics ``z_dot = -u sin(theta) + w cos(theta)``, surge speed held at ``u0``): the
+exactly for the vehicle's nonlinear model in the vertical plane (:class:`PlaneModel`: the
+simulator's 6-DOF model and RK4 with ``v = p = r = phi = psi = 0``, exact kinematics
+``z_dot = -u sin(theta) + w cos(theta)``, surge speed held at ``u0``): the
 smallest time ``T`` for which some BAR sequence (zero-order hold on a grid of ``step``
 seconds, ``|BAR| <= bar_max``, ``|dBAR/dt| <= bar_rate``) keeps ``|theta| <= theta_max``
 throughout and the depth within ``+-band`` of the target from ``T`` on, ending in the trim at
@@ -30,6 +31,8 @@ from scipy.linalg import solve_discrete_are
 from scipy.optimize import linprog
 
 from auv_depth_lqr.errors import DesignError
+from auv_sim.environment import Environment
+from auv_sim.model import NX, surge_held_steps
 from auv_sim.params import VehicleParams
 from auv_sim.trim import VerticalPlane
 
@@ -37,6 +40,8 @@ __all__ = ['PlaneModel', 'SettlingBound', 'feasible', 'settling_bound']
 
 _H = 1e-30
 """Complex step [-]."""
+_PLANE = np.array([8, 10, 2, 4])
+"""Indices of ``(w, q, z, theta)`` in the model's 15-state vector."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -56,25 +61,39 @@ class SettlingBound:
 
 
 class PlaneModel:
-    """RK4 steps of the vertical plane at surge speed ``u0`` (complex-capable)."""
+    """The vertical plane at surge speed ``u0`` [m/s], stepped by the simulator's RK4.
+
+    The state ``X = (w, q, z, theta)`` [m/s, rad/s, m, rad] is the vertical-plane part of the
+    model's 15-state vector (:data:`auv_sim.model.STATE_NAMES`; ``v = p = r = phi = psi = 0``),
+    and one step is :func:`auv_sim.model.surge_held_steps`: the model's own RK4, wrench kernel
+    and actuator model, with the surge speed held at ``u0`` by a perfect speed loop (the
+    constraint force of :func:`auv_sim.model.surge_held_dynamics`, which gives the heave and
+    pitch rows ``M_wq [w_dot, q_dot] = [Z, M]`` of :class:`auv_sim.trim.VerticalPlane`). The
+    BAR is held over a step exactly: the plane starts the step at its command, where the
+    actuator model's rate is zero (for ``|bar| <= bar_max``, which every plan keeps; beyond
+    it the plane would move to the limit). Complex-capable (complex-step Jacobians).
+    """
 
     def __init__(self, params: VehicleParams, u0: float, step: float) -> None:
         self.plane = VerticalPlane(params)
         self.u0, self.h = u0, step
-
-    def rates(self, X: np.ndarray, bar: complex) -> np.ndarray:
-        """Time derivative of ``X = (w, q, z, theta)`` [m/s, rad/s, m, rad] at BAR ``bar``
-        [rad] (complex for the complex-step Jacobian)."""
-        return self.plane.rates(np.r_[X, 0.0], bar, self.u0)[:4]
+        calm = Environment()
+        self.P = self.plane.params.as_array()
+        self.env, self.prof = calm.env_vector(), calm.profile()
 
     def step(self, X: np.ndarray, bar: complex) -> np.ndarray:
-        """``X`` one RK4 step of ``h`` [s] later with ``bar`` [rad] held."""
-        h = self.h
-        k1 = self.rates(X, bar)
-        k2 = self.rates(X + 0.5 * h * k1, bar)
-        k3 = self.rates(X + 0.5 * h * k2, bar)
-        k4 = self.rates(X + h * k3, bar)
-        out: np.ndarray = X + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        """``X`` one RK4 step of ``h`` [s] later with ``bar`` [rad] held (NaN where the step
+        turns non-finite)."""
+        dtype = np.result_type(X.dtype, np.asarray(bar).dtype)
+        x = np.zeros(NX, dtype=dtype)
+        x[_PLANE] = X
+        x[6] = self.u0
+        x[12] = bar
+        cmd = np.zeros(3, dtype=dtype)
+        cmd[0] = bar
+        if surge_held_steps(0.0, x, cmd, self.P, self.env, self.prof, self.h, 1) != -1:
+            return np.full(4, np.nan, dtype=dtype)
+        out: np.ndarray = x[_PLANE]
         return out
 
     def simulate(self, X0: np.ndarray, bars: np.ndarray) -> np.ndarray:

@@ -200,12 +200,12 @@ def test_reference_goes_on_for_a_stalled_vehicle(schedule: GainSchedule) -> None
 def test_pitch_protection_caps_the_depth_feedback(schedule: GainSchedule) -> None:
     """Far below a reference held at rest, the pitch demand is capped at pitch_guard *
     theta_max: at that pitch, with no rate, the command is the trim BAR again."""
-    limits, governor = Limits(), GovernorSettings()
+    # a plane rate limit that cannot bind (2 bar_max per sample) isolates the feedback law
+    limits, governor = Limits(bar_rate_max=2.0 * Limits().bar_max / TS), GovernorSettings()
     ctrl = DepthController(schedule, limits, TS, governor)
     op = schedule.at(2.0)
     theta_cap = governor.pitch_guard * limits.theta_max
     ctrl.step(PlaneState(z=20.0, theta=op.theta_e, w=op.w_e, q=0.0, u=2.0), 20.0)
-    ctrl._bar_prev = None  # isolate the feedback law from the rate limit
     bar = ctrl.step(PlaneState(z=30.0, theta=theta_cap, w=op.w_e, q=0.0, u=2.0), 20.0)
     # The reference waited (max_lag) so z - z_r is max_lag, far beyond the cap.
     assert bar == pytest.approx(op.bar_e, abs=1e-9)

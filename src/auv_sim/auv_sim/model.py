@@ -11,9 +11,10 @@ Fossen's form, all terms on the right-hand side as the report writes it::
 
 The state vector ``x`` (15) is ``eta``, ``nu`` and the actuator positions
 ``(bar [rad], helm [rad], thrust [N])``; the command ``cmd`` (3) holds their set-points.
-``f(t, x, cmd, P, env, prof)`` is pure; the integrator (:mod:`auv_sim.integrate`) is chosen
-separately. Kernels are compiled with numba; they are written so that complex arguments work
-too (``|a|`` continued as ``a sign(Re a)``), which gives exact complex-step Jacobians.
+``f(t, x, cmd, P, env, prof)`` is pure; the one integrator (RK4, :func:`rk4_steps` and its
+kin below) runs it or one of its constrained forms. Kernels are compiled with numba; they are
+written so that complex arguments work too (``|a|`` continued as ``a sign(Re a)``), which
+gives exact complex-step Jacobians.
 
 Environment vector ``env`` (:data:`ENV_SIZE`, see :mod:`auv_sim.environment`) and the current
 profile table ``prof`` (K x 4 rows ``z [m], v_n, v_e, v_d [m/s]``) describe the water.
@@ -441,42 +442,72 @@ def actuator_dynamics(t, x, cmd, P, env, prof, xdot, work):  # type: ignore[no-u
 
 
 @njit(cache=True)
-def _rk4(t0, x, cmd, P, env, prof, dt, nsteps, vehicle):  # type: ignore[no-untyped-def]
-    """Classic RK4 of :func:`dynamics` (``vehicle``) or :func:`actuator_dynamics` (not);
-    returns as :func:`rk4_steps`. ``vehicle`` is a compile-time constant: one specialisation
-    each, the other branch pruned (a run-time branch costs the vehicle 30 % in speed)."""
-    literally(vehicle)
+def surge_held_dynamics(t, x, cmd, P, env, prof, xdot, work):  # type: ignore[no-untyped-def]
+    """:func:`dynamics` with the surge speed held by a perfect speed loop: ``u_dot = 0``.
+
+    The speed loop is a surge force ``lambda`` [N] (body FRD X) that takes whatever value
+    keeps ``u`` constant: ``M nu_dot = tau + e_X lambda`` with ``u_dot = 0`` gives
+    ``nu_dot = M^-1 tau - M^-1 e_X (M^-1 tau)_X / (M^-1)_XX`` (the other rows are then
+    ``M' nu_dot' = tau'``, ``M'`` the mass matrix without the surge row and column). The
+    thrust the loop needs is ``x[14] + lambda``; the propeller state itself is not used.
+    The same arguments as :func:`dynamics`."""
+    dynamics(t, x, cmd, P, env, prof, xdot, work)
+    a = xdot[6] / P[I_MINV]
+    for i in range(6):
+        xdot[6 + i] -= P[I_MINV + 6 * i] * a
+
+
+#: Right-hand sides of :func:`_rk4`: the vehicle (:func:`dynamics`), the actuators alone
+#: (:func:`actuator_dynamics`), the vehicle at a held surge speed (:func:`surge_held_dynamics`).
+RHS_VEHICLE, RHS_ACTUATORS, RHS_SURGE_HELD = 0, 1, 2
+
+
+@njit(cache=True)
+def _rk4(t0, x, cmd, P, env, prof, dt, nsteps, rhs):  # type: ignore[no-untyped-def]
+    """Classic RK4 of the right-hand side ``rhs`` (``RHS_*``); returns as :func:`rk4_steps`.
+    ``rhs`` is a compile-time constant: one specialisation each, the other branches pruned
+    (a run-time branch costs the vehicle 30 % in speed). The stages have the dtype of ``x``:
+    a complex state (complex-step derivatives) is integrated in complex arithmetic."""
+    literally(rhs)
     n = x.shape[0]
-    k1 = np.empty(n)
-    k2 = np.empty(n)
-    k3 = np.empty(n)
-    k4 = np.empty(n)
-    xt = np.empty(n)
-    work = np.empty((4, 6))
+    k1 = np.empty_like(x)
+    k2 = np.empty_like(x)
+    k3 = np.empty_like(x)
+    k4 = np.empty_like(x)
+    xt = np.empty_like(x)
+    work = np.zeros((4, 6)) + 0.0 * x[0]
     for s in range(nsteps):
         t = t0 + s * dt
-        if vehicle:
+        if rhs == RHS_VEHICLE:
             dynamics(t, x, cmd, P, env, prof, k1, work)
-        else:
+        elif rhs == RHS_ACTUATORS:
             actuator_dynamics(t, x, cmd, P, env, prof, k1, work)
+        else:
+            surge_held_dynamics(t, x, cmd, P, env, prof, k1, work)
         for i in range(n):
             xt[i] = x[i] + 0.5 * dt * k1[i]
-        if vehicle:
+        if rhs == RHS_VEHICLE:
             dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
-        else:
+        elif rhs == RHS_ACTUATORS:
             actuator_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
+        else:
+            surge_held_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
         for i in range(n):
             xt[i] = x[i] + 0.5 * dt * k2[i]
-        if vehicle:
+        if rhs == RHS_VEHICLE:
             dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
-        else:
+        elif rhs == RHS_ACTUATORS:
             actuator_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
+        else:
+            surge_held_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
         for i in range(n):
             xt[i] = x[i] + dt * k3[i]
-        if vehicle:
+        if rhs == RHS_VEHICLE:
             dynamics(t + dt, xt, cmd, P, env, prof, k4, work)
-        else:
+        elif rhs == RHS_ACTUATORS:
             actuator_dynamics(t + dt, xt, cmd, P, env, prof, k4, work)
+        else:
+            surge_held_dynamics(t + dt, xt, cmd, P, env, prof, k4, work)
         ok = True
         for i in range(n):
             xt[i] = x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
@@ -496,7 +527,7 @@ def rk4_steps(t0, x, cmd, P, env, prof, dt, nsteps):  # type: ignore[no-untyped-
     Returns -1 on success, else the index of the first step whose result is non-finite
     (``x`` then holds the last finite state).
     """
-    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, True)
+    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, RHS_VEHICLE)
 
 
 @njit(cache=True)
@@ -508,7 +539,15 @@ def actuator_steps(x, cmd, P, dt, nsteps):  # type: ignore[no-untyped-def]
     not depend on the vehicle states). Returns as :func:`rk4_steps`."""
     env = np.zeros(ENV_SIZE)
     prof = np.zeros((0, 4))
-    return _rk4(0.0, x, cmd, P, env, prof, dt, nsteps, False)
+    return _rk4(0.0, x, cmd, P, env, prof, dt, nsteps, RHS_ACTUATORS)
+
+
+@njit(cache=True)
+def surge_held_steps(t0, x, cmd, P, env, prof, dt, nsteps):  # type: ignore[no-untyped-def]
+    """:func:`rk4_steps` of :func:`surge_held_dynamics` (the surge speed ``x[6]`` held by a
+    perfect speed loop). ``x`` may be complex (complex-step derivatives). Returns as
+    :func:`rk4_steps`."""
+    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, RHS_SURGE_HELD)
 
 
 @njit(cache=True)

@@ -120,9 +120,8 @@ def nominal_pilot(vehicle: str) -> tuple[Any, Any]:
     return _nominal_pilot(vehicle, (st.st_mtime_ns, st.st_size))
 
 
-def forget_designs() -> None:
-    """Drop the pilots :func:`nominal_pilot` designed in this process (the next call designs
-    again, as a fresh worker does)."""
+def forget_pilots() -> None:
+    """Drop the pilots :func:`nominal_pilot` designed (the next call designs again)."""
     _nominal_pilot.cache_clear()
 
 

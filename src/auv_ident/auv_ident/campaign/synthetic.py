@@ -1,10 +1,11 @@
 """Synthetic campaigns for tests and benchmarks: missions flown on the simulator with effects
 that change from mission to mission, written as vehicle bags.
 
-Each mission is :func:`auv_ident.gap.synth.simulate` (the simulator with effects, a test
-harness pilot, BAR doublets, seeded sensor noise) over the first ``duration`` seconds of
-:func:`auv_ident.gap.synth.panel_scenario`, written by :func:`auv_ident.gap.synth.write_bag`
-with the mission's start time as its log time. The campaign's diagnosis is told none of it.
+Each mission is :func:`auv_ident.gap.synth.simulate` (the simulator with effects, the
+project's LQR depth pilot, BAR doublets, seeded sensor noise) over the first ``duration``
+seconds of :func:`auv_ident.gap.synth.panel_scenario`, written by
+:func:`auv_ident.gap.synth.write_bag` with the mission's start time as its log time. The
+campaign's diagnosis is told none of it.
 """
 from __future__ import annotations
 

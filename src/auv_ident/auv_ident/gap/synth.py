@@ -1,11 +1,18 @@
 """Synthetic vehicle logs for tests and benchmarks of the gap diagnosis.
 
 The "real" vehicle is the simulator of :mod:`auv_sim` with effects from an effects file
-(:mod:`auv_sim.environment`); this module only runs it and adds sensor noise. The diagnosis
-never sees the effects: it gets the log, as from a vehicle.
+(:mod:`auv_sim.environment`), flown by the project's own depth pilot
+(:class:`auv_depth_lqr.pilot.DepthPilot`, the LQR pilot of the node graph) on the noisy
+measured state, with excitation added to its commands; the log is written by the one
+simulated-log writer (:func:`auv_ident.simlog.write_record`) with the sensor noise levels of
+:class:`auv_ident.simlog.SensorNoise`. The diagnosis never sees the effects: it gets the log,
+as from a vehicle (state and commands as sent; no force topic).
+
+Frames and units: NED world, FRD body; SI units, radians.
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import os
 from collections.abc import Mapping
@@ -13,36 +20,38 @@ from typing import Any
 
 import numpy as np
 
-from auv_ident.gap.logs import (
-    CHANNELS,
-    COMMAND_TOPICS,
-    STATE_FIELDS,
-    STATE_TOPIC,
-    GapLog,
-    from_arrays,
-)
+from auv_depth_lqr.pilot import DepthPilot, PilotSettings
+from auv_ident.gap.logs import CHANNELS, GapLog, from_arrays
+from auv_ident.simlog import SensorNoise, write_record
 from auv_sim.environment import Environment, parse_environment
 from auv_sim.params import VehicleParams
-from auv_sim.simulator import Simulator
+from auv_sim.simulator import Record, Simulator, record
 from auv_sim.trim import VerticalPlane
-
-#: Sensor noise (1 sigma) per state: position/depth [m], angles [rad], velocities [m/s],
-#: rates [rad/s]: a pressure sensor, an AHRS, a DVL, gyros of a survey AUV (assumed).
-SENSOR_NOISE = np.array([0.02, 0.02, 0.02,
-                         np.radians(0.1), np.radians(0.1), np.radians(0.1),
-                         0.01, 0.01, 0.01,
-                         np.radians(0.1), np.radians(0.1), np.radians(0.1)])
 
 
 @dataclasses.dataclass(frozen=True)
 class SyntheticLog:
-    """A simulated log: time [s] (N), measured state (N x 12), true state (N x 12), and the
-    commands as sent, per channel ``(stamps [s], values)``."""
+    """A simulated log: the simulator's record (time [s], true state, measured state with
+    sensor noise, applied commands, wrenches) and the commands as sent, per channel
+    ``(stamps [s], values [rad or N])``."""
 
-    t: np.ndarray
-    state: np.ndarray
-    true_state: np.ndarray
+    record: Record
     commands: dict[str, tuple[np.ndarray, np.ndarray]]
+
+    @property
+    def t(self) -> np.ndarray:
+        """Sample times (N) [s]."""
+        return self.record.t
+
+    @property
+    def state(self) -> np.ndarray:
+        """Measured state (N x 12) as logged: biases and sensor noise included."""
+        return self.record.measured[:, :12]
+
+    @property
+    def true_state(self) -> np.ndarray:
+        """True state (N x 12)."""
+        return self.record.x[:, :12]
 
     def gap_logs(self, name: str = 'synthetic') -> list[GapLog]:
         """As the diagnosis would read it from a bag."""
@@ -51,14 +60,15 @@ class SyntheticLog:
 
 @dataclasses.dataclass(frozen=True)
 class Scenario:
-    """A closed-loop test flight: a simple depth pilot (a test harness, not the project's
-    LQR pilot) flies depth set-points while thrust steps change the speed and BAR doublets
-    are added to the pilot's command to excite heave and pitch.
+    """A test flight: the project's depth pilot flies depth set-points while thrust steps
+    change the speed and BAR doublets are added to the pilot's command to excite heave and
+    pitch.
 
     ``depth`` rows ``(t [s], z_ref [m])``; ``thrust`` rows ``(t [s], N)``; ``doublets``
-    rows ``(t [s], amplitude [rad], half period [s])``; commands at ``command_rate`` [Hz].
-    With ``pilot`` False the flight is open loop: the BAR command is the trim angle plus the
-    ``bar_steps`` rows ``(t [s], offset [rad])`` (held) plus the doublets; ``depth`` is unused.
+    rows ``(t [s], amplitude [rad], half period [s])``; commands at ``command_rate`` [Hz]
+    (the pilot's rate). With ``pilot`` False the flight is open loop: the BAR command is the
+    trim angle plus the ``bar_steps`` rows ``(t [s], offset [rad])`` (held) plus the
+    doublets; ``depth`` is unused.
     """
 
     duration: float
@@ -113,90 +123,98 @@ def _held(rows: tuple[tuple[float, float], ...], t: float) -> float:
     return value
 
 
+def doublet(doublets: tuple[tuple[float, float, float], ...], t: float) -> float:
+    """The sum of the doublets ``(t0 [s], amplitude [rad], half period [s])`` at ``t`` [s]:
+    ``+amplitude`` over the first half period, ``-amplitude`` over the second."""
+    value = 0.0
+    for t_d, amp, half in doublets:
+        if t_d <= t < t_d + half:
+            value += amp
+        elif t_d + half <= t < t_d + 2 * half:
+            value -= amp
+    return value
+
+
+_DESIGNED: dict[tuple[str, float, bytes], DepthPilot] = {}
+
+
+def new_pilot(params: VehicleParams, rate_hz: float) -> DepthPilot:
+    """A fresh :class:`auv_depth_lqr.pilot.DepthPilot` for ``params`` at ``rate_hz`` [Hz]
+    with the default settings: a copy of one designed once per vehicle and rate (the gain
+    schedule's design takes seconds; a panel flies many logs)."""
+    key = (params.name, float(rate_hz), params.as_array().tobytes())
+    if key not in _DESIGNED:
+        if len(_DESIGNED) >= 8:
+            _DESIGNED.pop(next(iter(_DESIGNED)))
+        _DESIGNED[key] = DepthPilot.for_vehicle(params, PilotSettings(rate_hz=rate_hz))
+    return copy.deepcopy(_DESIGNED[key])
+
+
 def simulate(params: VehicleParams, effects: Environment | Mapping[str, Any] | None,
-             scenario: Scenario | None = None, seed: int = 0, noise: np.ndarray | None = None,
+             scenario: Scenario | None = None, seed: int = 0,
+             noise: SensorNoise | np.ndarray | None = None,
              sample_period: float = 0.02) -> SyntheticLog:
     """Fly ``scenario`` (default :func:`panel_scenario`) on the simulator with ``effects``
     (an Environment or an effects document ``{effects: {...}}``), measured with seeded sensor
-    noise (default :data:`SENSOR_NOISE`, on top of the simulator's sensor biases).
+    noise (default :meth:`SensorNoise.realistic`, or 12 standard deviations in the units of
+    the state fields; on top of the simulator's sensor biases).
 
-    The pilot: ``theta_ref = clip(0.06 (z - z_ref) + 0.002 int(z - z_ref), +-0.35)``,
-    ``bar = bar_trim + (2/u)^2 (1.2 (theta - theta_ref) + 3 q)`` from the measured state,
-    plus the doublets, clipped to the plane limit.
+    At each command instant (``scenario.command_rate``) the thrust takes its scheduled value
+    and the BAR command is the pilot's (:class:`auv_depth_lqr.pilot.DepthPilot` for the
+    vehicle, at the command rate, fed the noisy measured state and the scheduled depth) or,
+    open loop, the trim angle plus the scheduled offset; the doublets are added and the sum
+    is clipped to the plane limit. The pilot's design model is ``params`` without the
+    effects: the effects are what the real vehicle adds.
     """
     env = effects if isinstance(effects, Environment) else parse_environment(effects)
     sc = scenario or panel_scenario()
-    sigma = SENSOR_NOISE if noise is None else np.asarray(noise, dtype=np.float64)
+    sensors = SensorNoise.realistic() if noise is None else noise
+    sigma = sensors.sigmas() if isinstance(sensors, SensorNoise) else np.asarray(sensors, float)
     rng = np.random.default_rng(seed)
     trim = VerticalPlane(params).trim(sc.u0, z=sc.z0)
     sim = Simulator(params, env, x0=trim.state())
+    pilot = new_pilot(params, sc.command_rate) if sc.pilot else None
     every = int(round(sample_period / sim.dt))
     per_cmd = int(round(1.0 / (sc.command_rate * sample_period)))
     n = int(round(sc.duration / sample_period)) + 1
-    t_out = np.empty(n)
-    meas = np.empty((n, 12))
-    true = np.empty((n, 12))
+    samples = []
     cmds: dict[str, list[tuple[float, float]]] = {ch: [] for ch in CHANNELS}
     cmds['helm'].append((0.0, 0.0))
-    integ = 0.0
     last_thrust = None
-    bar_max = params.bar_max
+    last_depth = None
     for i in range(n):
-        t = sim.t
-        x = sim.measured_state()[:12] + rng.standard_normal(12) * sigma
-        t_out[i], meas[i], true[i] = t, x, sim.x[:12]
+        t, x_true, x, applied, wrench = sim.sample()
+        x[:12] += rng.standard_normal(12) * sigma
+        samples.append((t, x_true, x, applied, wrench))
         if i % per_cmd == 0:
             thrust = _held(sc.thrust, t)
             if thrust != last_thrust:
                 sim.command('thrust', thrust)
                 cmds['thrust'].append((t, thrust))
                 last_thrust = thrust
-            dz = x[2] - _held(sc.depth, t)
-            integ = float(np.clip(integ + dz / sc.command_rate, -100.0, 100.0))
-            th_ref = float(np.clip(0.06 * dz + 0.002 * integ, -0.35, 0.35))
-            gain = (2.0 / max(x[6], 0.8)) ** 2
-            bar = trim.bar + gain * (1.2 * (x[4] - th_ref) + 3.0 * x[10]) if sc.pilot \
-                else trim.bar + _held(sc.bar_steps, t)
-            for t_d, amp, half in sc.doublets:
-                if t_d <= t < t_d + half:
-                    bar += amp
-                elif t_d + half <= t < t_d + 2 * half:
-                    bar -= amp
-            bar = float(np.clip(bar, -bar_max, bar_max))
+            if pilot is not None:
+                depth = _held(sc.depth, t)
+                if depth != last_depth:
+                    pilot.set_depth_command(depth)
+                    last_depth = depth
+                pilot.on_state(t, z=x[2], theta=x[4], w=x[8], q=x[10], u=x[6])
+                bar = pilot.command(t)[0]
+            else:
+                bar = trim.bar + _held(sc.bar_steps, t)
+            bar = float(np.clip(bar + doublet(sc.doublets, t), -params.bar_max,
+                                params.bar_max))
             sim.command('bar', bar)
             cmds['bar'].append((t, bar))
         if i < n - 1:
             sim.step(every)
     commands = {ch: (np.array([c[0] for c in v]), np.array([c[1] for c in v]))
                 for ch, v in cmds.items()}
-    return SyntheticLog(t_out, meas, true, commands)
+    return SyntheticLog(record(samples), commands)
 
 
-def write_bag(path: str | os.PathLike[str], log: SyntheticLog, t0_ns: int = 0) -> None:
-    """Write a log as a vehicle would: ``/auv/state`` and the three command topics."""
-    from auv_bag import BagWriter, typestore
-
-    store = typestore()
-    state_t = store.types['auv_msgs/msg/VehicleState']
-    set_t = store.types['auv_msgs/msg/ActuatorSetpoint']
-    header_t = store.types['std_msgs/msg/Header']
-    time_t = store.types['builtin_interfaces/msg/Time']
-
-    def header(t: float) -> Any:
-        ns = t0_ns + int(round(t * 1e9))
-        return header_t(stamp=time_t(sec=ns // 10**9, nanosec=ns % 10**9), frame_id='ned')
-
-    msgs: list[tuple[float, str, Any]] = []
-    for k in range(log.t.size):
-        vals = {f: float(log.state[k, i]) for i, f in enumerate(STATE_FIELDS)}
-        msgs.append((float(log.t[k]), STATE_TOPIC, state_t(header=header(log.t[k]), **vals)))
-    for ch, (stamps, values) in log.commands.items():
-        for t, v in zip(stamps, values):
-            msgs.append((float(t), COMMAND_TOPICS[ch], set_t(header=header(t), value=float(v))))
-    msgs.sort(key=lambda m: m[0])
-    with BagWriter(path, flush_interval=60.0) as bag:
-        bag.add_topic(STATE_TOPIC, 'auv_msgs/msg/VehicleState')
-        for tp in COMMAND_TOPICS.values():
-            bag.add_topic(tp, 'auv_msgs/msg/ActuatorSetpoint')
-        for t, topic, msg in msgs:
-            bag.write(topic, msg, log_time_ns=t0_ns + int(round(t * 1e9)))
+def write_bag(path: str | os.PathLike[str], log: SyntheticLog, t0_ns: int = 0) -> int:
+    """Write a log as a vehicle would (:func:`auv_ident.simlog.write_record`): the measured
+    state on ``/auv/state`` and the commands as sent, no force topic; stamps ``t0_ns`` [ns]
+    plus the simulated time. Returns the number of messages written."""
+    return write_record(path, log.record, forces=False, sent_commands=log.commands,
+                        t0_ns=t0_ns)
