@@ -15,7 +15,8 @@ from auv_ident.gap.diagnose import Diagnosis
 from auv_ident.gap.problem import EQ_UNITS, EQUATIONS
 
 REPORT_KEYS = ('verdict', 'gap', 'candidates', 'best', 'ambiguous_with',
-               'suggested_manoeuvre', 'held_out', 'statement', 'residual_tests', 'implausible')
+               'suggested_manoeuvre', 'held_out', 'statement', 'residual_tests', 'implausible',
+               'signals')
 
 
 def _clean(obj: Any) -> Any:
