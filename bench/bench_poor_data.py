@@ -12,11 +12,12 @@ log with every state measured.
 
 Classification of a verdict: ``right`` (clean: ``no_gap``; an effect: ``explained`` with
 exactly the true effect, or ``ambiguous`` naming it); ``honest`` (not right, but no confident
-claim: ``unexplained``, ``partly_explained``, ``ambiguous`` without the truth, or
-``no_gap`` when the effect is not resolvable); ``wrong`` (``explained`` with another effect,
-or anything but ``no_gap`` on a clean plant claimed as ``explained``). Target: no ``wrong``.
-What the 2 Hz log cannot resolve (a plane delay or lag below the 0.5 s sample period) is
-expected to come out ``honest``, not ``right``.
+claim: ``unexplained``, ``partly_explained``, ``ambiguous`` without the truth, or ``no_gap``
+when the effect is below what the log's period resolves); ``missed`` (``no_gap`` although
+the effect is resolvable at that period: the noise floor of the log hides it); ``wrong``
+(``explained`` with another effect or with more than the truth, or ``explained`` on a clean
+plant). Target: no ``wrong``. What the 2 Hz log cannot resolve (a plane delay or lag below
+the 0.5 s sample period) is expected to come out ``honest``, not ``right``.
 
 Run: ``. .venv/bin/auv-env && python bench/bench_poor_data.py [--rates 2 10 50]
 [--cases ...]`` (writes ``bench/results/poor_data.json``; about 1-2 minutes per case and rate
@@ -63,7 +64,7 @@ def classify(true: set[str], resolvable: bool, report: dict[str, Any]) -> str:
     if verdict == 'ambiguous' and true <= named | set(report['ambiguous_with']):
         return 'right'
     if verdict == 'no_gap' and resolvable:
-        return 'wrong'
+        return 'missed'
     return 'honest'
 
 
@@ -129,6 +130,7 @@ def run(cases: list[str], rates: list[float]) -> dict[str, Any]:
         'wrong': sum(r['class'] == 'wrong' for r in text_rows),
         'right': sum(r['class'] == 'right' for r in text_rows),
         'honest': sum(r['class'] == 'honest' for r in text_rows),
+        'missed': sum(r['class'] == 'missed' for r in text_rows),
         'text_cases': len(text_rows),
     }
 

@@ -35,6 +35,8 @@ COMMAND_TOPICS = {'bar': '/auv/bar_command', 'helm': '/auv/helm_command',
                   'thrust': '/auv/thrust_command'}
 #: Measured fin positions (where logged): used in place of the commands of the same channel.
 MEASURED_TOPICS = {'bar': '/auv/bar_measured', 'helm': '/auv/helm_measured'}
+#: A derived rate and the logged signal whose time derivative it mainly is (its noise).
+DERIVED_FROM = {'p': 'phi', 'q': 'theta', 'r': 'psi', 'u': 'x', 'v': 'y', 'w': 'z'}
 #: A pause in the state stream longer than this many median sample periods splits the log.
 GAP_SPLIT = 5.0
 
@@ -215,6 +217,31 @@ def import_origins(imports: Sequence[Mapping[str, Any]]) -> dict[str, str]:
     return out
 
 
+#: Log period [s] above which commands logged only at the state rows are named as a limit.
+SAMPLED_PERIOD = 0.1
+
+
+def sampled_commands(logs: Sequence[GapLog]) -> list[str]:
+    """Command channels that a slow log (period above :data:`SAMPLED_PERIOD`) records only
+    at its state rows (nearly every row carries one: a vendor log's command columns), not
+    when they changed."""
+    out = []
+    for ch in ('bar', 'thrust'):
+        for lg in logs:
+            if ch in lg.measured_fins or lg.period <= SAMPLED_PERIOD:
+                continue
+            st = np.asarray(lg.commands[ch][0])
+            inside = st[(st >= lg.t[0] - 1e-9) & (st <= lg.t[-1] + 1e-9)]
+            if inside.size < 0.9 * lg.t.size:
+                continue
+            i = np.clip(np.searchsorted(lg.t, inside), 1, lg.t.size - 1)
+            gap = np.minimum(np.abs(lg.t[i] - inside), np.abs(lg.t[i - 1] - inside))
+            if np.mean(gap < 1e-6) > 0.9:
+                out.append(ch)
+                break
+    return out
+
+
 @dataclasses.dataclass(frozen=True)
 class Weighting:
     """What the diagnosis leaves out because a signal was derived or assumed.
@@ -300,6 +327,14 @@ def measurement_weighting(logs: Sequence[GapLog]) -> Weighting:
         if kind.get(sig) == 'derived':
             limits.append('x and y were dead-reckoned: not used by the diagnosis')
             break
+    sampled = sampled_commands(logs)
+    if sampled:
+        period = max(lg.period for lg in logs)
+        limits.append(f'the {", ".join(sampled)} commands are logged only at the state rows '
+                      f'(every {period:.3g} s): what they did between rows is not in the log, '
+                      'so the timing of the plane is known to a sample period; coefficient '
+                      'factors of the plane or actuator effects found on these logs may stand '
+                      'for that, not for the vehicle')
     for ch in fins:
         limits.append(f'{ch}: the measured fin positions drive the model in place of the '
                       'commands through the actuator model; a delay, lag or rate limit found '
@@ -345,7 +380,14 @@ class Smoothed:
 
 
 def smooth(log: GapLog, window: float = 1.0, order: int = 3) -> Smoothed:
-    """Smooth a log with a Savitzky-Golay filter of ``window`` [s] and polynomial ``order``."""
+    """Smooth a log with a Savitzky-Golay filter of ``window`` [s] and polynomial ``order``.
+
+    The white noise of each state is estimated from second differences; for a rate the
+    import derived by central differences (:attr:`GapLog.origins`, :data:`DERIVED_FROM`) it
+    is set to the level of white noise that leaves the same error after the smoothing as its
+    source's noise, differenced, does (``sigma_src ||h_s * d|| / ||h_s||``, ``d`` the central
+    difference); second differences would take the differenced noise for a white one many
+    times larger at a fast log."""
     n = max(order + 2, int(round(window / log.period)) | 1)
     if n % 2 == 0:
         n += 1
@@ -359,5 +401,14 @@ def smooth(log: GapLog, window: float = 1.0, order: int = 3) -> Smoothed:
     imp[n // 2] = 1.0
     hd = savgol_filter(imp, n, order, deriv=1, delta=log.period, mode='interp')
     hs = savgol_filter(imp, n, order, mode='interp')
+    # a derived rate carries its source's noise differenced, not white noise: the level of
+    # white noise that gives the same smoothed error (the smoothed state's noise is what the
+    # noise floor and the initial states of free runs use)
+    diff = np.array([1.0, 0.0, -1.0]) / (2.0 * log.period)
+    gain = float(np.linalg.norm(np.convolve(hs, diff)) / np.linalg.norm(hs))
+    for sig, src in DERIVED_FROM.items():
+        if log.origins.get(sig, '').startswith('derived'):
+            k, j = STATE_FIELDS.index(sig), STATE_FIELDS.index(src)
+            noise[k] = noise[j] * gain
     return Smoothed(xs, xd, noise, float(np.sqrt(np.sum(hd ** 2))),
                     float(np.sqrt(np.sum(hs ** 2))), n)
