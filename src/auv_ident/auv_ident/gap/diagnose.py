@@ -356,7 +356,8 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     }
     # -- what was derived or assumed, and how it limits the answer ---------------------------
     report['signals'] = weighting.report
-    report['statement'] = ' '.join(filter(None, (report['statement'], weighting.statement)))
+    report['statement'] = ' '.join(filter(None, (str(report['statement']),
+                                                 weighting.statement)))
     # ----------------------------------------------------------------------------------------
     details = {
         'logs': [{'name': lg.name, 't0': float(lg.t[0]), 'duration_s': lg.duration,

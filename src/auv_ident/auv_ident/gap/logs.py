@@ -56,6 +56,9 @@ class GapLog:
     origins: Mapping[str, str] = dataclasses.field(default_factory=dict)
     #: channels whose ``commands`` are measured fin positions (not commands)
     measured_fins: tuple[str, ...] = ()
+    #: channels logged only at the rows of a slow log, taken as linear between rows
+    #: (:func:`first_order_hold`)
+    linear_between_rows: tuple[str, ...] = ()
 
     @property
     def period(self) -> float:
@@ -179,8 +182,38 @@ def from_contract_arrays(name: str, arrays: Mapping[str, np.ndarray],
     notes = [f'{ch}: measured fin positions ({MEASURED_TOPICS[ch]}) used in place of the '
              'commands; the actuator model passes them through (lag of one simulation step, '
              'no rate limit)' for ch in fins]
-    return from_arrays(name, st['t'], state, commands, notes, origins=import_origins(imports),
-                       measured_fins=fins)
+    pieces = from_arrays(name, st['t'], state, commands, notes,
+                         origins=import_origins(imports), measured_fins=fins)
+    return [first_order_hold(lg) for lg in pieces]
+
+
+#: Steps per row of the first-order hold of commands logged at a slow log's rows.
+FOH_STEPS = 10
+
+
+def first_order_hold(log: GapLog) -> GapLog:
+    """A log whose commands were logged only at its (slow) state rows
+    (:func:`sampled_commands`), with those commands taken as varying linearly between rows
+    (first-order hold, :data:`FOH_STEPS` held steps per row) instead of held at each row's
+    value until the next. Held, a command that changed at a random time between two rows
+    would act on average half a row late (0.25 s at 2 Hz), which the diagnosis would read as
+    a plane delay or as changed plane coefficients; the linear hold has no such mean lag. The
+    logged values at the rows are kept; the change is said in the notes."""
+    chans = sampled_commands([log])
+    if not chans:
+        return log
+    cmds = dict(log.commands)
+    for ch in chans:
+        st, va = cmds[ch]
+        frac = np.arange(FOH_STEPS) / FOH_STEPS
+        t_new = (st[:-1, None] + np.diff(st)[:, None] * frac[None, :]).ravel()
+        v_new = (va[:-1, None] + np.diff(va)[:, None] * frac[None, :]).ravel()
+        cmds[ch] = (np.r_[t_new, st[-1]], np.r_[v_new, va[-1]])
+    note = (f'{", ".join(chans)} commands logged only at the rows (every {log.period:.3g} s): '
+            'taken as varying linearly between rows (first-order hold) rather than held, '
+            'which would delay them by half a row on average')
+    return dataclasses.replace(log, commands=cmds, notes=(*log.notes, note),
+                               linear_between_rows=tuple(chans))
 
 
 def measured_fins_vehicle(vehicle: VehicleParams, logs: Sequence[GapLog]) -> VehicleParams:
@@ -327,14 +360,18 @@ def measurement_weighting(logs: Sequence[GapLog]) -> Weighting:
         if kind.get(sig) == 'derived':
             limits.append('x and y were dead-reckoned: not used by the diagnosis')
             break
-    sampled = sampled_commands(logs)
+    sampled = list(dict.fromkeys([*sampled_commands(logs),
+                                  *(ch for lg in logs for ch in lg.linear_between_rows)]))
     if sampled:
         period = max(lg.period for lg in logs)
+        linear = any(lg.linear_between_rows for lg in logs)
         limits.append(f'the {", ".join(sampled)} commands are logged only at the state rows '
-                      f'(every {period:.3g} s): what they did between rows is not in the log, '
-                      'so the timing of the plane is known to a sample period; coefficient '
-                      'factors of the plane or actuator effects found on these logs may stand '
-                      'for that, not for the vehicle')
+                      f'(every {period:.3g} s)'
+                      + (', taken as linear between rows' if linear else '')
+                      + ': what they did between rows is not in the log, so the timing of '
+                      'the plane is known to a sample period; coefficient factors of the plane '
+                      'or actuator effects found on these logs may stand for that, not for the '
+                      'vehicle')
     for ch in fins:
         limits.append(f'{ch}: the measured fin positions drive the model in place of the '
                       'commands through the actuator model; a delay, lag or rate limit found '
