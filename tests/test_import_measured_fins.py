@@ -5,7 +5,8 @@ is wrong (the plane commands logged 1.5 s late, as a bad clock would) but whose 
 holds the plane's true position (the simulator's actuator state). Through a map with
 ``bar_measured``, the identification drives the model with the measured fin and its heave
 and pitch intervals hold the vehicle file's values; through the commands alone (the same
-log, no ``bar_measured``) the fit is worse and the intervals wider. The gap's log pieces carry the measured fin.
+log, no ``bar_measured``) the fit is worse and the intervals wider. The gap's log pieces
+carry the measured fin.
 """
 from __future__ import annotations
 
@@ -85,10 +86,6 @@ def test_measured_fin_positions_replace_late_commands(tmp_path: pathlib.Path) ->
         assert fins['equations'][eq]['r2'] > cmds['equations'][eq]['r2'], eq
     for name, c in fins['coefficients'].items():
         assert c['std_error'] < cmds['coefficients'][name]['std_error'], name
-    print({n: (c['std_error'], cmds['coefficients'][n]['std_error'])
-           for n, c in fins['coefficients'].items()},
-          {eq: (fins['equations'][eq]['r2'], cmds['equations'][eq]['r2'])
-           for eq in ('heave', 'pitch')})
     # the gap: the measured fin drives the model; its actuator passes it through
     imported = import_log(load_map(tmp_path / 'fins.yaml'), tmp_path / 'dive.txt')
     pieces = from_contract_arrays('dive', contract_arrays(imported), [imported.report])

@@ -348,7 +348,10 @@ def measurement_weighting(logs: Sequence[GapLog]) -> Weighting:
         limits.append('heave velocity and pitch rate come from depth and pitch differenced '
                       f'at the {period:.3g} s sample period: the vertical plane is seen only '
                       'through depth and pitch, and an actuator delay or lag shorter than '
-                      'about one sample period cannot be identified')
+                      'about one sample period cannot be identified; the free runs start from '
+                      'these differenced rates, which raises the noise floor, so an effect of '
+                      'a few tenths of a second on the plane can stay under it (no_gap) even '
+                      'in a fast log: log the pitch rate (gyro) and the heave velocity (DVL)')
     if kind.get('phi') == 'assumed':
         limits.append('roll was not logged (assumed 0): a roll offset or banking in turns is '
                       'not seen, and its share of the restoring moment would appear as a '
