@@ -69,6 +69,7 @@ def test_2hz_text_log_with_a_buoyancy_offset(tmp_path: pathlib.Path) -> None:
     from auv_ident.gap import synth
     from auv_ident.gap.diagnose import diagnose
     from auv_ident.gap.logs import from_contract_arrays
+    from auv_ident.gap.report import write_report
     from auv_ident.realog import synth as realsynth
     from auv_ident.realog.importer import contract_arrays, import_log
     from auv_ident.realog.mapping import load_map
@@ -86,7 +87,11 @@ def test_2hz_text_log_with_a_buoyancy_offset(tmp_path: pathlib.Path) -> None:
     realsynth.write_text(path, realsynth.record_of(log.t, log.state, log.commands), every=25)
     imported = import_log(load_map(MAP), path)
     pieces = from_contract_arrays('dive', contract_arrays(imported), [imported.report])
-    r = diagnose(vehicle, pieces, window=60.0).report
+    diag = diagnose(vehicle, pieces, window=60.0)
+    r = diag.report
+    md = (write_report(diag, tmp_path / 'gap', plots=False).parent / 'report.md').read_text()
+    assert '## Signals not measured' in md
+    assert '| v | assumed | not logged and no position to derive it from: assumed 0 m/s |' in md
     assert set(r['signals']['left_out']['free_run']) == {'w', 'q', 'v', 'r'}
     assert r['signals']['assumed'].keys() == {'v'}
     assert 'Not measured:' in r['statement']
