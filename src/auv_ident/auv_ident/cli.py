@@ -184,6 +184,18 @@ def unsupported_equations(imports: Sequence[dict[str, Any]], requested: Sequence
     return keep, out
 
 
+def bag_imports(bags: Sequence[str]) -> list[dict[str, Any]]:
+    """The import reports in the provenance of bags ``auv import`` wrote (none for others):
+    the same knowledge of derived and assumed signals as ``--map`` gives."""
+    from auv_ident.realog.importer import read_provenance
+
+    out: list[dict[str, Any]] = []
+    for bag in bags:
+        prov = read_provenance(bag) if pathlib.Path(bag).is_dir() else None
+        out += [dict(rep) for rep in (prov or {}).get('imports', [])]
+    return out
+
+
 def load_records_from_map(map_path: str, logs: Sequence[str], base: VehicleParams,
                           window_s: float = WINDOW_S, progress: Progress | None = None,
                           limits: dict[str, Any] | None = None
@@ -260,6 +272,14 @@ def run(args: argparse.Namespace) -> int:
     else:
         records, source = load_records(args.bags, base, args.source, args.window,
                                        stderr_progress, limits)
+        imports = bag_imports(args.bags)
+        if imports:   # bags `auv import` wrote: what their imports derived or assumed
+            partial = args.partial or args.equations is None
+            extra['imports'] = imports
+            args.equations, extra['not_identifiable'] = unsupported_equations(
+                imports, args.equations)
+            for eq, why in extra['not_identifiable'].items():
+                stderr_progress(f'{eq}: {why}')
     stderr_progress(f'force source: {source}')
     from auv_ident.limits import describe
     for line in describe(limits):
