@@ -87,7 +87,18 @@ def _row(case: str, rate: float, report: dict[str, Any], true: set[str], resolva
             'statement': report['statement'], 'seconds': round(seconds, 1)}
 
 
-def run(cases: list[str], rates: list[float]) -> dict[str, Any]:
+def run(cases: list[str] | None = None, rates: list[float] | None = None,
+        ident_seeds: int = 20) -> dict[str, Any]:
+    """Every figure of this benchmark (``bench/run_all.py`` calls it with the defaults): the
+    gap panel and the 2 Hz identification coverage."""
+    figures = panel(cases or list(CASES), rates or [2.0, 10.0, 50.0])
+    if ident_seeds:
+        figures['ident_2hz'] = ident_coverage(ident_seeds)
+    return figures
+
+
+def panel(cases: list[str], rates: list[float]) -> dict[str, Any]:
+    """The gap verdicts of ``cases`` at ``rates`` [Hz] and the reference (module docstring)."""
     from auv_ident.gap import synth
     from auv_ident.gap.diagnose import diagnose
     from auv_ident.gap.logs import from_contract_arrays
@@ -206,7 +217,7 @@ if __name__ == '__main__':
     saved = ROOT / 'bench' / 'results' / 'poor_data.json'
     figures = json.loads(saved.read_text()) if saved.exists() else {}
     if not args.skip_gap:
-        figures.update(run(args.cases, args.rates))
+        figures.update(panel(args.cases, args.rates))
     if args.ident_seeds:
         figures['ident_2hz'] = ident_coverage(args.ident_seeds)
     save_figures('poor_data', figures)
