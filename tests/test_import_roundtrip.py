@@ -294,3 +294,29 @@ def test_irregular_text_log_resampled_only_when_the_map_asks(
     i = np.searchsorted(rec.t, log.t - 1e-6)
     assert np.allclose(rec.t[i], log.t, atol=1e-9)
     assert float(np.sqrt(np.mean((log.state[:, 2] - rec.measured[i, 2]) ** 2))) < 0.02
+
+
+def test_ident_on_an_imported_2hz_bag_knows_what_the_import_assumed(
+        logs: dict[str, pathlib.Path], tmp_path: pathlib.Path) -> None:
+    """The bag `auv import` wrote from the 2 Hz text log carries the import's marks in its
+    provenance: `auv ident` on it leaves out what the assumed v cannot support, as `auv ident
+    --map` does on the text log, with the same coefficients."""
+    map_path = MAPS / 'text_2hz_deg_cm.yaml'
+    parser = argparse.ArgumentParser()
+    import_cli.add_arguments(parser)
+    assert import_cli.run(parser.parse_args([str(logs['text']), '--map', str(map_path),
+                                             '--out', str(tmp_path / 'bag')])) == 0
+    parser = argparse.ArgumentParser()
+    cli.add_arguments(parser)
+    reports = []
+    for args, out in (([str(tmp_path / 'bag')], 'a'),
+                      ([str(logs['text']), '--map', str(map_path)], 'b')):
+        assert cli.run(parser.parse_args([*args, '--out', str(tmp_path / out),
+                                          '--no-nelder-mead'])) == 0
+        reports.append(json.loads((tmp_path / out / 'report.json').read_text()))
+    bag, direct = reports
+    assert sorted(bag['not_identifiable']) == sorted(direct['not_identifiable']) == [
+        'surge', 'sway', 'yaw']
+    for name, c in direct['coefficients'].items():
+        for key in ('value', 'std_error', 'ci95'):
+            assert bag['coefficients'][name][key] == c[key], (name, key)

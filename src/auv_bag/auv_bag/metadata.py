@@ -51,6 +51,7 @@ def yaml_dump(data: Any) -> str:
 
     yaml = YAML(typ='safe')
     yaml.default_flow_style = False
+    yaml.width = 1 << 30   # no folding: ruamel can fold a long quoted string inside an escape
     out = StringIO()
     yaml.dump(data, out)
     return out.getvalue()

@@ -29,6 +29,7 @@ from auv_ident.identify import (
 )
 from auv_ident.motion import (
     COMMAND_TOPICS,
+    MEASURED_TOPICS,
     SOURCES,
     WINDOW_S,
     choose_source,
@@ -78,6 +79,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='derivative window for forces from motion [s] (default 1)')
     parser.add_argument('--no-nelder-mead', action='store_true',
                         help='skip the Nelder-Mead comparison in the report')
+    parser.add_argument('--partial', action='store_true',
+                        help='fit the equations the data identify and list the others under '
+                             'not_identifiable (why, and what would fix it) instead of '
+                             'stopping; the default with --map when --equations is not given')
 
 
 def load_records(bags: Sequence[str], base: VehicleParams, source: str = 'auto',
@@ -97,7 +102,7 @@ def load_records(bags: Sequence[str], base: VehicleParams, source: str = 'auto',
         source = 'forces' if all(choose_source(p) == 'forces' for p in present) else 'motion'
     topics = needed_topics(source)
     records: list[ForceRecord] = []
-    for bag in bags:
+    for bag, have in zip(bags, present):
         name = pathlib.Path(bag).name
         if name.endswith('.mcap'):
             name = name[:-5]
@@ -110,7 +115,9 @@ def load_records(bags: Sequence[str], base: VehicleParams, source: str = 'auto',
                 progress(f'reading {bag}: {pct}%')
 
         t0 = time.perf_counter()
-        arrays = read_arrays(bag, topics, progress=report)
+        measured = [tp for tp in MEASURED_TOPICS.values() if tp in have] \
+            if source == 'motion' else []
+        arrays = read_arrays(bag, topics + measured, progress=report)
         if progress is not None:
             n = sum(len(a) for a in arrays.values())
             progress(f'read {bag}: {n} messages in {time.perf_counter() - t0:.2f} s')
@@ -177,6 +184,18 @@ def unsupported_equations(imports: Sequence[dict[str, Any]], requested: Sequence
     return keep, out
 
 
+def bag_imports(bags: Sequence[str]) -> list[dict[str, Any]]:
+    """The import reports in the provenance of bags ``auv import`` wrote (none for others):
+    the same knowledge of derived and assumed signals as ``--map`` gives."""
+    from auv_ident.realog.importer import read_provenance
+
+    out: list[dict[str, Any]] = []
+    for bag in bags:
+        prov = read_provenance(bag) if pathlib.Path(bag).is_dir() else None
+        out += [dict(rep) for rep in (prov or {}).get('imports', [])]
+    return out
+
+
 def load_records_from_map(map_path: str, logs: Sequence[str], base: VehicleParams,
                           window_s: float = WINDOW_S, progress: Progress | None = None,
                           limits: dict[str, Any] | None = None
@@ -201,17 +220,27 @@ def identify_and_report(records: Sequence[ForceRecord], base: VehicleParams, out
                         bags: Sequence[str], *, fit_c0: bool = False, bounds: bool = False,
                         errors: str = 'hac', equations: Sequence[str] | None = None,
                         nelder_mead: bool = True, progress: Progress | None = None,
-                        extra: dict[str, Any] | None = None
+                        extra: dict[str, Any] | None = None, partial: bool = False
                         ) -> tuple[Identification, dict[str, str]]:
-    """Fit, compare with Nelder-Mead (optional) and write every output into ``out``."""
+    """Fit, compare with Nelder-Mead (optional) and write every output into ``out``
+    (``partial``: see :func:`auv_ident.identify.identify`)."""
     if progress is not None:
         progress(f'fitting {", ".join(equations or EQUATIONS)} on {len(records)} record(s), '
                  f'{sum(len(r.t) for r in records)} samples')
     t0 = time.perf_counter()
     result = identify(records, base, equations=equations, fit_offsets=fit_c0,
-                      bounds=SIGN_BOUNDS if bounds else None, errors=errors)
+                      bounds=SIGN_BOUNDS if bounds else None, errors=errors, partial=partial)
     if progress is not None:
         progress(f'fitted in {time.perf_counter() - t0:.2f} s')
+        for eq, why in result.not_identifiable.items():
+            progress(f'{eq} left out: {why}')
+    extra = dict(extra or {})
+    if result.not_identifiable:
+        extra['not_identifiable'] = {**result.not_identifiable,
+                                     **extra.get('not_identifiable', {})}
+    sources = {ch: src for r in records for ch, src in r.actuators.items()}
+    if sources:
+        extra['actuators'] = sources
     nm = None
     if nelder_mead:
         t0 = time.perf_counter()
@@ -229,6 +258,7 @@ def run(args: argparse.Namespace) -> int:
         raise IdentificationError(f'--window must be > 0 s, got {args.window}')
     limits: dict[str, Any] = {}
     extra: dict[str, Any] = {}
+    partial = args.partial or (args.map is not None and args.equations is None)
     if args.map is not None:
         if args.source == 'forces':
             raise IdentificationError('--map logs have no force topic: use --source motion')
@@ -242,6 +272,14 @@ def run(args: argparse.Namespace) -> int:
     else:
         records, source = load_records(args.bags, base, args.source, args.window,
                                        stderr_progress, limits)
+        imports = bag_imports(args.bags)
+        if imports:   # bags `auv import` wrote: what their imports derived or assumed
+            partial = args.partial or args.equations is None
+            extra['imports'] = imports
+            args.equations, extra['not_identifiable'] = unsupported_equations(
+                imports, args.equations)
+            for eq, why in extra['not_identifiable'].items():
+                stderr_progress(f'{eq}: {why}')
     stderr_progress(f'force source: {source}')
     from auv_ident.limits import describe
     for line in describe(limits):
@@ -250,7 +288,7 @@ def run(args: argparse.Namespace) -> int:
     result, files = identify_and_report(
         records, base, args.out, args.bags, fit_c0=args.fit_c0, bounds=args.bounds,
         errors=args.errors, equations=args.equations, nelder_mead=not args.no_nelder_mead,
-        progress=stderr_progress, extra=extra)
+        progress=stderr_progress, extra=extra, partial=partial)
     out = {name: {'value': c.value, 'std_error': c.std_error, 'ci95': list(c.ci95)}
            for name, c in result.coefficients.items()}
     print(json.dumps({'source': source, 'coefficients': out, 'files': files}, indent=2))

@@ -43,7 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the diagnosis; 0 on success, 1 with ``error: ...`` on stderr on bad input."""
     from auv_ident.gap.diagnose import diagnose
-    from auv_ident.gap.logs import GapLog, from_contract_arrays, load_bag
+    from auv_ident.gap.logs import GapLog, from_contract_arrays, load_bag, measured_fins_vehicle
     from auv_ident.gap.report import write_report
     from auv_ident.limits import as_logged, describe
     from auv_sim.errors import ParameterError
@@ -80,7 +80,8 @@ def run(args: argparse.Namespace) -> int:
 
                 imported = import_log(load_map(args.map), b)
                 imports.append(dict(imported.report))
-                pieces = from_contract_arrays(imported.name, contract_arrays(imported))
+                pieces = from_contract_arrays(imported.name, contract_arrays(imported),
+                                              [imported.report])
             else:
                 pieces = load_bag(b)
             for piece in pieces:
@@ -91,6 +92,7 @@ def run(args: argparse.Namespace) -> int:
         vehicle, limits = as_logged(vehicle, list(unique.values()))
         for line in describe(limits):
             say(line)
+        vehicle = measured_fins_vehicle(vehicle, logs)
         diag = diagnose(vehicle, logs, window=args.window, held_out_logs=held_logs,
                         effects=args.effects, top=args.top, progress=say)
         path = write_report(diag, args.out, plots=not args.no_plots)

@@ -66,6 +66,9 @@ STATE_FIELDS = ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', '
 FORCE_FIELDS = tuple(f'hydrodynamic_{k}_{a}' for k in ('force', 'torque') for a in 'xyz')
 #: Savitzky-Golay window [s] (see module docstring).
 WINDOW_S = 1.0
+#: Longest sub-step [s] over which the actuator wrench is integrated inside a sample
+#: interval (see :func:`actuator_interval_means`); at 20 Hz and faster: the samples alone.
+SUBSTEP_S = 0.05
 POLYORDER = 2
 SOURCES = ('auto', 'forces', 'motion')
 #: State channels that are angles (unwrapped before differencing).
@@ -220,9 +223,91 @@ def actuator_positions(t: np.ndarray, commands: Mapping[str, tuple[np.ndarray, n
     return np.column_stack([np.interp(t, tg, grid[:, c]) for c in range(3)])
 
 
+#: Measured actuator topics of the contract and the channel each replaces.
+MEASURED_TOPICS = {'bar': '/auv/bar_measured', 'helm': '/auv/helm_measured'}
+Series = tuple[np.ndarray, np.ndarray]
+
+
+def actuator_track(t: np.ndarray, commands: Mapping[str, Series], params: VehicleParams,
+                   measured: Mapping[str, Series] | None = None) -> np.ndarray:
+    """BAR [rad], helm [rad] and thrust [N] at stamps ``t`` [s] (N, 3): the commands through
+    the vehicle's actuator model (:func:`actuator_positions`) or, for a channel in
+    ``measured`` (stamps [s], fin positions [rad]), the measured positions, linearly
+    interpolated between their samples (held before the first and after the last)."""
+    out = actuator_positions(t, commands, params)
+    for c, ch in enumerate(('bar', 'helm')):
+        if measured and ch in measured and len(measured[ch][0]):
+            st, va = measured[ch]
+            out[:, c] = np.interp(t, st, va)
+    return out
+
+
+def actuator_sources(measured: Mapping[str, Series] | None) -> dict[str, str]:
+    """Per channel, where :func:`actuator_track` takes the positions from."""
+    out = {}
+    for ch in ('bar', 'helm', 'thrust'):
+        if measured and ch in measured and len(measured[ch][0]):
+            out[ch] = (f'measured fin position ({MEASURED_TOPICS[ch]}, linearly interpolated '
+                       'between its samples)')
+        else:
+            out[ch] = 'command through the actuator model (delay-free, lag, rate and angle limits)'
+    return out
+
+
+def actuator_interval_means(t: np.ndarray, X: np.ndarray, commands: Mapping[str, Series],
+                            params: VehicleParams, env: Environment, sub: int,
+                            measured: Mapping[str, Series] | None = None) -> np.ndarray:
+    """Mean of the actuator wrench (body FRD [N, N m]) over each sample interval
+    ``[t_j, t_j+1]`` (N - 1, 6), by the trapezoid rule on ``sub`` sub-steps per interval:
+    actuator positions from :func:`actuator_positions` at the sub-steps, the state linearly
+    interpolated between its samples (it is smooth on the scale of a sample period; a
+    thrust or fin actuator that settles within a period is not).
+
+    Why: the consistent low-pass (:func:`consistent_kernel`) integrates every term over each
+    sample interval by the trapezoid rule, exact to ``dt^2 f''``. At a low log rate (2 Hz)
+    the actuators move within one interval (a 0.5 s thrust lag after a step): the trapezoid
+    rule on the samples then misses part of the thrust impulse, which biased Ksh by +1.4
+    standard errors on a noise-free 2 Hz log of the surge mission.
+    """
+    n = len(t)
+    idx = np.arange((n - 1) * sub + 1) / sub
+    tf = np.interp(idx, np.arange(n), t)
+    Xf = np.empty((len(tf), NX))
+    for c in range(12):
+        Xf[:, c] = np.interp(idx, np.arange(n), X[:, c])
+    Xf[:, 12:15] = actuator_track(tf, commands, params, measured)
+    Wf = wrench_series(np.ascontiguousarray(tf), Xf, params.as_array(), env.env_vector(),
+                       env.profile())[:, 3]
+    w = np.ones(sub + 1)
+    w[0] = w[-1] = 0.5
+    w /= sub
+    blocks = np.lib.stride_tricks.sliding_window_view(Wf, sub + 1, axis=0)[::sub]
+    means: np.ndarray = np.einsum('jck,k->jc', blocks, w)
+    return means
+
+
+def _interval_filter(means: np.ndarray, window: int) -> np.ndarray:
+    """The consistent low-pass of :func:`consistent_kernel` applied to interval means
+    (N - 1, 6) instead of trapezoids of samples: ``sum_j c_j M_{t+j} / sum_j c_j`` over the
+    intervals ``j = -m .. m-1`` of the window (N, 6; NaN over the first and last ``m``)."""
+    m = window // 2
+    j = np.arange(-m, m)
+    c = (m * (m + 1) - j * (j + 1)) / 2.0
+    c /= c.sum()
+    n = len(means) + 1
+    out = np.full((n, means.shape[1]), np.nan)
+    if n > 2 * m:
+        acc = np.zeros((n - 2 * m, means.shape[1]))
+        for i in range(2 * m):
+            acc += c[i] * means[i:n - 2 * m + i]
+        out[m:n - m] = acc
+    return out
+
+
 def reconstruct(t: np.ndarray, state: np.ndarray,
                 commands: Mapping[str, tuple[np.ndarray, np.ndarray]], params: VehicleParams,
-                name: str = 'log', window_s: float = WINDOW_S) -> ForceRecord:
+                name: str = 'log', window_s: float = WINDOW_S,
+                measured: Mapping[str, Series] | None = None) -> ForceRecord:
     """Hydrodynamic wrench from motion for one uniformly sampled stretch.
 
     Args:
@@ -233,6 +318,8 @@ def reconstruct(t: np.ndarray, state: np.ndarray,
         params: the base vehicle (mass, added mass, restoring, actuators).
         name: record name.
         window_s: Savitzky-Golay window [s].
+        measured: measured fin positions ``bar``/``helm`` -> (stamps [s], angles [rad]),
+            used in place of the commands run through the actuator model.
 
     Returns:
         A ForceRecord with the filtered wrench (NaN over the first and last half window), its
@@ -250,7 +337,7 @@ def reconstruct(t: np.ndarray, state: np.ndarray,
     nu_dot = savgol_filter(nu, window, POLYORDER, deriv=1, delta=dt, axis=0, mode='interp')
     X = np.zeros((n, NX))
     X[:, :12] = state
-    X[:, 12:15] = actuator_positions(t, commands, params)
+    X[:, 12:15] = actuator_track(t, commands, params, measured)
     env = Environment()
     tc = np.ascontiguousarray(t, dtype=np.float64)
     W = wrench_series(tc, X, params.as_array(), env.env_vector(), env.profile())
@@ -260,8 +347,15 @@ def reconstruct(t: np.ndarray, state: np.ndarray,
     other = W[:, 1] + W[:, 2] + W[:, 3] - shift
     kernel = consistent_kernel(window)
     other_f = np.empty_like(other)
+    sub = max(1, int(math.ceil(dt / SUBSTEP_S - 1e-9)))
+    if sub > 1:   # the actuator wrench's own interval means (see actuator_interval_means)
+        other -= W[:, 3]
+        act_f = _interval_filter(actuator_interval_means(t, X, commands, params, env, sub,
+                                                         measured), window)
     for j in range(6):
         other_f[:, j] = np.convolve(other[:, j], kernel, mode='same')
+    if sub > 1:
+        other_f += act_f
     M = mass_matrix(params)
     tau = nu_dot @ M.T - other_f
     tau[:m] = np.nan
@@ -269,8 +363,14 @@ def reconstruct(t: np.ndarray, state: np.ndarray,
     noise = NoisePropagation(sigma=sigma, other_jacobian=jac, mass=M,
                              derivative_kernel=savgol_coeffs(window, POLYORDER, deriv=1,
                                                              delta=dt))
+    limits = np.array([params.bar_max, params.helm_max])
+    saturated = np.zeros((n, 3), bool)
+    saturated[:, :2] = np.abs(X[:, 12:14]) >= limits * (1.0 - 1e-3)
+    saturated[:, 2] = (X[:, 14] >= params.thrust_max * (1.0 - 1e-3)) | (
+        X[:, 14] <= params.thrust_min + 1e-3 * abs(params.thrust_min))
     return ForceRecord(name=name, t=np.asarray(t, float), nu=np.asarray(nu, float), tau=tau,
-                       source='motion', kernel=kernel, noise=noise)
+                       source='motion', kernel=kernel, noise=noise, saturated=saturated,
+                       actuators=actuator_sources(measured))
 
 
 def _columns(arr: np.ndarray, fields: tuple[str, ...], topic: str) -> np.ndarray:
@@ -363,12 +463,22 @@ def records_from_topics(arrays: Mapping[str, np.ndarray], params: VehicleParams,
             raise IdentificationError(f'{name}: non-finite value on {topic}')
         order = np.argsort(times, kind='stable')
         commands[ch] = (times[order], values[order])
+    measured = {}
+    for ch, tp in MEASURED_TOPICS.items():
+        if tp not in arrays or not len(arrays[tp]):
+            continue
+        st, va = np.asarray(arrays[tp]['t'], float), np.asarray(arrays[tp]['value'], float)
+        if not (np.all(np.isfinite(va)) and np.all(np.isfinite(st))):
+            raise IdentificationError(f'{name}: non-finite value on {tp}')
+        order = np.argsort(st, kind='stable')
+        measured[ch] = (st[order], va[order])
     dt = float(np.median(np.diff(t)))
     for k, sl in enumerate(parts):
         if sl.stop - sl.start < window_samples(dt, window_s) + 2:
             continue
         records.append(reconstruct(t[sl], state[sl], commands, params,
-                                   name if len(parts) == 1 else f'{name}#{k}', window_s))
+                                   name if len(parts) == 1 else f'{name}#{k}', window_s,
+                                   measured))
     if not records:
         raise IdentificationError(f'{name}: no stretch of {STATE_TOPIC} is long enough for the '
                                   f'{window_s:g} s derivative window')

@@ -261,7 +261,8 @@ def _make_node(overrides: dict[str, Any]) -> Any:
             result, files = self._identify_and_report(
                 records, self.base, p['out'], ['live topics'], fit_c0=p['fit_c0'],
                 bounds=p['bounds'], errors=p['errors'], equations=equations,
-                nelder_mead=nelder_mead, progress=log_info)
+                nelder_mead=nelder_mead, progress=log_info,
+                partial=bool(self.imports) and not any(p['equations'] or []))
             return {'source': result.source, 'files': files,
                     'coefficients': {n: {'value': c.value, 'std_error': c.std_error,
                                          'ci95': list(c.ci95)}

@@ -38,7 +38,7 @@ import numpy as np
 from auv_ident.gap import analysis, residuals
 from auv_ident.gap.catalogue import CATALOGUE, Perturbation, get_effect, separating_manoeuvre
 from auv_ident.gap.fit import EquationFit, FitResult, FreeRunFit
-from auv_ident.gap.logs import GapLog
+from auv_ident.gap.logs import GapLog, measurement_weighting
 from auv_ident.gap.problem import CH_INDEX, CH_NAMES, EQUATIONS, EffectSet, Problem
 from auv_ident.gap.wording import describe
 from auv_sim.params import VehicleParams
@@ -159,6 +159,10 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     for n in names:
         get_effect(n)
     pr = Problem(vehicle, logs, window=window, held_out_logs=held_out_logs)
+    # -- derived or assumed signals of imported logs: left out, never counted twice ----------
+    weighting = measurement_weighting(pr.logs)
+    pr.eq_sigma = np.where(weighting.equation_mask(EQUATIONS), np.inf, pr.eq_sigma)
+    # ----------------------------------------------------------------------------------------
     nom = Perturbation.nominal(vehicle)
     all_w = pr.select(None)
     say(f'nominal free runs over {len(all_w)} windows of {window:g} s')
@@ -183,6 +187,10 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     gap_channels = [CH_NAMES[i] for i in range(len(CH_INDEX))
                     if rms_nom[i] > GAP_FACTOR * floor[i]]
     scales = np.maximum(rms_nom, floor)
+    # -- derived or assumed signals: their free-run channels weigh nothing -------------------
+    scales = np.where(weighting.channel_mask(CH_NAMES), np.inf, scales)
+    gap_channels = [c for c in gap_channels if c not in weighting.channels]
+    # ----------------------------------------------------------------------------------------
     rows_all = pr.window_rows(all_w)
     rms_z_win = np.array([np.sqrt(np.nanmean(err_nom[r, 2] ** 2)) for r in rows_all])
 
@@ -296,6 +304,9 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     res_signals = {'z': pr.eq_state[:, 2], 'u': pr.eq_state[:, 6], 'theta': pr.eq_state[:, 4],
                    'w': pr.eq_state[:, 8], 'q': pr.eq_state[:, 10], 'bar_command': bar_cmd,
                    'bar_command_rate': bar_rate, 'thrust_command': thr_cmd}
+    # -- a derived signal shares its noise with the equation errors: not a test signal -------
+    res_signals = {k: v for k, v in res_signals.items() if k not in weighting.channels}
+    # ----------------------------------------------------------------------------------------
     tested = best if best.names else None
     white, findings, left = (_residual_tests(pr, eqf, frf, tested, res_signals)
                              if tested is not None and gap_channels else (False, [], []))
@@ -343,6 +354,11 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
                                        'window'},
         'implausible': implausible,
     }
+    # -- what was derived or assumed, and how it limits the answer ---------------------------
+    report['signals'] = weighting.report
+    report['statement'] = ' '.join(filter(None, (str(report['statement']),
+                                                 weighting.statement)))
+    # ----------------------------------------------------------------------------------------
     details = {
         'logs': [{'name': lg.name, 't0': float(lg.t[0]), 'duration_s': lg.duration,
                   'period_s': lg.period, 'notes': list(lg.notes)} for lg in pr.logs],
@@ -451,10 +467,14 @@ def _residual_tests(pr: Problem, eqf: EquationFit, frf: FreeRunFit, cand: Candid
     errors (one sample a second)."""
     e = eqf.residual(cand.fit.effects, cand.fit.values)
     eq_dt = float(np.median(np.diff(pr.eq_t[pr.eq_window == pr.eq_window[0]])))
-    step = max(1, int(math.ceil(pr.smooth_window / eq_dt - 1e-9)))
+    # one sample per span of the smoothing filter as applied (at a low log rate it is
+    # longer than smooth_window: at least 5 samples)
+    span = max(pr.smooth_window, (pr.smoothed[0].length - 1) * pr.period)
+    step = max(1, int(math.ceil(span / eq_dt - 1e-9)))
     held = sorted(set(pr.eq_window[pr.eq_held].tolist()))
     rows = [np.flatnonzero(pr.eq_window == w)[::step] for w in held]
-    one_step = residuals.Group({n: [e[r, k] for r in rows] for k, n in enumerate(EQUATIONS)},
+    one_step = residuals.Group({n: [e[r, k] for r in rows] for k, n in enumerate(EQUATIONS)
+                                if np.isfinite(pr.eq_sigma[k])},  # left out: infinite noise
                                {n: [v[r] for r in rows] for n, v in signals.items()},
                                eq_dt * step, white=True)
     out, meas = pr.free_run([cand.fit.effects.perturbation(cand.fit.values)], frf.held)

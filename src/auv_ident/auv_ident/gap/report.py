@@ -15,7 +15,8 @@ from auv_ident.gap.diagnose import Diagnosis
 from auv_ident.gap.problem import EQ_UNITS, EQUATIONS
 
 REPORT_KEYS = ('verdict', 'gap', 'candidates', 'best', 'ambiguous_with',
-               'suggested_manoeuvre', 'held_out', 'statement', 'residual_tests', 'implausible')
+               'suggested_manoeuvre', 'held_out', 'statement', 'residual_tests', 'implausible',
+               'signals')
 
 
 def _clean(obj: Any) -> Any:
@@ -145,6 +146,7 @@ def _markdown(diag: Diagnosis, figures: list[tuple[str, str]]) -> str:
         lines += ['', 'Not identifiable from these logs: '
                   + ', '.join(f'`{n}`' for n in unseen) + '. '
                   + ' '.join(f'`{n}` needs {_needs(n)}.' for n in unseen)]
+    lines += _signals_section(r.get('signals') or {})
     lines += ['', '## Figures', '']
     for title, name in figures:
         lines += [f'![{title}]({name})', '']
@@ -152,6 +154,31 @@ def _markdown(diag: Diagnosis, figures: list[tuple[str, str]]) -> str:
     if notes:
         lines += ['## Notes on the logs', ''] + [f'- {n}' for n in notes] + ['']
     return '\n'.join(lines) + '\n'
+
+
+def _signals_section(sig: dict[str, Any]) -> list[str]:
+    """What was not measured (derived, assumed), what the diagnosis left out for it, which
+    actuator positions drove the model, and how that limits the answer."""
+    left = sig.get('left_out') or {}
+    fins = [ch for ch, src in (sig.get('actuators') or {}).items()
+            if src == 'measured fin position']
+    if not (sig.get('derived') or sig.get('assumed') or fins):
+        return []
+    lines = ['', '## Signals not measured', '',
+             '| signal | | how |', '| --- | --- | --- |']
+    for kind in ('derived', 'assumed'):
+        for name, how in (sig.get(kind) or {}).items():
+            lines.append(f'| {name} | {kind} | {how} |')
+    outs = [f'free-run {c} ({why})' for c, why in (left.get('free_run') or {}).items()]
+    outs += [f'{e} equation ({why})' for e, why in (left.get('equations') or {}).items()]
+    if outs:
+        lines += ['', 'Left out of the diagnosis so that no measurement counts twice: '
+                  + '; '.join(outs) + '.']
+    if fins:
+        lines += ['', 'Measured fin positions drove the model for: ' + ', '.join(fins) + '.']
+    if sig.get('limits'):
+        lines += ['', 'How this limits the answer:', ''] + [f'- {x}' for x in sig['limits']]
+    return lines
 
 
 def _needs(name: str) -> str:

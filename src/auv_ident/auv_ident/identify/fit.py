@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from auv_ident.errors import IdentificationError
+from auv_ident.errors import IdentificationError, NotIdentifiableError
 from auv_ident.identify.covariance import ERROR_METHODS, coefficient_covariance
 from auv_ident.identify.equations import EQUATIONS, EXCITATION, excitation_amplitude
 from auv_ident.identify.records import ForceRecord
@@ -99,7 +99,7 @@ def exciting_records(system: LinearSystem) -> dict[str, tuple[str, ...]]:
 def identify(records: Sequence[ForceRecord], base: VehicleParams, *,
              equations: Sequence[str] | None = None, fit_offsets: bool = False,
              bounds: Mapping[str, tuple[float, float]] | None = None,
-             errors: str = 'hac') -> Identification:
+             errors: str = 'hac', partial: bool = False) -> Identification:
     """Identify the coefficients of ``equations`` (default: all five) from ``records``.
 
     Every equation is fitted on all records pooled (each equation holds on every manoeuvre;
@@ -112,9 +112,13 @@ def identify(records: Sequence[ForceRecord], base: VehicleParams, *,
         fit_offsets: fit CZ0 and CM0 too (else fixed at the base values, as the report).
         bounds: name -> (lo, hi) for a bounded solve (e.g. :data:`SIGN_BOUNDS`).
         errors: standard-error method, one of :data:`ERROR_METHODS`.
+        partial: an equation the data cannot identify is left out and said so in
+            ``not_identifiable`` (which coefficient, why, what would fix it) instead of
+            raising; it raises only when no equation is left.
 
     Raises:
-        NotIdentifiableError: a coefficient lacks excitation or two cannot be separated.
+        NotIdentifiableError: a coefficient lacks excitation or two cannot be separated
+            (with ``partial``: every equation).
         IdentificationError: bad records, unknown equation or option.
     """
     if not records:
@@ -130,16 +134,26 @@ def identify(records: Sequence[ForceRecord], base: VehicleParams, *,
         if not any(key in (*e.coefficients, e.offset) for e in EQUATIONS.values()):
             raise IdentificationError(f'bound given for unknown coefficient {key!r}')
     fits: dict[str, EquationFit] = {}
+    left_out: dict[str, str] = {}
     for name in names:
         system = build_system(records, EQUATIONS[name], base, fit_offsets)
-        fits[name] = fit_equation(system, base, bounds, errors)
+        try:
+            fits[name] = fit_equation(system, base, bounds, errors)
+        except NotIdentifiableError as exc:
+            if not partial:
+                raise
+            left_out[name] = str(exc)
+    if not fits:
+        raise NotIdentifiableError('no equation can be identified from these data: '
+                                   + '; '.join(f'{k}: {v}' for k, v in left_out.items()))
     values = {c.name: c.value for f in fits.values() for c in f.coefficients}
     try:
         params = base.replace(**values)
     except ValueError as exc:
         raise IdentificationError(f'identified values are not a valid vehicle: {exc}') from None
     return Identification(fits=fits, base=base, params=params, source=sources.pop(),
-                          errors=errors, fit_offsets=fit_offsets, bounds=dict(bounds or {}))
+                          errors=errors, fit_offsets=fit_offsets, bounds=dict(bounds or {}),
+                          not_identifiable=left_out)
 
 
 

@@ -52,6 +52,9 @@ class ForceRecord:
             filtering.
         noise: how sensor noise propagates into ``tau`` (forces from motion), for the
             standard errors; None: unknown.
+        saturated: (N, 3) whether the rebuilt BAR, helm and thrust sit at their limits
+            (forces from motion; for the identifiability diagnosis), or None.
+        actuators: per channel, where the actuator positions came from.
     """
 
     name: str
@@ -61,6 +64,11 @@ class ForceRecord:
     source: str = 'forces'
     kernel: np.ndarray | None = None
     noise: NoisePropagation | None = None
+    #: (N, 3) the rebuilt BAR, helm and thrust at their limits (forces from motion), or None
+    saturated: np.ndarray | None = None
+    #: which actuator positions were used, per channel (``bar``: ``measured fin position`` or
+    #: ``command through the actuator model``); empty: not said
+    actuators: dict[str, str] = dataclasses.field(default_factory=dict)
 
 
 def check_record(rec: ForceRecord) -> None:

@@ -124,14 +124,91 @@ def build_system(records: Sequence[ForceRecord], equation: Equation, base: Vehic
         instrumented=bool(parts_z), rows=np.concatenate(parts_r), records=tuple(records))
 
 
+#: Share of the samples with an actuator at its limit above which it is named as a reason.
+SATURATED_SHARE = 0.2
+#: The actuator whose motion excites each equation's coefficients (index into bar, helm,
+#: thrust) and its name.
+_DRIVER = {'surge': (2, 'propeller'), 'heave': (0, 'plane'), 'pitch': (0, 'plane'),
+           'sway': (1, 'rudder'), 'yaw': (1, 'rudder')}
+#: Log rate [Hz] at which the derivative window is its nominal 1 s (at least 5 samples).
+RATE_FOR_WINDOW_HZ = 5.0
+
+
+def _sample_period(system: LinearSystem) -> float:
+    dts = [float(np.median(np.diff(r.t))) for r in system.records if len(r.t) > 1]
+    return max(dts) if dts else math.nan
+
+
+def _window_s(system: LinearSystem) -> float:
+    """Longest derivative/low-pass window of the records [s] (0 without filtering)."""
+    ws = [len(r.kernel) * float(np.median(np.diff(r.t))) for r in system.records
+          if r.kernel is not None and len(r.t) > 1]
+    return max(ws) if ws else 0.0
+
+
+def saturation_note(system: LinearSystem) -> str:
+    """``'; the plane was at its limit in 35 % of the samples ...'`` when the actuator that
+    excites the equation sat at its limit in more than :data:`SATURATED_SHARE` of the rows
+    used, else ``''``."""
+    c, what = _DRIVER[system.equation.name]
+    flags = []
+    for i, rec in enumerate(system.records):
+        if rec.saturated is None or system.rows is None:
+            continue
+        flags.append(rec.saturated[system.rows[system.record_index == i], c])
+    if not flags:
+        return ''
+    share = float(np.mean(np.concatenate(flags)))
+    if share <= SATURATED_SHARE:
+        return ''
+    return (f'; the {what} was at its limit in {share:.0%} of the samples, where the motion '
+            'follows the limit and not the commands (keep the manoeuvres within the limits)')
+
+
+def _rate_note(system: LinearSystem, name: str, amp: float) -> str:
+    """Why a coefficient's excitation is lost to the log rate, or ``''``: its variable varies
+    enough as logged (beyond 3 noise standard deviations) but not after the derivative
+    window, which at a slow log is longer than 1 s (at least 5 samples)."""
+    exc = EXCITATION[name]
+    window = _window_s(system)
+    dt = _sample_period(system)
+    if not (window > 1.5 and math.isfinite(dt)):
+        return ''
+    raw = []
+    sigma = 0.0
+    for i, rec in enumerate(system.records):
+        if system.rows is None:
+            return ''
+        raw.append(rec.nu[system.rows[system.record_index == i], exc.variable])
+        if rec.noise is not None:
+            sigma = max(sigma, float(rec.noise.sigma[6 + exc.variable]))
+    amp_raw = excitation_amplitude(name, np.concatenate(raw)) - 3.0 * sigma
+    if amp_raw < exc.threshold or amp_raw < 2.0 * amp:
+        return ''
+    return (f' (as logged it varies by {amp_raw * exc.scale:.3g} {exc.unit} beyond the noise: '
+            f'the {window:.2g} s derivative window of this {1.0 / dt:.3g} Hz log removes it; '
+            f'log at {RATE_FOR_WINDOW_HZ:g} Hz or faster, or fly slower manoeuvres)')
+
+
 def check_identifiable(system: LinearSystem) -> None:
     """Raise NotIdentifiableError if a coefficient of ``system`` lacks excitation, or if two
-    coefficients cannot be told apart (column-scaled condition number above COND_MAX)."""
+    coefficients cannot be told apart (column-scaled condition number above COND_MAX).
+
+    The message names the coefficient, why (too few samples, too little excitation, two
+    coefficients alike), what made it so when the data say (a log rate whose derivative
+    window removes the excitation; an actuator at its limit for much of the time), and the
+    manoeuvre or rate that would fix it.
+    """
     p = len(system.names)
+    sat = saturation_note(system)
     if len(system.b) < 10 * p:
+        dt = _sample_period(system)
+        rate = (f' at {1.0 / dt:.3g} Hz ({10 * p * dt:.3g} s of usable data needed after the '
+                'filter edges)' if math.isfinite(dt) else '')
         raise NotIdentifiableError(
             f'{system.equation.name} equation: only {len(system.b)} usable samples for '
-            f'{p} coefficient(s) ({", ".join(system.names)}); record a longer manoeuvre')
+            f'{p} coefficient(s) ({", ".join(system.names)}){rate}; record a longer '
+            f'manoeuvre{sat}')
     for name in system.names:
         exc = EXCITATION[name]
         amp = excitation_amplitude(name, system.excitation[:, exc.variable])
@@ -139,20 +216,20 @@ def check_identifiable(system: LinearSystem) -> None:
             kind = 'never exceeds' if name == 'Ksh' else 'never varies by more than'
             raise NotIdentifiableError(
                 f'{name}: {exc.what} {kind} {amp * exc.scale:.3g} {exc.unit} in these data '
-                f'(99th percentile; needs {exc.threshold * exc.scale:.3g} {exc.unit}); '
-                f'{exc.manoeuvre}')
+                f'(99th percentile; needs {exc.threshold * exc.scale:.3g} {exc.unit})'
+                f'{_rate_note(system, name, amp)}{sat}; {exc.manoeuvre}')
     cond, corr = conditioning(system.A)
     if not math.isfinite(cond) or cond > COND_MAX:
         if p == 1:
             raise NotIdentifiableError(
-                f'{system.names[0]}: its regressor is zero in these data; '
+                f'{system.names[0]}: its regressor is zero in these data{sat}; '
                 f'{EXCITATION[system.names[0]].manoeuvre}')
         c = np.abs(np.nan_to_num(corr, nan=1.0)) - np.eye(p)
         i, j = np.unravel_index(int(np.argmax(c)), c.shape)
         a, b = system.names[min(i, j)], system.names[max(i, j)]
         raise NotIdentifiableError(
             f'{a} and {b} cannot be told apart in these data (regressor condition number '
-            f'{cond:.3g} > {COND_MAX:.0f}, correlation {corr[i, j]:+.5f}); '
+            f'{cond:.3g} > {COND_MAX:.0f}, correlation {corr[i, j]:+.5f}){sat}; '
             f'{EXCITATION[b].manoeuvre} with varied lengths and speeds')
 
 

@@ -78,6 +78,8 @@ class Identification:
     errors: str
     fit_offsets: bool
     bounds: dict[str, tuple[float, float]]
+    #: equations left out: name -> what is not identifiable, why and what would fix it
+    not_identifiable: dict[str, str] = dataclasses.field(default_factory=dict)
 
     @property
     def coefficients(self) -> dict[str, CoefficientEstimate]:
@@ -113,5 +115,7 @@ def summary(result: Identification) -> dict[str, Any]:
         for c in result.coefficients.values()}
     return {'source': result.source, 'errors': result.errors, 'fit_offsets': result.fit_offsets,
             'bounds': {k: list(v) for k, v in result.bounds.items()},
-            'coefficients': coefs, 'equations': eqs}
+            'coefficients': coefs, 'equations': eqs,
+            **({'not_identifiable': dict(result.not_identifiable)}
+               if result.not_identifiable else {})}
 

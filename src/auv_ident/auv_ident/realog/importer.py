@@ -29,6 +29,7 @@ import datetime
 import hashlib
 import itertools
 import json
+import math
 import os
 import pathlib
 import shutil
@@ -38,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from auv_ident.realog.derive import derive_missing
+from auv_ident.realog.derive import body_rates, derive_missing
 from auv_ident.realog.errors import LogReadError, MapError, RealLogError
 from auv_ident.realog.mapping import SCALAR_ENU, STATE, LogMap, Scalar, Vector, load_map
 from auv_ident.realog.readers import Table, log_kind, read_bag, read_text
@@ -52,6 +53,7 @@ from auv_sim.frames import (
     quaternion_conjugate,
     quaternion_multiply,
     quaternion_to_euler,
+    rotate,
 )
 
 STATE_TOPIC = '/auv/state'
@@ -149,6 +151,8 @@ def _vector_series(vec: Vector, tables: Mapping[str | None, Table]) -> dict[str,
         out = np.column_stack(quaternion_to_euler(_orientation_ned(q, vec.world, vec.body)))
     else:   # body velocities and rates
         out = body_flu_to_frd(raw) if vec.body == 'FLU' else raw
+        if vec.mounting is not None:    # sensor axes -> body axes
+            out = rotate(euler_to_quaternion(*vec.mounting), out)
     return {name: (t, out[:, k]) for k, name in enumerate(vec.components) if name in vec.gives}
 
 
@@ -220,6 +224,35 @@ def read_tables(logmap: LogMap, path: str | os.PathLike[str],
 
 # --------------------------------------------------------------------------------------------
 # import
+
+def _origin(sig: str, derived: Sequence[str]) -> str:
+    """``measured``, ``derived`` (computed from other logged signals) or ``assumed`` (not
+    logged: a value was set), from the lines :func:`derive_missing` wrote."""
+    line = next((d for d in derived if d.startswith(f'{sig}:')), None)
+    if line is None:
+        return 'measured'
+    return 'assumed' if 'assumed' in line else 'derived'
+
+
+def _lever_arm(vec: Vector, t: np.ndarray, seg: dict[str, np.ndarray]) -> str:
+    """Move the velocity of a sensor at ``vec.lever_arm`` [m, body FRD] to the body origin,
+    in place: ``v_origin = v_sensor - omega x r`` (rigid body), with ``omega = (p, q, r)`` as
+    logged or, where not logged, from the attitude's rates (:func:`body_rates`; roll 0 if
+    not logged). Returns the note saying so."""
+    r = np.asarray(vec.lever_arm, float)
+    zero = np.zeros_like(t)
+    rates = body_rates(t, seg.get('phi', zero), seg['theta'], seg['psi'])
+    omega = np.column_stack([seg[n] if n in seg else rates[k]
+                             for k, n in enumerate(('p', 'q', 'r'))])
+    corr = np.cross(omega, r)
+    for k, name in enumerate(('u', 'v', 'w')):
+        if name in vec.gives and name in seg:
+            seg[name] = seg[name] - corr[:, k]
+    how = 'logged' if all(n in seg for n in ('p', 'q', 'r')) else 'partly from the attitude'
+    return (f'{vec.topic or "columns"}: velocity moved from the sensor at '
+            f'({r[0]:g}, {r[1]:g}, {r[2]:g}) m (body FRD) to the body origin: '
+            f'v - omega x r, omega {how}')
+
 
 def _file_hash(path: pathlib.Path) -> dict[str, str]:
     files = sorted(p for p in path.rglob('*') if p.is_file()) if path.is_dir() else [path]
@@ -319,9 +352,13 @@ def import_log(logmap: LogMap, path: str | os.PathLike[str],
                            f'({"; ".join(seg_notes) or "no usable samples"})')
     pieces_t, pieces_s, segs = [], [], []
     derived: list[str] = []
+    lever_vectors = [v for v in logmap.vectors if v.lever_arm is not None and v.gives]
+    lever_notes: set[str] = set()
     for sl in slices:
         ts = t[sl]
         seg = {sig: state[sig][sl].copy() for sig in given}
+        for vec in lever_vectors:
+            lever_notes.add(_lever_arm(vec, ts, seg))
         derived = list(dict.fromkeys(derived + derive_missing(ts, seg, set(missing))))
         rows = np.column_stack([seg[sig] for sig in STATE])
         if logmap.time.grid is not None:
@@ -335,6 +372,7 @@ def import_log(logmap: LogMap, path: str | os.PathLike[str],
         'signals': {sig: 'derived' if sig in missing else label[sig] for sig in STATE}
         | {ch: label[ch] for ch in commands},
         'derived': derived,
+        'origins': {sig: _origin(sig, derived) for sig in STATE},
         'time_base': (f'state at the stamps of {base} ({logmap.time.stamp} stamps)' if base
                       else 'state at every row of the log (time column '
                       f'{logmap.time.column!r})'),
@@ -345,7 +383,10 @@ def import_log(logmap: LogMap, path: str | os.PathLike[str],
         'commands': 'as logged, at their own stamps (held by the consumers until the next)',
         'segments': [{'start': a, 'end': b, 'samples': n} for a, b, n in segs],
         'left_out': seg_notes,
-        'notes': notes,
+        'notes': notes + sorted(lever_notes) + [
+            f'{v.topic or "columns"}: velocity rotated from the sensor axes by roll, pitch, '
+            f'yaw {", ".join(f"{math.degrees(a):.6g}" for a in v.mounting)} deg (mounting)'
+            for v in logmap.vectors if v.mounting is not None],
     }
     return ContractLog(name, np.concatenate(pieces_t), np.vstack(pieces_s), commands,
                        tuple(segs), report)

@@ -146,6 +146,13 @@ class Vector:
     where: Where
     origin: str
     skip: tuple[str, ...] = ()
+    #: linear velocity of a sensor mounted rotated: ZYX Euler angles (roll, pitch, yaw) [rad]
+    #: of the sensor's axes relative to the body axes (both FRD, after the frame change):
+    #: ``v_body = R(mounting) v_sensor``
+    mounting: tuple[float, float, float] | None = None
+    #: linear velocity of a sensor away from the body origin: its position [m], body FRD;
+    #: the origin's velocity is ``v_sensor - omega x lever_arm``
+    lever_arm: tuple[float, float, float] | None = None
 
     @property
     def gives(self) -> tuple[str, ...]:
@@ -465,6 +472,38 @@ def _vector(kind_name: str, node: _Node, topic: str | None, fields: Sequence[str
                   node.where(), origin)
 
 
+def _triple(node: _Node, name: str) -> tuple[float, float, float]:
+    raw = node.get(name)
+    if not isinstance(raw, Sequence) or isinstance(raw, str) or len(raw) != 3 or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            for v in raw):
+        raise MapError(f'{node.where(name)}: expected three numbers, got {raw!r}')
+    return float(raw[0]), float(raw[1]), float(raw[2])
+
+
+def _mounting(node: _Node, kind_name: str
+              ) -> tuple[tuple[float, float, float] | None, tuple[float, float, float] | None]:
+    """``mounting: {rpy: [roll, pitch, yaw], unit: deg}`` and ``lever_arm: [x, y, z]`` [m]
+    (body FRD) of a linear-velocity sensor (a DVL), or None."""
+    if not (node.has('mounting') or node.has('lever_arm')):
+        return None, None
+    if kind_name != 'linear_velocity':
+        key = 'mounting' if node.has('mounting') else 'lever_arm'
+        raise MapError(f'{node.where(key)}: {key} is for a linear velocity (a DVL), not a '
+                       f'{kind_name}')
+    rpy = None
+    if node.has('mounting'):
+        mn = node.child('mounting')
+        mn.finish(('rpy', 'unit'))
+        u = unit(mn.text('unit', 'rad'), str(mn.where('unit')))
+        if u.dimension != 'angle':
+            raise MapError(f'{mn.where("unit")}: the mounting angles need an angle unit')
+        r = _triple(mn, 'rpy')
+        rpy = (r[0] * u.factor, r[1] * u.factor, r[2] * u.factor)
+    lever = _triple(node, 'lever_arm') if node.has('lever_arm') else None
+    return rpy, lever
+
+
 def _preset(node: _Node, kind: str) -> tuple[list[Vector], list[Scalar]]:
     preset = node.text('preset')
     if preset not in PRESETS:
@@ -496,7 +535,7 @@ def _preset(node: _Node, kind: str) -> tuple[list[Vector], list[Scalar]]:
         body = {k: v for k, v in node.data.items() if k not in ('preset', 'signal', 'index')}
         body['field'] = path
         return [], [_scalar(signal, _Node(body, node.key, node.line), kind, origin)]
-    node.finish(('preset', 'topic', 'frame', 'use', 'unit', 'skip'))
+    node.finish(('preset', 'topic', 'frame', 'use', 'unit', 'skip', 'mounting', 'lever_arm'))
     fields = _preset_fields(preset, node.where('preset'))
     use = node.get('use') or list(fields)
     if isinstance(use, str):
@@ -507,12 +546,16 @@ def _preset(node: _Node, kind: str) -> tuple[list[Vector], list[Scalar]]:
         if name not in STATE:
             raise MapError(f'{node.where("skip")}: {name!r} is not a state signal')
     vectors = []
+    mounting, lever = _mounting(node, 'linear_velocity' if 'linear_velocity' in use
+                                else str(use[0]))
     for k in use:
         if k not in fields:
             raise MapError(f'{node.where("use")}: {preset} gives {", ".join(fields)}, not {k!r}')
         default_unit = {'position': 'm', 'linear_velocity': 'm/s',
                         'angular_velocity': 'rad/s'}.get(k)
         vec = _vector(k, node, topic, fields[k], origin, default_unit)
+        if k == 'linear_velocity':
+            vec = dataclasses.replace(vec, mounting=mounting, lever_arm=lever)
         vectors.append(dataclasses.replace(vec, skip=tuple(str(n) for n in skip)))
     return vectors, []
 
@@ -602,7 +645,8 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
                 claim([sc.name], sc.where)
                 scalars[sc.name] = sc
     for node in root.items('vectors'):
-        node.finish(('kind', 'topic', 'fields', 'columns', 'frame', 'unit'))
+        node.finish(('kind', 'topic', 'fields', 'columns', 'frame', 'unit', 'mounting',
+                     'lever_arm'))
         kname = node.text('kind')
         if kname not in VECTOR_KINDS:
             raise MapError(f'{node.where("kind")}: unknown vector kind {kname!r} '
@@ -612,6 +656,8 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
         else:
             topic, fields = node.text('topic'), node.get('fields') or []
         vec = _vector(kname, node, topic, list(fields), f'vector {node.key}', None)
+        mounting, lever = _mounting(node, kname)
+        vec = dataclasses.replace(vec, mounting=mounting, lever_arm=lever)
         claim([n for n in vec.gives if n not in overrides], vec.where)
         vectors.append(vec)
     if root.has('signals'):

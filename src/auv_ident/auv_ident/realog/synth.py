@@ -173,3 +173,23 @@ def write_text(path: str | os.PathLike[str], rec: Record, *, every: int = 25,
         lines.append(' '.join(f'{v:.10g}' for v in vals))
     pathlib.Path(path).write_text('\n'.join(lines) + '\n')
     return len(idx)
+
+
+def record_of(t: np.ndarray, state: np.ndarray,
+              commands: dict[str, tuple[np.ndarray, np.ndarray]]) -> Record:
+    """A :class:`Record` of a logged run given as arrays (e.g. a
+    :class:`auv_ident.gap.synth.SyntheticLog`): stamps ``t`` [s] (N), measured state
+    ``state`` (N x 12, NED/FRD), and per channel ``bar helm thrust`` the commands as sent
+    ``(stamps [s], values [rad or N])``, held until the next (the applied command at each
+    sample is the latest at or before it; before the first, the first). The true state and
+    the wrenches are not known: NaN. Feeds :func:`write_text` and :func:`write_ros2`."""
+    n = len(t)
+    cmd = np.empty((n, 3))
+    for c, ch in enumerate(('bar', 'helm', 'thrust')):
+        st, va = commands[ch]
+        i = np.searchsorted(np.asarray(st), t + 1e-9, side='right') - 1
+        cmd[:, c] = np.asarray(va)[np.clip(i, 0, len(va) - 1)]
+    measured = np.full((n, 15), np.nan)
+    measured[:, :12] = state
+    return Record(np.asarray(t, float), np.full((n, 15), np.nan), measured, cmd,
+                  np.full((n, 4, 6), np.nan))
