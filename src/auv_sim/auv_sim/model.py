@@ -56,7 +56,10 @@ E_VPER = 6          # its period [s] (0: none)
 E_BCOMP = 7         # buoyancy change with depth: B(z) = B (1 + k z) [1/m]
 E_BARBIAS = 8       # dive-plane bias added to the BAR angle [rad]
 E_ZWW, E_MQQ, E_YVV, E_NRR = 9, 10, 11, 12  # cross-flow drag [kg/m], [kg m^2]
-ENV_SIZE = 13
+E_SHEAR = 13        # 13..14 linear current shear: d(v_n, v_e)/dz [1/s], zero at the surface
+E_DRIFT = 15        # 15..16 linear current drift in time: d(v_n, v_e)/dt [m/s^2] from t = 0
+E_TGAIN = 17        # propeller thrust error: force = (1 + e) x thrust position [-]
+ENV_SIZE = 18
 
 NX = 15
 STATE_NAMES = ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r',
@@ -106,14 +109,18 @@ def rotation(cph, sph, cth, sth, cps, sps):  # type: ignore[no-untyped-def]
 def current_ned(t, z, env, prof):  # type: ignore[no-untyped-def]
     """Water current at depth z [m] and time t [s]: (v_n, v_e, v_d, dv/dz (3), dv/dt (3)).
 
-    The sum of a constant current, a piecewise-linear depth profile (``prof`` rows
-    ``z, v_n, v_e, v_d``, held constant outside its depth range) and a sinusoid in time.
+    The sum of a constant current, a linear shear ``s z`` (``env[E_SHEAR:E_SHEAR+2]``, north
+    and east, zero at the surface), a linear drift in time ``d t`` (``env[E_DRIFT:E_DRIFT+2]``),
+    a piecewise-linear depth profile (``prof`` rows ``z, v_n, v_e, v_d``, held constant outside
+    its depth range) and a sinusoid in time.
     """
-    vn = env[E_VC] + 0.0 * z
-    ve = env[E_VC + 1] + 0.0 * z
+    shn = env[E_SHEAR]
+    she = env[E_SHEAR + 1]
+    vn = env[E_VC] + shn * z + env[E_DRIFT] * t
+    ve = env[E_VC + 1] + she * z + env[E_DRIFT + 1] * t
     vd = env[E_VC + 2] + 0.0 * z
-    gn = 0.0 * z
-    ge = 0.0 * z
+    gn = shn + 0.0 * z
+    ge = she + 0.0 * z
     gd = 0.0 * z
     k = prof.shape[0]
     if k == 1:
@@ -135,15 +142,18 @@ def current_ned(t, z, env, prof):  # type: ignore[no-untyped-def]
             while prof[i + 1, 0] < zr:
                 i += 1
             dz = prof[i + 1, 0] - prof[i, 0]
-            gn = gn + (prof[i + 1, 1] - prof[i, 1]) / dz
-            ge = ge + (prof[i + 1, 2] - prof[i, 2]) / dz
-            gd = gd + (prof[i + 1, 3] - prof[i, 3]) / dz
+            pn = (prof[i + 1, 1] - prof[i, 1]) / dz
+            pe = (prof[i + 1, 2] - prof[i, 2]) / dz
+            pd = (prof[i + 1, 3] - prof[i, 3]) / dz
             s = z - prof[i, 0]
-            vn += prof[i, 1] + gn * s
-            ve += prof[i, 2] + ge * s
-            vd += prof[i, 3] + gd * s
-    tn = 0.0
-    te = 0.0
+            vn += prof[i, 1] + pn * s
+            ve += prof[i, 2] + pe * s
+            vd += prof[i, 3] + pd * s
+            gn = gn + pn
+            ge = ge + pe
+            gd = gd + pd
+    tn = env[E_DRIFT]
+    te = env[E_DRIFT + 1]
     td = 0.0
     if env[E_VPER] > 0.0:
         om = 2.0 * np.pi / env[E_VPER]
@@ -152,9 +162,9 @@ def current_ned(t, z, env, prof):  # type: ignore[no-untyped-def]
         vn += env[E_VAMP] * sn
         ve += env[E_VAMP + 1] * sn
         vd += env[E_VAMP + 2] * sn
-        tn = env[E_VAMP] * om * cs
-        te = env[E_VAMP + 1] * om * cs
-        td = env[E_VAMP + 2] * om * cs
+        tn += env[E_VAMP] * om * cs
+        te += env[E_VAMP + 1] * om * cs
+        td += env[E_VAMP + 2] * om * cs
     return vn, ve, vd, gn, ge, gd, tn, te, td
 
 
@@ -222,7 +232,8 @@ def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
     coefficients, the environment's cross-flow drag added to ``Yvv``, ``Zww``, ``Mqq``,
     ``Nrr``), Coriolis (rigid-body with
     ``nu``, added-mass with ``nu_r``, plus ``M_A nu_c_dot`` of a varying current), restoring
-    (weight and buoyancy), actuators (BAR, helm, propeller). Their sum is ``M nu_dot``.
+    (weight and buoyancy), actuators (BAR, helm, propeller; the thrust times ``1 + env[E_TGAIN]``).
+    Their sum is ``M nu_dot``.
     Returns the attitude's (cos phi, sin phi, cos theta, sin theta, cos psi, sin psi).
     """
     rho = P[I_RHO]
@@ -357,7 +368,7 @@ def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
     bar = x[12] + env[E_BARBIAS]
     helm = x[13]
     dyn = qs * ur * aur
-    out[3, 0] = x[14]
+    out[3, 0] = x[14] * (1.0 + env[E_TGAIN])
     out[3, 1] = dyn * P[I_CYHELM] * helm
     out[3, 2] = dyn * P[I_CZBAR] * bar
     out[3, 3] = 0.0 * dyn
