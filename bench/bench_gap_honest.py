@@ -89,12 +89,47 @@ CASES: dict[str, Case] = {
                       {'plane_effectiveness': {'gain': 0.7}}, 'open'),
     'munk_20_lower': ('coefficients', {'CMuw': 0.8}, _fx(),
                       {'coefficients': {'CMuw': 0.8}}, 'closed'),
-    'shear_north': ('outside', {}, {'effects': {}, 'current_profile': [
-        [0.0, 0.0, 0.0, 0.0], [200.0, 0.4, 0.2, 0.0]]}, {}, 'closed'),
-    'shear_reversing': ('outside', {}, {'effects': {}, 'current_profile': [
-        [40.0, 0.3, 0.0, 0.0], [100.0, -0.3, 0.0, 0.0]]}, {}, 'closed'),
-    'added_mass_30': ('coefficients', {'Zwdot': 1.3}, _fx(),
-                      {'coefficients': {'CMuw': 0.523}}, 'closed'),
+    # a linear profile from the surface (the simulator's profile table, not its shear effect)
+    'shear_north': ('inside', {}, {'effects': {}, 'current_profile': [
+        [0.0, 0.0, 0.0, 0.0], [200.0, 0.4, 0.2, 0.0]]},
+        {'current_shear': {'north': 0.002, 'east': 0.001}}, 'closed'),
+    # linear over the depths flown (55-95 m): 0.7 m/s at the surface, -0.01 1/s
+    'shear_reversing': ('inside', {}, {'effects': {}, 'current_profile': [
+        [40.0, 0.3, 0.0, 0.0], [100.0, -0.3, 0.0, 0.0]]},
+        {'current': {'north': 0.7}, 'current_shear': {'north': -0.01}}, 'closed'),
+    'shear_small': ('inside', {}, _fx(current_shear={'north': 0.0, 'east': 0.0008}),
+                    {'current_shear': {'east': 0.0008}}, 'closed'),
+    'drift_2e-4': ('inside', {}, _fx(current_drift={'north': 2e-4, 'east': 0.0}),
+                   {'current_drift': {'north': 2e-4}}, 'closed'),
+    'drift_5e-5_open': ('inside', {}, _fx(current_drift={'north': 0.0, 'east': -5e-5}),
+                        {'current_drift': {'east': -5e-5}}, 'open'),
+    'added_mass_30': ('inside', {'Zwdot': 1.3}, _fx(),
+                      {'added_mass': {'Zwdot': 1.3}}, 'closed'),
+    'added_mass_large': ('inside', {}, _fx(added_mass={'Zwdot': 1.6, 'Mqdot': 1.4}),
+                         {'added_mass': {'Zwdot': 1.6, 'Mqdot': 1.4}}, 'closed'),
+    'depth_scale_1.02': ('inside', {}, _fx(depth_sensor_scale={'scale': 1.02}),
+                         {'depth_sensor_scale': {'scale': 1.02}}, 'closed'),
+    'depth_scale_0.995_open': ('inside', {}, _fx(depth_sensor_scale={'scale': 0.995}),
+                               {'depth_sensor_scale': {'scale': 0.995}}, 'open'),
+    'depth_latency_0.6': ('inside', {}, _fx(depth_sensor_latency={'latency': 0.6}),
+                          {'depth_sensor_latency': {'latency': 0.6}}, 'closed'),
+    'pitch_scale_1.05': ('inside', {}, _fx(pitch_sensor_scale={'scale': 1.05}),
+                         {'pitch_sensor_scale': {'scale': 1.05}}, 'closed'),
+    'pitch_scale_0.98_open': ('inside', {}, _fx(pitch_sensor_scale={'scale': 0.98}),
+                              {'pitch_sensor_scale': {'scale': 0.98}}, 'open'),
+    'pitch_latency_0.1': ('inside', {}, _fx(pitch_sensor_latency={'latency': 0.1}),
+                          {'pitch_sensor_latency': {'latency': 0.1}}, 'closed'),
+    'pitch_latency_0.35': ('inside', {}, _fx(pitch_sensor_latency={'latency': 0.35}),
+                           {'pitch_sensor_latency': {'latency': 0.35}}, 'closed'),
+    # a shear that stops inside the depths flown (kink at 75 m): not linear
+    'shear_kinked': ('outside', {}, {'effects': {}, 'current_profile': [
+        [50.0, 0.0, 0.0, 0.0], [75.0, 0.4, 0.0, 0.0]]}, {}, 'closed'),
+    'tidal_oscillation_300': ('outside', {}, _fx(current_oscillation={'north': 0.15,
+                                                                      'period': 300.0}),
+                              {}, 'closed'),
+    'current_down_shear': ('outside', {}, {'effects': {}, 'current_profile': [
+        [50.0, 0.0, 0.0, -0.05], [100.0, 0.0, 0.0, 0.05]]}, {}, 'closed'),
+    'clean_4_open': ('clean', {}, _fx(), {}, 'open'),
     'internal_wave': ('outside', {}, _fx(current_oscillation={'down': 0.05, 'period': 120.0}),
                       {}, 'closed'),
     'tidal_drift_open': ('outside', {}, _fx(current_oscillation={'north': 0.3,
@@ -146,8 +181,10 @@ def _right(kind: str, report: dict[str, Any], truth: dict[str, dict[str, float]]
     return False
 
 
-def panel(seed: int = 23) -> dict[str, Any]:
-    """Run the panel; per-case rows and the summary figures."""
+def panel(seed: int = 23, only: frozenset[str] = frozenset(),
+          saved: list[dict[str, Any]] | None = None) -> dict[str, Any]:
+    """Run the panel (the cases of ``only``, the others kept from ``saved`` rows); per-case
+    rows and the summary figures."""
     from auv_ident.gap import synth
     from auv_ident.gap.diagnose import diagnose
     from auv_sim.params import load_vehicle
@@ -155,6 +192,8 @@ def panel(seed: int = 23) -> dict[str, Any]:
     vehicle = load_vehicle(ROOT / 'config' / 'a18m.yaml')
     rows = []
     for k, (name, (kind, factors, env, truth, flight)) in enumerate(CASES.items()):
+        if only and name not in only:
+            continue
         plant = vehicle.replace(**{p: f * getattr(vehicle, p) for p, f in factors.items()})
         scenario = synth.panel_scenario() if flight == 'closed' else synth.open_loop_scenario()
         t0 = time.perf_counter()
@@ -167,6 +206,12 @@ def panel(seed: int = 23) -> dict[str, Any]:
                      'implausible': [i['effect'] for i in r['implausible']],
                      'statement': r['statement'], 'seconds': time.perf_counter() - t0})
         print(f'{name}: {r["verdict"]} {r["best"]} right={rows[-1]["right"]}', flush=True)
+        print('row ' + json.dumps(rows[-1]), flush=True)
+    if only:
+        fresh = {row['case'] for row in rows}
+        rows = [row for row in (saved or []) if row['case'] not in fresh
+                and row['case'] in CASES] + rows
+        rows.sort(key=lambda row: list(CASES).index(row['case']))
     by = {kind: [row for row in rows if row['kind'] == kind]
           for kind in ('inside', 'coefficients', 'outside', 'clean')}
     covered = [c for row in by['inside'] for c in row['covered']]
@@ -178,6 +223,8 @@ def panel(seed: int = 23) -> dict[str, Any]:
         'coefficients_wrongly_explained': sum(
             r['verdict'] == 'explained' and not r['right'] for r in by['coefficients']),
         'outside_wrongly_explained': sum(not r['right'] for r in by['outside']),
+        'inside_wrongly_explained': sum(r['verdict'] == 'explained' and not r['right']
+                                        for r in by['inside']),
         'outside_cases': len(by['outside']),
         'clean_false_alarms': sum(not r['right'] for r in by['clean']),
         'clean_cases': len(by['clean']),
@@ -231,12 +278,15 @@ if __name__ == '__main__':
     ap.add_argument('--skip-panel', action='store_true', help='keep the saved panel figures')
     ap.add_argument('--skip-coverage', action='store_true',
                     help='keep the saved coverage figures')
+    ap.add_argument('--cases', nargs='*', help='run these panel cases only (the others are '
+                    'kept from the saved results)')
     args = ap.parse_args()
     saved = ROOT / 'bench' / 'results' / 'gap_honest.json'
     figures: dict[str, Any] = json.loads(saved.read_text()) if saved.exists() else {}
     figures['benchmark'] = 'gap diagnosis honesty panel'
     if not args.skip_panel:
-        figures['panel'] = panel()
+        figures['panel'] = panel(only=frozenset(args.cases or ()),
+                                 saved=figures.get('panel', {}).get('cases'))
     if not args.skip_coverage:
         figures['coverage'] = coverage(args.seeds)
     save_figures('gap_honest', figures)
