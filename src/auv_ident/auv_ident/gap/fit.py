@@ -114,7 +114,12 @@ class EquationFit:
             if self.act_nominal is None:
                 self.act_nominal = self.pr.actuators(pert)
             act = self.act_nominal
-        e: np.ndarray = self.pr.equation_error(pert, act) / self.pr.eq_sigma
+        # a candidate that changes the mass matrix changes how much of the measured
+        # acceleration's noise its equations carry: weighting each equation by its own noise
+        # keeps the fit from shrinking the inertia to shed noise (errors in variables)
+        sigma = self.pr.eq_sigma if not pert.factors else self.pr.equation_sigma(
+            self.pr.model_arrays(pert)[1])
+        e: np.ndarray = self.pr.equation_error(pert, act) / sigma
         return e if mask is None else e[mask]
 
     def cost(self, es: EffectSet, values: np.ndarray, held_out: bool) -> float:

@@ -353,10 +353,15 @@ class Problem:
             fine[m] = self.fine_off[li] + self.eq_index[m] * (self.sub * 2.0 / self.m)
         self.eq_t, self.eq_state, self.eq_rate, self.eq_fine = tt, xs, xd, fine
         # noise of each equation: velocity noise through the derivative filter and M
+        self.eq_sigma = self.equation_sigma(self.M)
+
+    def equation_sigma(self, M: np.ndarray) -> np.ndarray:
+        """Noise (1 sigma) of each equation of the equation error with mass matrix ``M``
+        [N, N m, m/s]: the velocity noise through the derivative filter and ``M``."""
         sd = self.noise[6:12] * self.deriv_gain
-        sig = np.sqrt((self.M ** 2) @ (sd ** 2))
+        sig = np.sqrt((M ** 2) @ (sd ** 2))
         sz = np.hypot(self.noise[2] * self.deriv_gain, self.noise[8] * self.smooth_gain)
-        self.eq_sigma = np.array([sig[r] for r in EQ_ROWS] + [sz])
+        return np.array([sig[r] for r in EQ_ROWS] + [sz])
 
     def equation_error(self, pert: Perturbation, act: np.ndarray | None = None) -> np.ndarray:
         """Equation error (n x 6) at the equation samples: ``M nu_dot - tau`` for surge,
