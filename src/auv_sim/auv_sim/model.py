@@ -451,12 +451,112 @@ def actuator_dynamics(t, x, cmd, P, env, prof, xdot, work):  # type: ignore[no-u
     actuator_rates(x, cmd, P, xdot)
 
 
+#: Basis functions of an extra body wrench ``sum_j phi_j(x) C[j, :]`` [N, N m] (model errors a
+#: diagnosis fits against a log; :func:`extra_basis`), dimension per row:
+EXTRA_BASIS = (
+    'one',                      # 1
+    'gx', 'gy', 'gz',           # gravity direction in body FRD: (-s_th, c_th s_ph, c_th c_ph)
+    'z_gx', 'z_gy', 'z_gz',     # depth [m] times the gravity direction
+    'ur|ur|',                   # [m^2/s^2], surge speed through the water
+    'wr|wr|', 'q|q|', 'vr|vr|', 'r|r|',  # cross-flow quadratic terms
+    'ur wr', 'ur q',            # [m^2/s^2], [m/s^2]: the model's own heave/pitch damping terms
+    'ur|ur| bar',               # [m^2/s^2 rad]: the dive plane's lift (plane position x[12])
+    'thrust',                   # [N]: the propeller's thrust (position x[14])
+    'surge_drag/Ksh',           # [N]: the model's surge drag per unit of its Ksh
+)
+NB_EXTRA = len(EXTRA_BASIS)
+
+
 @njit(cache=True)
-def _rk4(t0, x, cmd, P, env, prof, dt, nsteps, vehicle):  # type: ignore[no-untyped-def]
-    """Classic RK4 of :func:`dynamics` (``vehicle``) or :func:`actuator_dynamics` (not);
-    returns as :func:`rk4_steps`. ``vehicle`` is a compile-time constant: one specialisation
-    each, the other branch pruned (a run-time branch costs the vehicle 30 % in speed)."""
-    literally(vehicle)
+def extra_basis(t, x, P, env, prof, surge_drag, phi):  # type: ignore[no-untyped-def]
+    """Fill ``phi`` (:data:`NB_EXTRA`) at time ``t`` [s] and state ``x`` (over ground) in the
+    water of ``env``/``prof``; ``surge_drag`` [N] is the model's hydrodynamic surge force
+    (``wrenches`` row 0, axis X)."""
+    vcn, vce, vcd, _, _, _, _, _, _ = current_ned(t, x[2], env, prof)
+    cph = np.cos(x[3])
+    sph = np.sin(x[3])
+    cth = np.cos(x[4])
+    sth = np.sin(x[4])
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation(
+        cph, sph, cth, sth, np.cos(x[5]), np.sin(x[5]))
+    ur = x[6] - (r00 * vcn + r10 * vce + r20 * vcd)
+    vr = x[7] - (r01 * vcn + r11 * vce + r21 * vcd)
+    wr = x[8] - (r02 * vcn + r12 * vce + r22 * vcd)
+    gx = -sth
+    gy = cth * sph
+    gz = cth * cph
+    z = x[2]
+    phi[0] = 1.0
+    phi[1] = gx
+    phi[2] = gy
+    phi[3] = gz
+    phi[4] = z * gx
+    phi[5] = z * gy
+    phi[6] = z * gz
+    phi[7] = ur * abs(ur)
+    phi[8] = wr * abs(wr)
+    phi[9] = x[10] * abs(x[10])
+    phi[10] = vr * abs(vr)
+    phi[11] = x[11] * abs(x[11])
+    phi[12] = ur * wr
+    phi[13] = ur * x[10]
+    phi[14] = ur * abs(ur) * x[12]
+    phi[15] = x[14]
+    phi[16] = surge_drag / P[I_KSH] if P[I_KSH] != 0.0 else 0.0
+
+
+@njit(cache=True)
+def extra_wrench(t, x, P, env, prof, C, work, phi, tau):  # type: ignore[no-untyped-def]
+    """Total body wrench ``tau`` (6) [N, N m] at time ``t`` and state ``x``: the sum of
+    :func:`wrenches` (left in ``work``) and the extra wrench ``phi(x)^T C``; returns the
+    attitude's cosines and sines as :func:`wrenches`."""
+    trig = wrenches(t, x, P, env, prof, work)
+    extra_basis(t, x, P, env, prof, work[0, 0], phi)
+    for i in range(6):
+        acc = work[0, i] + work[1, i] + work[2, i] + work[3, i]
+        for j in range(NB_EXTRA):
+            acc += phi[j] * C[j, i]
+        tau[i] = acc
+    return trig
+
+
+@njit(cache=True)
+def dynamics_extra(t, x, P, env, prof, C, xdot, work, scratch):  # type: ignore
+    """:func:`dynamics` with the extra wrench ``phi(x)^T C`` added and the actuators held
+    (``xdot[12:15] = 0``: their positions are prescribed by the caller); ``scratch`` holds
+    NB_EXTRA + 6 numbers."""
+    phi = scratch[:NB_EXTRA]
+    tau = scratch[NB_EXTRA:]
+    cph, sph, cth, sth, cps, sps = extra_wrench(t, x, P, env, prof, C, work, phi, tau)
+    _kinematics(x, xdot, cph, sph, cth, sth, cps, sps)
+    for i in range(6):
+        acc = 0.0 * x[0]
+        for j in range(6):
+            acc += P[I_MINV + 6 * i + j] * tau[j]
+        xdot[6 + i] = acc
+    xdot[12] = 0.0 * x[12]
+    xdot[13] = 0.0 * x[13]
+    xdot[14] = 0.0 * x[14]
+
+
+#: Integration modes of :func:`_rk4` (compile-time constants).
+MODE_ACTUATORS, MODE_VEHICLE, MODE_PRESCRIBED = 0, 1, 2
+_NO_C = np.zeros((1, 6))
+_NO_ACT = np.zeros((1, 3))
+
+
+@njit(cache=True)
+def _rk4(t0, x, cmd, P, env, prof, dt, nsteps, mode, C, act, f0):  # type: ignore
+    """Classic RK4, the one integrator of the model; returns as :func:`rk4_steps`.
+
+    ``mode`` (a compile-time constant: one specialisation each, the other branches pruned; a
+    run-time branch costs the vehicle 30 % in speed) chooses the right-hand side:
+    :data:`MODE_VEHICLE` :func:`dynamics`, :data:`MODE_ACTUATORS` :func:`actuator_dynamics`,
+    :data:`MODE_PRESCRIBED` :func:`dynamics_extra` with the actuator positions read at each
+    stage from ``act`` (rows ``f0 + 2 s``, ``+ 1``, ``+ 2`` for step ``s``: a grid of half
+    steps) and the extra wrench of ``C``; ``cmd`` is then unused.
+    """
+    literally(mode)
     n = x.shape[0]
     k1 = np.empty(n)
     k2 = np.empty(n)
@@ -464,30 +564,51 @@ def _rk4(t0, x, cmd, P, env, prof, dt, nsteps, vehicle):  # type: ignore[no-unty
     k4 = np.empty(n)
     xt = np.empty(n)
     work = np.empty((4, 6))
+    scratch = np.empty(NB_EXTRA + 6)
     for s in range(nsteps):
         t = t0 + s * dt
-        if vehicle:
+        if mode == 2:
+            for i in range(3):
+                x[12 + i] = act[f0 + 2 * s, i]
+        if mode == 1:
             dynamics(t, x, cmd, P, env, prof, k1, work)
-        else:
+        elif mode == 0:
             actuator_dynamics(t, x, cmd, P, env, prof, k1, work)
+        else:
+            dynamics_extra(t, x, P, env, prof, C, k1, work, scratch)
         for i in range(n):
             xt[i] = x[i] + 0.5 * dt * k1[i]
-        if vehicle:
+        if mode == 2:
+            for i in range(3):
+                xt[12 + i] = act[f0 + 2 * s + 1, i]
+        if mode == 1:
             dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
-        else:
+        elif mode == 0:
             actuator_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
+        else:
+            dynamics_extra(t + 0.5 * dt, xt, P, env, prof, C, k2, work, scratch)
         for i in range(n):
             xt[i] = x[i] + 0.5 * dt * k2[i]
-        if vehicle:
+        if mode == 2:
+            for i in range(3):
+                xt[12 + i] = act[f0 + 2 * s + 1, i]
+        if mode == 1:
             dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
-        else:
+        elif mode == 0:
             actuator_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
+        else:
+            dynamics_extra(t + 0.5 * dt, xt, P, env, prof, C, k3, work, scratch)
         for i in range(n):
             xt[i] = x[i] + dt * k3[i]
-        if vehicle:
+        if mode == 2:
+            for i in range(3):
+                xt[12 + i] = act[f0 + 2 * s + 2, i]
+        if mode == 1:
             dynamics(t + dt, xt, cmd, P, env, prof, k4, work)
-        else:
+        elif mode == 0:
             actuator_dynamics(t + dt, xt, cmd, P, env, prof, k4, work)
+        else:
+            dynamics_extra(t + dt, xt, P, env, prof, C, k4, work, scratch)
         ok = True
         for i in range(n):
             xt[i] = x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
@@ -497,6 +618,9 @@ def _rk4(t0, x, cmd, P, env, prof, dt, nsteps, vehicle):  # type: ignore[no-unty
             return s
         for i in range(n):
             x[i] = xt[i]
+        if mode == 2:
+            for i in range(3):
+                x[12 + i] = act[f0 + 2 * s + 2, i]
     return -1
 
 
@@ -507,7 +631,19 @@ def rk4_steps(t0, x, cmd, P, env, prof, dt, nsteps):  # type: ignore[no-untyped-
     Returns -1 on success, else the index of the first step whose result is non-finite
     (``x`` then holds the last finite state).
     """
-    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, True)
+    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, 1, _NO_C, _NO_ACT, 0)
+
+
+@njit(cache=True)
+def rk4_prescribed(t0, x, P, env, prof, dt, nsteps, C, act, f0):  # type: ignore
+    """Advance the vehicle ``x`` (15) in place by ``nsteps`` RK4 steps of ``dt`` [s] from
+    ``t0`` [s] with its actuator positions prescribed (BAR, helm [rad], thrust [N]: rows
+    ``act[f0 + j]`` at ``t0 + j dt / 2``, a grid of half steps; ``x[12:15]`` ends at row
+    ``f0 + 2 nsteps``) and the extra wrench ``phi(x)^T C`` (:func:`extra_basis`, ``C``
+    NB_EXTRA x 6) added: the model a diagnosis runs against a log. Returns as
+    :func:`rk4_steps`."""
+    cmd = np.zeros(3)
+    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, 2, C, act, f0)
 
 
 @njit(cache=True)
@@ -519,7 +655,7 @@ def actuator_steps(x, cmd, P, dt, nsteps):  # type: ignore[no-untyped-def]
     not depend on the vehicle states). Returns as :func:`rk4_steps`."""
     env = np.zeros(ENV_SIZE)
     prof = np.zeros((0, 4))
-    return _rk4(0.0, x, cmd, P, env, prof, dt, nsteps, False)
+    return _rk4(0.0, x, cmd, P, env, prof, dt, nsteps, 0, _NO_C, _NO_ACT, 0)
 
 
 @njit(cache=True)
