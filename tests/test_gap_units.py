@@ -209,3 +209,28 @@ def test_too_short_for_held_out_windows(vehicle) -> None:  # type: ignore
     x[:, 2] = 50.0
     with pytest.raises(GapError, match='too short to hold out whole windows'):
         Problem(vehicle, from_arrays('short', t, x, _cmds(t)), window=60.0)
+
+
+def test_cluster_covariance_of_a_mean_by_hand() -> None:
+    """The mean of G equal clusters: CR2 is the classic variance of the mean of the cluster
+    means, sum (m_g - m)^2 / (G (G - 1)), and Bell-McCaffrey's degrees of freedom are G - 1;
+    a parameter informed by one cluster only gets the fewest (1)."""
+    from auv_ident.gap.fit import cluster_covariance
+    rng = np.random.default_rng(4)
+    G, n = 6, 40
+    y = rng.standard_normal(G * n) + np.repeat(rng.standard_normal(G), n)
+    clusters = np.repeat(np.arange(G), n)
+    J = np.ones((G * n, 1))
+    r = y - y.mean()
+    V, df = cluster_covariance(J, r, clusters)
+    means = y.reshape(G, n).mean(axis=1)
+    assert V[0, 0] == pytest.approx(np.sum((means - means.mean()) ** 2) / (G * (G - 1)),
+                                    rel=1e-9)
+    assert df[0] == pytest.approx(G - 1, rel=1e-9)
+    # a slope informed (almost) by one cluster: its x is 10 times larger there. Its
+    # variance rests on one cluster's residuals: about 1 degree of freedom, against about
+    # G - 1 when every cluster informs it alike
+    for spread, lo, hi in ((1.0, G - 2.0, G - 1.0), (0.1, 1.0, 1.5)):
+        x = rng.standard_normal(G * n) * np.where(clusters == 2, 1.0, spread)
+        _, df2 = cluster_covariance(np.column_stack([J[:, 0], x]), r, clusters)
+        assert lo <= df2[1] <= hi + 1e-9, (spread, df2)
