@@ -5,25 +5,28 @@ panel_scenario`) and 10-minute open-loop logs (:func:`auv_ident.gap.synth.open_l
 with realistic sensor noise, each of a plant the diagnosis is not told:
 
 * ``inside``: catalogue effects at magnitudes from barely visible to large, single and in
-  pairs; the truth is the effect file. Counted right when the verdict is ``explained`` with
+  pairs, among them a current sheared with depth (also made with the simulator's profile
+  table), a current drifting in time, an added-mass error, depth and pitch sensor scale and
+  latency; the truth is the effect file. Counted right when the verdict is ``explained`` with
   exactly the true set, or ``ambiguous`` with the true set among the named;
 * ``coefficients``: the plant's own coefficients differ from the file (heave and pitch damping
-  30 % higher, plane effectiveness 70 %, Munk moment 20 % lower, surge drag 30 % higher, heave
-  added mass 30 % higher, which acts through the Munk moment): right when named by
-  ``coefficients`` or ``plane_effectiveness``; never to be ``explained`` by another effect;
-* ``outside``: forms the catalogue lacks (a current growing with depth, one reversing with
-  depth, an internal wave, a tidal drift, a cross-flow drag beyond what the hull can have):
-  wrong when ``explained``;
+  30 % higher, plane effectiveness 70 %, Munk moment 20 % lower, surge drag 30 % higher): right
+  when named by ``coefficients`` or ``plane_effectiveness``; never to be ``explained`` by
+  another effect;
+* ``outside``: forms the catalogue lacks (a shear that stops inside the depths flown, a
+  vertical current changing with depth, an internal wave, tidal oscillations shorter than or
+  about the log, a cross-flow drag beyond what the hull can have): wrong when ``explained``;
 * ``clean``: no effect, several seeds: a false alarm is any verdict but ``no_gap``.
 
 Figures: right effect named, clean false alarms, outside cases wrongly explained (goal 0),
-median shrink of the in-catalogue cases, and the share of true parameter values inside the
-reported 95 % intervals. A second part measures interval coverage over many seeds on a cheap
-case (5-minute logs, one effect fitted directly, no search).
+inside cases explained by a wrong set, median shrink of the in-catalogue cases, and the share
+of true parameter values inside the reported 95 % intervals. Interval coverage over many seeds
+is measured by ``bench/bench_gap_coverage.py``.
 
-Run: ``. .venv/bin/auv-env && python bench/bench_gap_honest.py [--seeds N] [--skip-panel]
-[--skip-coverage]`` (updates bench/results/gap_honest.json; the panel takes about 15 minutes
-on 2 cores, the coverage part about 1 minute per 10 seeds).
+Run: ``. .venv/bin/auv-env && python bench/bench_gap_honest.py [--cases NAME ...]`` (updates
+bench/results/gap_honest.json; about 45 cases at 30-90 s each on 2 shared cores; with
+``--cases`` only those are run and the others kept from the saved file). Case ``k`` of
+:data:`CASES` is flown with noise seed ``23 + k``.
 """
 from __future__ import annotations
 
@@ -34,7 +37,6 @@ import statistics
 import time
 from typing import Any
 
-import numpy as np
 from timing import save_figures
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -233,62 +235,17 @@ def panel(seed: int = 23, only: frozenset[str] = frozenset(),
     }
 
 
-def coverage(seeds: int) -> dict[str, Any]:
-    """Share of 95 % intervals holding the truth over ``seeds`` noise seeds, for two effects
-    fitted directly (equation error, then free run) on 5-minute closed-loop logs."""
-    from auv_ident.gap import synth
-    from auv_ident.gap.catalogue import Perturbation
-    from auv_ident.gap.fit import EquationFit, FreeRunFit
-    from auv_ident.gap.problem import CH_INDEX, EffectSet, Problem
-    from auv_sim.params import load_vehicle
-
-    vehicle = load_vehicle(ROOT / 'config' / 'a18m.yaml')
-    short = synth.Scenario(duration=300.0, z0=60.0, u0=2.0,
-                           depth=((0.0, 60.0), (60.0, 80.0), (200.0, 65.0)),
-                           thrust=((0.0, 55.0), (150.0, 100.0)),
-                           doublets=((30.0, 0.08, 3.0), (110.0, 0.1, 2.0), (170.0, 0.06, 5.0),
-                                     (240.0, 0.1, 3.0)))
-    cases = {'buoyancy_offset': ('dB', 30.0), 'actuator_delay': ('bar', 0.25)}
-    out: dict[str, Any] = {}
-    for effect, (param, true) in cases.items():
-        hits_ee, hits_fr, widths = 0, 0, []
-        for seed in range(seeds):
-            log = synth.simulate(vehicle, {'effects': {effect: {param: true}}}, short,
-                                 seed=1000 + seed)
-            pr = Problem(vehicle, log.gap_logs(), window=30.0)
-            es = EffectSet([effect], vehicle)
-            ee = EquationFit(pr).fit(es)
-            pred, meas = pr.free_run([Perturbation.nominal(vehicle)], pr.select(None))
-            rms = np.sqrt(np.nanmean((pred[0] - meas)[:, CH_INDEX] ** 2, axis=0))
-            fr = FreeRunFit(pr, np.maximum(rms, pr.noise[list(CH_INDEX)])).fit(ee)
-            hits_ee += bool(ee.lo95[0] <= true <= ee.hi95[0])
-            hits_fr += bool(fr.lo95[0] <= true <= fr.hi95[0])
-            widths.append(float(fr.hi95[0] - fr.lo95[0]))
-        out[effect] = {'true': true, 'seeds': seeds,
-                       'equation_error_coverage': hits_ee / seeds,
-                       'free_run_coverage': hits_fr / seeds,
-                       'median_width': statistics.median(widths)}
-        print(effect, out[effect], flush=True)
-    return out
-
-
 if __name__ == '__main__':
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    ap.add_argument('--seeds', type=int, default=20, help='coverage seeds per effect')
-    ap.add_argument('--skip-panel', action='store_true', help='keep the saved panel figures')
-    ap.add_argument('--skip-coverage', action='store_true',
-                    help='keep the saved coverage figures')
     ap.add_argument('--cases', nargs='*', help='run these panel cases only (the others are '
                     'kept from the saved results)')
     args = ap.parse_args()
     saved = ROOT / 'bench' / 'results' / 'gap_honest.json'
     figures: dict[str, Any] = json.loads(saved.read_text()) if saved.exists() else {}
     figures['benchmark'] = 'gap diagnosis honesty panel'
-    if not args.skip_panel:
-        figures['panel'] = panel(only=frozenset(args.cases or ()),
-                                 saved=figures.get('panel', {}).get('cases'))
-    if not args.skip_coverage:
-        figures['coverage'] = coverage(args.seeds)
+    figures['panel'] = panel(only=frozenset(args.cases or ()),
+                             saved=figures.get('panel', {}).get('cases'))
+    figures.pop('coverage', None)  # interval coverage: bench/bench_gap_coverage.py
     save_figures('gap_honest', figures)
     print(json.dumps({k: v for k, v in figures.get('panel', {}).items() if k != 'cases'},
                      indent=2))
