@@ -214,6 +214,11 @@ def panel(seed: int = 23, only: frozenset[str] = frozenset(),
         rows = [row for row in (saved or []) if row['case'] not in fresh
                 and row['case'] in CASES] + rows
         rows.sort(key=lambda row: list(CASES).index(row['case']))
+    return summarise(rows)
+
+
+def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The panel's figures from its per-case rows."""
     by = {kind: [row for row in rows if row['kind'] == kind]
           for kind in ('inside', 'coefficients', 'outside', 'clean')}
     covered = [c for row in by['inside'] for c in row['covered']]
