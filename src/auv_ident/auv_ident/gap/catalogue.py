@@ -6,24 +6,31 @@ manoeuvres that can tell it from other effects. How it changes the model is expr
 the primitives of :class:`Perturbation`, which the compiled free-run and equation-error
 kernels (:mod:`auv_ident.gap.kernel`) understand:
 
-* ``current`` (3): a constant water current in NED [m/s];
+* ``current`` (3): a water current in NED [m/s], with ``shear`` (2, north and east change per
+  metre of depth [1/s]) and ``drift`` (2, change per second from the start of the first log
+  [m/s^2]): the model's own environment vector;
 * ``C`` (NB x 6): an extra body-FRD wrench ``sum_j phi_j(x) C[j]`` [N, N m] over the basis
   functions of :data:`auv_ident.gap.kernel.BASIS_NAMES` (gravity direction, depth times
   gravity direction, quadratic speeds, ...);
+* ``factors``: factors on vehicle-file parameters (the mass matrix rebuilt with them);
 * ``delay``, ``tau``, ``rate`` (3 each, channels bar, helm, thrust): the actuator model
   driven by the logged commands (transport delay [s], first-order lag [s], rate limit
   [rad/s or N/s]);
-* ``bias`` (12): what the sensors add to the true state (eta, nu), SI units.
+* ``bias``, ``scale``, ``latency`` (12 each): the sensors read ``scale x(t - latency) + bias``
+  of the true state (eta, nu), SI units.
 
 The same perturbation drives the equation error (the model's wrench at the logged states)
 and the free run (the model integrated from a logged state), so an effect written once is
-fitted both ways. A new effect is a subclass registered with :func:`register`; nothing else
-changes. An effect that needs a primitive the kernels lack (a wrench that varies in time,
-say) is a change of the kernels, not of the diagnosis.
+fitted both ways. A new effect is declared in the one registry of effects
+(:func:`auv_sim.environment.declare_effect`: name, fields, units) and a subclass registered
+with :func:`register`, which checks it against the declaration; nothing else changes. An
+effect that needs a primitive the kernels lack is a change of the kernels, not of the
+diagnosis.
 
-These implementations are separate from the simulator's effect code
-(:mod:`auv_sim.environment`), which makes the synthetic logs: a test that makes the data
-with one and explains it with the other checks both.
+The effects are declared once, in :data:`auv_sim.environment.EFFECT_FIELDS`; their
+implementations here are separate from the simulator's (:mod:`auv_sim.environment`), which
+makes the synthetic logs: a test that makes the data with one and explains it with the other
+compares two implementations of one declared effect.
 """
 from __future__ import annotations
 
