@@ -5,25 +5,28 @@ panel_scenario`) and 10-minute open-loop logs (:func:`auv_ident.gap.synth.open_l
 with realistic sensor noise, each of a plant the diagnosis is not told:
 
 * ``inside``: catalogue effects at magnitudes from barely visible to large, single and in
-  pairs; the truth is the effect file. Counted right when the verdict is ``explained`` with
+  pairs, among them a current sheared with depth (also made with the simulator's profile
+  table), a current drifting in time, an added-mass error, depth and pitch sensor scale and
+  latency; the truth is the effect file. Counted right when the verdict is ``explained`` with
   exactly the true set, or ``ambiguous`` with the true set among the named;
 * ``coefficients``: the plant's own coefficients differ from the file (heave and pitch damping
-  30 % higher, plane effectiveness 70 %, Munk moment 20 % lower, surge drag 30 % higher, heave
-  added mass 30 % higher, which acts through the Munk moment): right when named by
-  ``coefficients`` or ``plane_effectiveness``; never to be ``explained`` by another effect;
-* ``outside``: forms the catalogue lacks (a current growing with depth, one reversing with
-  depth, an internal wave, a tidal drift, a cross-flow drag beyond what the hull can have):
-  wrong when ``explained``;
+  30 % higher, plane effectiveness 70 %, Munk moment 20 % lower, surge drag 30 % higher): right
+  when named by ``coefficients`` or ``plane_effectiveness``; never to be ``explained`` by
+  another effect;
+* ``outside``: forms the catalogue lacks (a shear that stops inside the depths flown, a
+  vertical current changing with depth, an internal wave, tidal oscillations shorter than or
+  about the log, a cross-flow drag beyond what the hull can have): wrong when ``explained``;
 * ``clean``: no effect, several seeds: a false alarm is any verdict but ``no_gap``.
 
 Figures: right effect named, clean false alarms, outside cases wrongly explained (goal 0),
-median shrink of the in-catalogue cases, and the share of true parameter values inside the
-reported 95 % intervals. A second part measures interval coverage over many seeds on a cheap
-case (5-minute logs, one effect fitted directly, no search).
+inside cases explained by a wrong set, median shrink of the in-catalogue cases, and the share
+of true parameter values inside the reported 95 % intervals. Interval coverage over many seeds
+is measured by ``bench/bench_gap_coverage.py``.
 
-Run: ``. .venv/bin/auv-env && python bench/bench_gap_honest.py [--seeds N] [--skip-panel]
-[--skip-coverage]`` (updates bench/results/gap_honest.json; the panel takes about 15 minutes
-on 2 cores, the coverage part about 1 minute per 10 seeds).
+Run: ``. .venv/bin/auv-env && python bench/bench_gap_honest.py [--cases NAME ...]`` (updates
+bench/results/gap_honest.json; about 45 cases at 30-90 s each on 2 shared cores; with
+``--cases`` only those are run and the others kept from the saved file). Case ``k`` of
+:data:`CASES` is flown with noise seed ``23 + k``.
 """
 from __future__ import annotations
 
@@ -34,7 +37,6 @@ import statistics
 import time
 from typing import Any
 
-import numpy as np
 from timing import save_figures
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -89,12 +91,47 @@ CASES: dict[str, Case] = {
                       {'plane_effectiveness': {'gain': 0.7}}, 'open'),
     'munk_20_lower': ('coefficients', {'CMuw': 0.8}, _fx(),
                       {'coefficients': {'CMuw': 0.8}}, 'closed'),
-    'shear_north': ('outside', {}, {'effects': {}, 'current_profile': [
-        [0.0, 0.0, 0.0, 0.0], [200.0, 0.4, 0.2, 0.0]]}, {}, 'closed'),
-    'shear_reversing': ('outside', {}, {'effects': {}, 'current_profile': [
-        [40.0, 0.3, 0.0, 0.0], [100.0, -0.3, 0.0, 0.0]]}, {}, 'closed'),
-    'added_mass_30': ('coefficients', {'Zwdot': 1.3}, _fx(),
-                      {'coefficients': {'CMuw': 0.523}}, 'closed'),
+    # a linear profile from the surface (the simulator's profile table, not its shear effect)
+    'shear_north': ('inside', {}, {'effects': {}, 'current_profile': [
+        [0.0, 0.0, 0.0, 0.0], [200.0, 0.4, 0.2, 0.0]]},
+        {'current_shear': {'north': 0.002, 'east': 0.001}}, 'closed'),
+    # linear over the depths flown (55-95 m): 0.7 m/s at the surface, -0.01 1/s
+    'shear_reversing': ('inside', {}, {'effects': {}, 'current_profile': [
+        [40.0, 0.3, 0.0, 0.0], [100.0, -0.3, 0.0, 0.0]]},
+        {'current': {'north': 0.7}, 'current_shear': {'north': -0.01}}, 'closed'),
+    'shear_small': ('inside', {}, _fx(current_shear={'north': 0.0, 'east': 0.0008}),
+                    {'current_shear': {'east': 0.0008}}, 'closed'),
+    'drift_2e-4': ('inside', {}, _fx(current_drift={'north': 2e-4, 'east': 0.0}),
+                   {'current_drift': {'north': 2e-4}}, 'closed'),
+    'drift_5e-5_open': ('inside', {}, _fx(current_drift={'north': 0.0, 'east': -5e-5}),
+                        {'current_drift': {'east': -5e-5}}, 'open'),
+    'added_mass_30': ('inside', {'Zwdot': 1.3}, _fx(),
+                      {'added_mass': {'Zwdot': 1.3}}, 'closed'),
+    'added_mass_large': ('inside', {}, _fx(added_mass={'Zwdot': 1.6, 'Mqdot': 1.4}),
+                         {'added_mass': {'Zwdot': 1.6, 'Mqdot': 1.4}}, 'closed'),
+    'depth_scale_1.02': ('inside', {}, _fx(depth_sensor_scale={'scale': 1.02}),
+                         {'depth_sensor_scale': {'scale': 1.02}}, 'closed'),
+    'depth_scale_0.995_open': ('inside', {}, _fx(depth_sensor_scale={'scale': 0.995}),
+                               {'depth_sensor_scale': {'scale': 0.995}}, 'open'),
+    'depth_latency_0.6': ('inside', {}, _fx(depth_sensor_latency={'latency': 0.6}),
+                          {'depth_sensor_latency': {'latency': 0.6}}, 'closed'),
+    'pitch_scale_1.05': ('inside', {}, _fx(pitch_sensor_scale={'scale': 1.05}),
+                         {'pitch_sensor_scale': {'scale': 1.05}}, 'closed'),
+    'pitch_scale_0.98_open': ('inside', {}, _fx(pitch_sensor_scale={'scale': 0.98}),
+                              {'pitch_sensor_scale': {'scale': 0.98}}, 'open'),
+    'pitch_latency_0.1': ('inside', {}, _fx(pitch_sensor_latency={'latency': 0.1}),
+                          {'pitch_sensor_latency': {'latency': 0.1}}, 'closed'),
+    'pitch_latency_0.35': ('inside', {}, _fx(pitch_sensor_latency={'latency': 0.35}),
+                           {'pitch_sensor_latency': {'latency': 0.35}}, 'closed'),
+    # a shear that stops inside the depths flown (kink at 75 m): not linear
+    'shear_kinked': ('outside', {}, {'effects': {}, 'current_profile': [
+        [50.0, 0.0, 0.0, 0.0], [75.0, 0.4, 0.0, 0.0]]}, {}, 'closed'),
+    'tidal_oscillation_300': ('outside', {}, _fx(current_oscillation={'north': 0.15,
+                                                                      'period': 300.0}),
+                              {}, 'closed'),
+    'current_down_shear': ('outside', {}, {'effects': {}, 'current_profile': [
+        [50.0, 0.0, 0.0, -0.05], [100.0, 0.0, 0.0, 0.05]]}, {}, 'closed'),
+    'clean_4_open': ('clean', {}, _fx(), {}, 'open'),
     'internal_wave': ('outside', {}, _fx(current_oscillation={'down': 0.05, 'period': 120.0}),
                       {}, 'closed'),
     'tidal_drift_open': ('outside', {}, _fx(current_oscillation={'north': 0.3,
@@ -146,8 +183,10 @@ def _right(kind: str, report: dict[str, Any], truth: dict[str, dict[str, float]]
     return False
 
 
-def panel(seed: int = 23) -> dict[str, Any]:
-    """Run the panel; per-case rows and the summary figures."""
+def panel(seed: int = 23, only: frozenset[str] = frozenset(),
+          saved: list[dict[str, Any]] | None = None) -> dict[str, Any]:
+    """Run the panel (the cases of ``only``, the others kept from ``saved`` rows); per-case
+    rows and the summary figures."""
     from auv_ident.gap import synth
     from auv_ident.gap.diagnose import diagnose
     from auv_sim.params import load_vehicle
@@ -155,6 +194,8 @@ def panel(seed: int = 23) -> dict[str, Any]:
     vehicle = load_vehicle(ROOT / 'config' / 'a18m.yaml')
     rows = []
     for k, (name, (kind, factors, env, truth, flight)) in enumerate(CASES.items()):
+        if only and name not in only:
+            continue
         plant = vehicle.replace(**{p: f * getattr(vehicle, p) for p, f in factors.items()})
         scenario = synth.panel_scenario() if flight == 'closed' else synth.open_loop_scenario()
         t0 = time.perf_counter()
@@ -167,6 +208,17 @@ def panel(seed: int = 23) -> dict[str, Any]:
                      'implausible': [i['effect'] for i in r['implausible']],
                      'statement': r['statement'], 'seconds': time.perf_counter() - t0})
         print(f'{name}: {r["verdict"]} {r["best"]} right={rows[-1]["right"]}', flush=True)
+        print('row ' + json.dumps(rows[-1]), flush=True)
+    if only:
+        fresh = {row['case'] for row in rows}
+        rows = [row for row in (saved or []) if row['case'] not in fresh
+                and row['case'] in CASES] + rows
+        rows.sort(key=lambda row: list(CASES).index(row['case']))
+    return summarise(rows)
+
+
+def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The panel's figures from its per-case rows."""
     by = {kind: [row for row in rows if row['kind'] == kind]
           for kind in ('inside', 'coefficients', 'outside', 'clean')}
     covered = [c for row in by['inside'] for c in row['covered']]
@@ -178,6 +230,8 @@ def panel(seed: int = 23) -> dict[str, Any]:
         'coefficients_wrongly_explained': sum(
             r['verdict'] == 'explained' and not r['right'] for r in by['coefficients']),
         'outside_wrongly_explained': sum(not r['right'] for r in by['outside']),
+        'inside_wrongly_explained': sum(r['verdict'] == 'explained' and not r['right']
+                                        for r in by['inside']),
         'outside_cases': len(by['outside']),
         'clean_false_alarms': sum(not r['right'] for r in by['clean']),
         'clean_cases': len(by['clean']),
@@ -186,59 +240,17 @@ def panel(seed: int = 23) -> dict[str, Any]:
     }
 
 
-def coverage(seeds: int) -> dict[str, Any]:
-    """Share of 95 % intervals holding the truth over ``seeds`` noise seeds, for two effects
-    fitted directly (equation error, then free run) on 5-minute closed-loop logs."""
-    from auv_ident.gap import synth
-    from auv_ident.gap.catalogue import Perturbation
-    from auv_ident.gap.fit import EquationFit, FreeRunFit
-    from auv_ident.gap.problem import CH_INDEX, EffectSet, Problem
-    from auv_sim.params import load_vehicle
-
-    vehicle = load_vehicle(ROOT / 'config' / 'a18m.yaml')
-    short = synth.Scenario(duration=300.0, z0=60.0, u0=2.0,
-                           depth=((0.0, 60.0), (60.0, 80.0), (200.0, 65.0)),
-                           thrust=((0.0, 55.0), (150.0, 100.0)),
-                           doublets=((30.0, 0.08, 3.0), (110.0, 0.1, 2.0), (170.0, 0.06, 5.0),
-                                     (240.0, 0.1, 3.0)))
-    cases = {'buoyancy_offset': ('dB', 30.0), 'actuator_delay': ('bar', 0.25)}
-    out: dict[str, Any] = {}
-    for effect, (param, true) in cases.items():
-        hits_ee, hits_fr, widths = 0, 0, []
-        for seed in range(seeds):
-            log = synth.simulate(vehicle, {'effects': {effect: {param: true}}}, short,
-                                 seed=1000 + seed)
-            pr = Problem(vehicle, log.gap_logs(), window=30.0)
-            es = EffectSet([effect], vehicle)
-            ee = EquationFit(pr).fit(es)
-            pred, meas = pr.free_run([Perturbation.nominal(vehicle)], pr.select(None))
-            rms = np.sqrt(np.nanmean((pred[0] - meas)[:, CH_INDEX] ** 2, axis=0))
-            fr = FreeRunFit(pr, np.maximum(rms, pr.noise[list(CH_INDEX)])).fit(ee)
-            hits_ee += bool(ee.lo95[0] <= true <= ee.hi95[0])
-            hits_fr += bool(fr.lo95[0] <= true <= fr.hi95[0])
-            widths.append(float(fr.hi95[0] - fr.lo95[0]))
-        out[effect] = {'true': true, 'seeds': seeds,
-                       'equation_error_coverage': hits_ee / seeds,
-                       'free_run_coverage': hits_fr / seeds,
-                       'median_width': statistics.median(widths)}
-        print(effect, out[effect], flush=True)
-    return out
-
-
 if __name__ == '__main__':
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    ap.add_argument('--seeds', type=int, default=20, help='coverage seeds per effect')
-    ap.add_argument('--skip-panel', action='store_true', help='keep the saved panel figures')
-    ap.add_argument('--skip-coverage', action='store_true',
-                    help='keep the saved coverage figures')
+    ap.add_argument('--cases', nargs='*', help='run these panel cases only (the others are '
+                    'kept from the saved results)')
     args = ap.parse_args()
     saved = ROOT / 'bench' / 'results' / 'gap_honest.json'
     figures: dict[str, Any] = json.loads(saved.read_text()) if saved.exists() else {}
     figures['benchmark'] = 'gap diagnosis honesty panel'
-    if not args.skip_panel:
-        figures['panel'] = panel()
-    if not args.skip_coverage:
-        figures['coverage'] = coverage(args.seeds)
+    figures['panel'] = panel(only=frozenset(args.cases or ()),
+                             saved=figures.get('panel', {}).get('cases'))
+    figures.pop('coverage', None)  # interval coverage: bench/bench_gap_coverage.py
     save_figures('gap_honest', figures)
     print(json.dumps({k: v for k, v in figures.get('panel', {}).items() if k != 'cases'},
                      indent=2))

@@ -19,6 +19,7 @@ from auv_ident.gap.catalogue import (
 from auv_ident.gap.logs import from_arrays
 from auv_ident.gap.problem import CH_INDEX, EffectSet, Problem
 from auv_ident.gap.synth import Scenario, simulate
+from auv_sim.environment import EFFECT_FIELDS, declare_effect, undeclare_effect
 from auv_sim.params import load_vehicle
 
 #: A short flight: a depth change, a speed change and BAR doublets (300 s).
@@ -43,6 +44,20 @@ ORACLES = {
     'cg_offset': ({'cg_offset': {'dxg': 0.005, 'dzg': 0.002}}, {'dxg': 0.005, 'dzg': 0.002}),
     'pitch_sensor_bias': ({'pitch_sensor_bias': {'bias': 0.02}}, {'bias': 0.02}),
     'depth_sensor_bias': ({'depth_sensor_bias': {'bias': 0.3}}, {'bias': 0.3}),
+    'current_shear': ({'current_shear': {'north': 0.004, 'east': -0.002}},
+                      {'north': 0.004, 'east': -0.002}),
+    'current_drift': ({'current_drift': {'north': 3e-4, 'east': -2e-4}},
+                      {'north': 3e-4, 'east': -2e-4}),
+    'added_mass': ({'added_mass': {'Zwdot': 1.4, 'Mqdot': 0.7}}, {'Zwdot': 1.4, 'Mqdot': 0.7}),
+    'depth_sensor_scale': ({'depth_sensor_scale': {'scale': 1.02}}, {'scale': 1.02}),
+    'depth_sensor_latency': ({'depth_sensor_latency': {'latency': 0.4}}, {'latency': 0.4}),
+    'pitch_sensor_scale': ({'pitch_sensor_scale': {'scale': 1.05}}, {'scale': 1.05}),
+    'pitch_sensor_latency': ({'pitch_sensor_latency': {'latency': 0.2}}, {'latency': 0.2}),
+    'plane_effectiveness': ({'plane_effectiveness': {'gain': 0.7}}, {'gain': 0.7}),
+    'thrust_error': ({'thrust_error': {'gain': 1.2}}, {'gain': 1.2}),
+    'coefficients': ({'coefficients': {'CZuw': 1.3, 'CMuq': 1.3}},
+                     {'CZuw': 1.3, 'CMuw': 1.0, 'CZuq': 1.0, 'CMuq': 1.3, 'CZbar': 1.0,
+                      'CMbar': 1.0, 'Ksh': 1.0}),
 }
 
 
@@ -112,6 +127,9 @@ def test_register_a_new_effect_plugs_in(vehicle) -> None:  # type: ignore
         def apply(self, pert, values, v):  # type: ignore[no-untyped-def]
             pert.C[0, 2] += values[0]
 
+    with pytest.raises(GapError, match='not declared in the effect registry'):
+        register(HeaveForce())
+    declare_effect('test_heave_force', {'Z': ('N', 0.0)})
     try:
         register(HeaveForce())
         es = EffectSet(['test_heave_force'], vehicle)
@@ -120,6 +138,25 @@ def test_register_a_new_effect_plugs_in(vehicle) -> None:  # type: ignore
             register(HeaveForce())
     finally:
         CATALOGUE.pop('test_heave_force', None)
+        undeclare_effect('test_heave_force')
+
+
+def test_every_catalogue_effect_is_declared_with_its_units(vehicle) -> None:  # type: ignore
+    """One registry: each catalogue parameter is a field of the simulator's declared effect,
+    in the declared unit; a unit that differs is an error."""
+    for name, effect in CATALOGUE.items():
+        units = {p.name: p.unit for p in effect.parameters(vehicle)}
+        declared = {k: EFFECT_FIELDS[name][k][0] for k in units}
+        assert units == declared, name
+
+    class Wrong(Effect):
+        name = 'current_shear'
+
+        def parameters(self, v):  # type: ignore[no-untyped-def]
+            return (Parameter('north', 'm/s', -1.0, 1.0, 0.0, 0.1),)
+
+    with pytest.raises(GapError, match="declared in '1/s'"):
+        catalogue.check_declared(Wrong(), vehicle)
 
 
 def test_unknown_effect_and_manoeuvre_are_errors() -> None:
@@ -172,3 +209,28 @@ def test_too_short_for_held_out_windows(vehicle) -> None:  # type: ignore
     x[:, 2] = 50.0
     with pytest.raises(GapError, match='too short to hold out whole windows'):
         Problem(vehicle, from_arrays('short', t, x, _cmds(t)), window=60.0)
+
+
+def test_cluster_covariance_of_a_mean_by_hand() -> None:
+    """The mean of G equal clusters: CR2 is the classic variance of the mean of the cluster
+    means, sum (m_g - m)^2 / (G (G - 1)), and Bell-McCaffrey's degrees of freedom are G - 1;
+    a parameter informed by one cluster only gets the fewest (1)."""
+    from auv_ident.gap.fit import cluster_covariance
+    rng = np.random.default_rng(4)
+    G, n = 6, 40
+    y = rng.standard_normal(G * n) + np.repeat(rng.standard_normal(G), n)
+    clusters = np.repeat(np.arange(G), n)
+    J = np.ones((G * n, 1))
+    r = y - y.mean()
+    V, df = cluster_covariance(J, r, clusters)
+    means = y.reshape(G, n).mean(axis=1)
+    assert V[0, 0] == pytest.approx(np.sum((means - means.mean()) ** 2) / (G * (G - 1)),
+                                    rel=1e-9)
+    assert df[0] == pytest.approx(G - 1, rel=1e-9)
+    # a slope informed (almost) by one cluster: its x is 10 times larger there. Its
+    # variance rests on one cluster's residuals: about 1 degree of freedom, against about
+    # G - 1 when every cluster informs it alike
+    for spread, lo, hi in ((1.0, G - 2.0, G - 1.0), (0.1, 1.0, 1.5)):
+        x = rng.standard_normal(G * n) * np.where(clusters == 2, 1.0, spread)
+        _, df2 = cluster_covariance(np.column_stack([J[:, 0], x]), r, clusters)
+        assert lo <= df2[1] <= hi + 1e-9, (spread, df2)

@@ -1,11 +1,19 @@
 """The water and the departures of a real vehicle from its model: currents and effects.
 
 An :class:`Environment` is what the simulator adds to the vehicle file: ocean current
-(constant, a depth profile, an oscillation in time) and any effect of the sim-to-real
-catalogue (buoyancy error, buoyancy changing with depth, actuator delay, lag, rate limit,
-plane bias, cross-flow drag, centre-of-gravity offset, sensor biases). It is loaded from a
-YAML file (``effects:`` mapping, see ``config/effects/*.yaml``) so that "real" logs can be made
-whose effect a diagnosis is not told. Units: SI, radians; currents in NED [m/s].
+(constant, a linear shear with depth, a linear drift in time, a depth profile, an oscillation
+in time) and any effect of the sim-to-real catalogue (buoyancy error, buoyancy changing with
+depth, actuator delay, lag, rate limit, plane bias, cross-flow drag, centre-of-gravity offset,
+added-mass error, the model's own coefficients off, plane effectiveness, thrust error, depth
+and pitch sensor bias, scale and latency). It is loaded from a YAML file (``effects:``
+mapping, see ``config/effects/*.yaml``) so that "real" logs can be made whose effect a
+diagnosis is not told. Units: SI, radians; currents in NED [m/s].
+
+:data:`EFFECT_FIELDS` is the one registry of effects: names, fields, units and the value
+meaning "absent". The simulator implements them here; the gap diagnosis's catalogue
+(:mod:`auv_ident.gap.catalogue`) declares its effects against the same registry and
+implements them apart, so a test that makes a log with one and explains it with the other
+compares two implementations of one declared effect.
 """
 from __future__ import annotations
 
@@ -22,8 +30,11 @@ from auv_sim.errors import ParameterError
 from auv_sim.model import (
     E_BARBIAS,
     E_BCOMP,
+    E_DRIFT,
     E_MQQ,
     E_NRR,
+    E_SHEAR,
+    E_TGAIN,
     E_VAMP,
     E_VC,
     E_VPER,
@@ -33,9 +44,15 @@ from auv_sim.model import (
 )
 from auv_sim.params import VehicleParams
 
-# effect name -> {field: (unit, default)}
+#: The model's own coefficients an effect can scale (factor on the vehicle file's value).
+COEFFICIENT_FIELDS = ('CZuw', 'CMuw', 'CZuq', 'CMuq', 'CZbar', 'CMbar', 'Ksh')
+_FACTOR = 'x file value'
+
+#: The registry: effect name -> {field: (unit, value meaning "absent")}.
 EFFECT_FIELDS: dict[str, dict[str, tuple[str, float]]] = {
     'current': {'north': ('m/s', 0.0), 'east': ('m/s', 0.0), 'down': ('m/s', 0.0)},
+    'current_shear': {'north': ('1/s', 0.0), 'east': ('1/s', 0.0)},
+    'current_drift': {'north': ('m/s^2', 0.0), 'east': ('m/s^2', 0.0)},
     'current_oscillation': {'north': ('m/s', 0.0), 'east': ('m/s', 0.0),
                             'down': ('m/s', 0.0), 'period': ('s', 0.0)},
     'buoyancy_offset': {'dB': ('N', 0.0)},
@@ -47,9 +64,39 @@ EFFECT_FIELDS: dict[str, dict[str, tuple[str, float]]] = {
     'crossflow_drag': {'Zww': ('kg/m', 0.0), 'Mqq': ('kg m^2', 0.0),
                        'Yvv': ('kg/m', 0.0), 'Nrr': ('kg m^2', 0.0)},
     'cg_offset': {'dxg': ('m', 0.0), 'dzg': ('m', 0.0)},
+    'added_mass': {'Zwdot': (_FACTOR, 1.0), 'Mqdot': (_FACTOR, 1.0)},
+    'coefficients': {k: (_FACTOR, 1.0) for k in COEFFICIENT_FIELDS},
+    'plane_effectiveness': {'gain': ('-', 1.0)},
+    'thrust_error': {'gain': ('-', 1.0)},
     'depth_sensor_bias': {'bias': ('m', 0.0)},
+    'depth_sensor_scale': {'scale': ('-', 1.0)},
+    'depth_sensor_latency': {'latency': ('s', 0.0)},
     'pitch_sensor_bias': {'bias': ('rad', 0.0)},
+    'pitch_sensor_scale': {'scale': ('-', 1.0)},
+    'pitch_sensor_latency': {'latency': ('s', 0.0)},
 }
+#: Effects the simulator implements (an effect declared later with :func:`declare_effect`
+#: is known to the registry but not simulated).
+SIMULATED: frozenset[str] = frozenset(EFFECT_FIELDS)
+
+
+def declare_effect(name: str, fields: dict[str, tuple[str, float]]) -> None:
+    """Declare a new effect (a plug-in of the gap catalogue) in the registry: its fields with
+    ``(unit, value meaning "absent")``. The simulator does not implement it (an effects file
+    naming it is an error); ParameterError if the name is taken or a field is malformed."""
+    if not name or name in EFFECT_FIELDS:
+        raise ParameterError(f'effect {name!r} is empty or declared already')
+    for key, spec in fields.items():
+        if not (isinstance(spec, tuple) and len(spec) == 2 and isinstance(spec[0], str)
+                and isinstance(spec[1], float)):
+            raise ParameterError(f'effect {name!r}: field {key!r} must be (unit, absent)')
+    EFFECT_FIELDS[name] = dict(fields)
+
+
+def undeclare_effect(name: str) -> None:
+    """Remove an effect declared with :func:`declare_effect` (the simulated ones stay)."""
+    if name not in SIMULATED:
+        EFFECT_FIELDS.pop(name, None)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -66,9 +113,20 @@ class Environment:
         return self.effects.get(effect, {}).get(name, EFFECT_FIELDS[effect][name][1])
 
     def apply_to(self, params: VehicleParams) -> VehicleParams:
-        """The vehicle as it really is: parameters changed by buoyancy, lag, rate and CG
-        effects."""
+        """The vehicle as it really is: parameters changed by buoyancy, lag, rate, CG,
+        added-mass, coefficient and plane-effectiveness effects (factors multiply the file's
+        value)."""
         changes: dict[str, float] = {}
+        for effect, fields in (('added_mass', ('Zwdot', 'Mqdot')),
+                               ('coefficients', COEFFICIENT_FIELDS)):
+            for key in fields:
+                factor = self.field(effect, key)
+                if factor != 1.0:
+                    changes[key] = factor * float(getattr(params, key))
+        gain = self.field('plane_effectiveness', 'gain')
+        if gain != 1.0:
+            for key in ('CZbar', 'CMbar'):
+                changes[key] = gain * changes.get(key, float(getattr(params, key)))
         if 'buoyancy_offset' in self.effects:
             changes['B'] = params.B + self.field('buoyancy_offset', 'dB')
         if 'cg_offset' in self.effects:
@@ -97,6 +155,9 @@ class Environment:
         env[E_MQQ] = self.field('crossflow_drag', 'Mqq')
         env[E_YVV] = self.field('crossflow_drag', 'Yvv')
         env[E_NRR] = self.field('crossflow_drag', 'Nrr')
+        env[E_SHEAR:E_SHEAR + 2] = [self.field('current_shear', k) for k in ('north', 'east')]
+        env[E_DRIFT:E_DRIFT + 2] = [self.field('current_drift', k) for k in ('north', 'east')]
+        env[E_TGAIN] = self.field('thrust_error', 'gain') - 1.0
         return env
 
     def profile(self) -> np.ndarray:
@@ -111,6 +172,68 @@ class Environment:
     def sensor_bias(self) -> tuple[float, float]:
         """Biases added to the measured depth [m] and pitch [rad]."""
         return (self.field('depth_sensor_bias', 'bias'), self.field('pitch_sensor_bias', 'bias'))
+
+    def sensors(self) -> Sensors:
+        """A fresh depth and pitch sensor model of this environment (see :class:`Sensors`)."""
+        return Sensors(
+            scale=(self.field('depth_sensor_scale', 'scale'),
+                   self.field('pitch_sensor_scale', 'scale')),
+            latency=(self.field('depth_sensor_latency', 'latency'),
+                     self.field('pitch_sensor_latency', 'latency')),
+            bias=self.sensor_bias())
+
+
+#: State indices the sensor model changes: depth z [m] and pitch theta [rad].
+SENSED = (2, 4)
+
+
+class Sensors:
+    """The depth sensor and the attitude sensor's pitch, as the vehicle reads them::
+
+        reading(t) = scale * true(t - latency) + bias
+
+    for depth z [m] and pitch theta [rad] (the other states are read exactly). A latency is
+    served from the history of the states this model was asked to measure, linearly
+    interpolated between them (exact for a state that varies linearly between two
+    measurements); before the first measurement the state is taken as it was then. Call
+    :meth:`measure` at every sample with a non-decreasing time.
+    """
+
+    def __init__(self, scale: tuple[float, float] = (1.0, 1.0),
+                 latency: tuple[float, float] = (0.0, 0.0),
+                 bias: tuple[float, float] = (0.0, 0.0)) -> None:
+        if any(v < 0.0 or not math.isfinite(v) for v in latency):
+            raise ParameterError(f'sensor latencies must be finite and >= 0, got {latency}')
+        self.scale = np.array(scale, dtype=np.float64)
+        self.latency = np.array(latency, dtype=np.float64)
+        self.bias = np.array(bias, dtype=np.float64)
+        self._keep = float(self.latency.max())
+        self._t: list[float] = []
+        self._v: list[np.ndarray] = []
+
+    def measure(self, t: float, x: np.ndarray) -> np.ndarray:
+        """The state ``x`` (12 or 15, true, at time ``t`` [s]) as the sensors read it."""
+        out = np.array(x, dtype=np.float64)
+        true = out[list(SENSED)].copy()
+        if self._keep > 0.0:
+            if self._t and t < self._t[-1]:
+                raise ParameterError(f'sensor time went back from {self._t[-1]} to {t} s')
+            if self._t and t == self._t[-1]:
+                self._v[-1] = true.copy()
+            else:
+                self._t.append(float(t))
+                self._v.append(true.copy())
+            # drop what no later reading can need (keep one sample at or before t - latency)
+            while len(self._t) > 2 and self._t[1] <= t - self._keep:
+                del self._t[0]
+                del self._v[0]
+            times = np.array(self._t)
+            values = np.array(self._v)
+            for k in range(len(SENSED)):
+                if self.latency[k] > 0.0:
+                    true[k] = np.interp(t - self.latency[k], times, values[:, k])
+        out[list(SENSED)] = self.scale * true + self.bias
+        return out
 
 
 def parse_environment(doc: Any, where: str = '<memory>') -> Environment:
@@ -139,8 +262,12 @@ def parse_environment(doc: Any, where: str = '<memory>') -> Environment:
                     or not math.isfinite(value):
                 raise ParameterError(f'{where}: {name}.{key} = {value!r} is not a finite number')
             parsed[key] = float(value)
-        if name == 'actuator_delay' and any(v < 0 for v in parsed.values()):
-            raise ParameterError(f'{where}: actuator_delay values must be >= 0')
+        if name not in SIMULATED:
+            raise ParameterError(f'{where}: effect {name!r} is declared but the simulator '
+                                 'does not implement it')
+        if name in ('actuator_delay', 'depth_sensor_latency', 'pitch_sensor_latency') \
+                and any(v < 0 for v in parsed.values()):
+            raise ParameterError(f'{where}: {name} values must be >= 0')
         if name == 'current_oscillation' and parsed.get('period', 0.0) < 0:
             raise ParameterError(f'{where}: current_oscillation.period must be >= 0')
         effects[name] = parsed

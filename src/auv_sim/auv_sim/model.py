@@ -57,7 +57,10 @@ E_VPER = 6          # its period [s] (0: none)
 E_BCOMP = 7         # buoyancy change with depth: B(z) = B (1 + k z) [1/m]
 E_BARBIAS = 8       # dive-plane bias added to the BAR angle [rad]
 E_ZWW, E_MQQ, E_YVV, E_NRR = 9, 10, 11, 12  # cross-flow drag [kg/m], [kg m^2]
-ENV_SIZE = 13
+E_SHEAR = 13        # 13..14 linear current shear: d(v_n, v_e)/dz [1/s], zero at the surface
+E_DRIFT = 15        # 15..16 linear current drift in time: d(v_n, v_e)/dt [m/s^2] from t = 0
+E_TGAIN = 17        # propeller thrust error: force = (1 + e) x thrust position [-]
+ENV_SIZE = 18
 
 NX = 15
 STATE_NAMES = ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r',
@@ -107,14 +110,18 @@ def rotation(cph, sph, cth, sth, cps, sps):  # type: ignore[no-untyped-def]
 def current_ned(t, z, env, prof):  # type: ignore[no-untyped-def]
     """Water current at depth z [m] and time t [s]: (v_n, v_e, v_d, dv/dz (3), dv/dt (3)).
 
-    The sum of a constant current, a piecewise-linear depth profile (``prof`` rows
-    ``z, v_n, v_e, v_d``, held constant outside its depth range) and a sinusoid in time.
+    The sum of a constant current, a linear shear ``s z`` (``env[E_SHEAR:E_SHEAR+2]``, north
+    and east, zero at the surface), a linear drift in time ``d t`` (``env[E_DRIFT:E_DRIFT+2]``),
+    a piecewise-linear depth profile (``prof`` rows ``z, v_n, v_e, v_d``, held constant outside
+    its depth range) and a sinusoid in time.
     """
-    vn = env[E_VC] + 0.0 * z
-    ve = env[E_VC + 1] + 0.0 * z
+    shn = env[E_SHEAR]
+    she = env[E_SHEAR + 1]
+    vn = env[E_VC] + shn * z + env[E_DRIFT] * t
+    ve = env[E_VC + 1] + she * z + env[E_DRIFT + 1] * t
     vd = env[E_VC + 2] + 0.0 * z
-    gn = 0.0 * z
-    ge = 0.0 * z
+    gn = shn + 0.0 * z
+    ge = she + 0.0 * z
     gd = 0.0 * z
     k = prof.shape[0]
     if k == 1:
@@ -136,15 +143,18 @@ def current_ned(t, z, env, prof):  # type: ignore[no-untyped-def]
             while prof[i + 1, 0] < zr:
                 i += 1
             dz = prof[i + 1, 0] - prof[i, 0]
-            gn = gn + (prof[i + 1, 1] - prof[i, 1]) / dz
-            ge = ge + (prof[i + 1, 2] - prof[i, 2]) / dz
-            gd = gd + (prof[i + 1, 3] - prof[i, 3]) / dz
+            pn = (prof[i + 1, 1] - prof[i, 1]) / dz
+            pe = (prof[i + 1, 2] - prof[i, 2]) / dz
+            pd = (prof[i + 1, 3] - prof[i, 3]) / dz
             s = z - prof[i, 0]
-            vn += prof[i, 1] + gn * s
-            ve += prof[i, 2] + ge * s
-            vd += prof[i, 3] + gd * s
-    tn = 0.0
-    te = 0.0
+            vn += prof[i, 1] + pn * s
+            ve += prof[i, 2] + pe * s
+            vd += prof[i, 3] + pd * s
+            gn = gn + pn
+            ge = ge + pe
+            gd = gd + pd
+    tn = env[E_DRIFT]
+    te = env[E_DRIFT + 1]
     td = 0.0
     if env[E_VPER] > 0.0:
         om = 2.0 * np.pi / env[E_VPER]
@@ -153,9 +163,9 @@ def current_ned(t, z, env, prof):  # type: ignore[no-untyped-def]
         vn += env[E_VAMP] * sn
         ve += env[E_VAMP + 1] * sn
         vd += env[E_VAMP + 2] * sn
-        tn = env[E_VAMP] * om * cs
-        te = env[E_VAMP + 1] * om * cs
-        td = env[E_VAMP + 2] * om * cs
+        tn += env[E_VAMP] * om * cs
+        te += env[E_VAMP + 1] * om * cs
+        td += env[E_VAMP + 2] * om * cs
     return vn, ve, vd, gn, ge, gd, tn, te, td
 
 
@@ -223,7 +233,8 @@ def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
     coefficients, the environment's cross-flow drag added to ``Yvv``, ``Zww``, ``Mqq``,
     ``Nrr``), Coriolis (rigid-body with
     ``nu``, added-mass with ``nu_r``, plus ``M_A nu_c_dot`` of a varying current), restoring
-    (weight and buoyancy), actuators (BAR, helm, propeller). Their sum is ``M nu_dot``.
+    (weight and buoyancy), actuators (BAR, helm, propeller; the thrust times ``1 + env[E_TGAIN]``).
+    Their sum is ``M nu_dot``.
     Returns the attitude's (cos phi, sin phi, cos theta, sin theta, cos psi, sin psi).
     """
     rho = P[I_RHO]
@@ -358,7 +369,7 @@ def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
     bar = x[12] + env[E_BARBIAS]
     helm = x[13]
     dyn = qs * ur * aur
-    out[3, 0] = x[14]
+    out[3, 0] = x[14] * (1.0 + env[E_TGAIN])
     out[3, 1] = dyn * P[I_CYHELM] * helm
     out[3, 2] = dyn * P[I_CZBAR] * bar
     out[3, 3] = 0.0 * dyn
@@ -441,6 +452,94 @@ def actuator_dynamics(t, x, cmd, P, env, prof, xdot, work):  # type: ignore[no-u
     actuator_rates(x, cmd, P, xdot)
 
 
+#: Basis functions of an extra body wrench ``sum_j phi_j(x) C[j, :]`` [N, N m] (model errors a
+#: diagnosis fits against a log; :func:`extra_basis`), dimension per row:
+EXTRA_BASIS = (
+    'one',                      # 1
+    'gx', 'gy', 'gz',           # gravity direction in body FRD: (-s_th, c_th s_ph, c_th c_ph)
+    'z_gx', 'z_gy', 'z_gz',     # depth [m] times the gravity direction
+    'ur|ur|',                   # [m^2/s^2], surge speed through the water
+    'wr|wr|', 'q|q|', 'vr|vr|', 'r|r|',  # cross-flow quadratic terms
+    'ur wr', 'ur q',            # [m^2/s^2], [m/s^2]: the model's own heave/pitch damping terms
+    'ur|ur| bar',               # [m^2/s^2 rad]: the dive plane's lift (plane position x[12])
+    'thrust',                   # [N]: the propeller's thrust (position x[14])
+    'surge_drag/Ksh',           # [N]: the model's surge drag per unit of its Ksh
+)
+NB_EXTRA = len(EXTRA_BASIS)
+
+
+@njit(cache=True)
+def extra_basis(t, x, P, env, prof, surge_drag, phi):  # type: ignore[no-untyped-def]
+    """Fill ``phi`` (:data:`NB_EXTRA`) at time ``t`` [s] and state ``x`` (over ground) in the
+    water of ``env``/``prof``; ``surge_drag`` [N] is the model's hydrodynamic surge force
+    (``wrenches`` row 0, axis X)."""
+    vcn, vce, vcd, _, _, _, _, _, _ = current_ned(t, x[2], env, prof)
+    cph = np.cos(x[3])
+    sph = np.sin(x[3])
+    cth = np.cos(x[4])
+    sth = np.sin(x[4])
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation(
+        cph, sph, cth, sth, np.cos(x[5]), np.sin(x[5]))
+    ur = x[6] - (r00 * vcn + r10 * vce + r20 * vcd)
+    vr = x[7] - (r01 * vcn + r11 * vce + r21 * vcd)
+    wr = x[8] - (r02 * vcn + r12 * vce + r22 * vcd)
+    gx = -sth
+    gy = cth * sph
+    gz = cth * cph
+    z = x[2]
+    phi[0] = 1.0
+    phi[1] = gx
+    phi[2] = gy
+    phi[3] = gz
+    phi[4] = z * gx
+    phi[5] = z * gy
+    phi[6] = z * gz
+    phi[7] = ur * abs(ur)
+    phi[8] = wr * abs(wr)
+    phi[9] = x[10] * abs(x[10])
+    phi[10] = vr * abs(vr)
+    phi[11] = x[11] * abs(x[11])
+    phi[12] = ur * wr
+    phi[13] = ur * x[10]
+    phi[14] = ur * abs(ur) * x[12]
+    phi[15] = x[14]
+    phi[16] = surge_drag / P[I_KSH] if P[I_KSH] != 0.0 else 0.0
+
+
+@njit(cache=True)
+def extra_wrench(t, x, P, env, prof, C, work, phi, tau):  # type: ignore[no-untyped-def]
+    """Total body wrench ``tau`` (6) [N, N m] at time ``t`` and state ``x``: the sum of
+    :func:`wrenches` (left in ``work``) and the extra wrench ``phi(x)^T C``; returns the
+    attitude's cosines and sines as :func:`wrenches`."""
+    trig = wrenches(t, x, P, env, prof, work)
+    extra_basis(t, x, P, env, prof, work[0, 0], phi)
+    for i in range(6):
+        acc = work[0, i] + work[1, i] + work[2, i] + work[3, i]
+        for j in range(NB_EXTRA):
+            acc += phi[j] * C[j, i]
+        tau[i] = acc
+    return trig
+
+
+@njit(cache=True)
+def dynamics_extra(t, x, P, env, prof, C, xdot, work, scratch):  # type: ignore
+    """:func:`dynamics` with the extra wrench ``phi(x)^T C`` added and the actuators held
+    (``xdot[12:15] = 0``: their positions are prescribed by the caller); ``scratch`` holds
+    NB_EXTRA + 6 numbers."""
+    phi = scratch[:NB_EXTRA]
+    tau = scratch[NB_EXTRA:]
+    cph, sph, cth, sth, cps, sps = extra_wrench(t, x, P, env, prof, C, work, phi, tau)
+    _kinematics(x, xdot, cph, sph, cth, sth, cps, sps)
+    for i in range(6):
+        acc = 0.0 * x[0]
+        for j in range(6):
+            acc += P[I_MINV + 6 * i + j] * tau[j]
+        xdot[6 + i] = acc
+    xdot[12] = 0.0 * x[12]
+    xdot[13] = 0.0 * x[13]
+    xdot[14] = 0.0 * x[14]
+
+
 @njit(cache=True)
 def surge_held_dynamics(t, x, cmd, P, env, prof, xdot, work):  # type: ignore[no-untyped-def]
     """:func:`dynamics` with the surge speed held by a perfect speed loop: ``u_dot = 0``.
@@ -457,18 +556,26 @@ def surge_held_dynamics(t, x, cmd, P, env, prof, xdot, work):  # type: ignore[no
         xdot[6 + i] -= P[I_MINV + 6 * i] * a
 
 
-#: Right-hand sides of :func:`_rk4`: the vehicle (:func:`dynamics`), the actuators alone
-#: (:func:`actuator_dynamics`), the vehicle at a held surge speed (:func:`surge_held_dynamics`).
-RHS_VEHICLE, RHS_ACTUATORS, RHS_SURGE_HELD = 0, 1, 2
+#: Integration modes of :func:`_rk4` (compile-time constants).
+MODE_ACTUATORS, MODE_VEHICLE, MODE_PRESCRIBED, MODE_SURGE_HELD = 0, 1, 2, 3
+_NO_C = np.zeros((1, 6))
+_NO_ACT = np.zeros((1, 3))
 
 
 @njit(cache=True)
-def _rk4(t0, x, cmd, P, env, prof, dt, nsteps, rhs):  # type: ignore[no-untyped-def]
-    """Classic RK4 of the right-hand side ``rhs`` (``RHS_*``); returns as :func:`rk4_steps`.
-    ``rhs`` is a compile-time constant: one specialisation each, the other branches pruned
-    (a run-time branch costs the vehicle 30 % in speed). The stages have the dtype of ``x``:
-    a complex state (complex-step derivatives) is integrated in complex arithmetic."""
-    literally(rhs)
+def _rk4(t0, x, cmd, P, env, prof, dt, nsteps, mode, C, act, f0):  # type: ignore
+    """Classic RK4, the one integrator of the model; returns as :func:`rk4_steps`.
+
+    ``mode`` (a compile-time constant: one specialisation each, the other branches pruned; a
+    run-time branch costs the vehicle 30 % in speed) chooses the right-hand side:
+    :data:`MODE_VEHICLE` :func:`dynamics`, :data:`MODE_ACTUATORS` :func:`actuator_dynamics`,
+    :data:`MODE_PRESCRIBED` :func:`dynamics_extra` with the actuator positions read at each
+    stage from ``act`` (rows ``f0 + 2 s``, ``+ 1``, ``+ 2`` for step ``s``: a grid of half
+    steps) and the extra wrench of ``C``; ``cmd`` is then unused; :data:`MODE_SURGE_HELD`
+    :func:`surge_held_dynamics`. The stages have the dtype of ``x``: a complex state
+    (complex-step derivatives) is integrated in complex arithmetic.
+    """
+    literally(mode)
     n = x.shape[0]
     k1 = np.empty_like(x)
     k2 = np.empty_like(x)
@@ -476,38 +583,59 @@ def _rk4(t0, x, cmd, P, env, prof, dt, nsteps, rhs):  # type: ignore[no-untyped-
     k4 = np.empty_like(x)
     xt = np.empty_like(x)
     work = np.zeros((4, 6)) + 0.0 * x[0]
+    scratch = np.zeros(NB_EXTRA + 6) + 0.0 * x[0]
     for s in range(nsteps):
         t = t0 + s * dt
-        if rhs == RHS_VEHICLE:
+        if mode == 2:
+            for i in range(3):
+                x[12 + i] = act[f0 + 2 * s, i]
+        if mode == 3:
+            surge_held_dynamics(t, x, cmd, P, env, prof, k1, work)
+        elif mode == 1:
             dynamics(t, x, cmd, P, env, prof, k1, work)
-        elif rhs == RHS_ACTUATORS:
+        elif mode == 0:
             actuator_dynamics(t, x, cmd, P, env, prof, k1, work)
         else:
-            surge_held_dynamics(t, x, cmd, P, env, prof, k1, work)
+            dynamics_extra(t, x, P, env, prof, C, k1, work, scratch)
         for i in range(n):
             xt[i] = x[i] + 0.5 * dt * k1[i]
-        if rhs == RHS_VEHICLE:
+        if mode == 2:
+            for i in range(3):
+                xt[12 + i] = act[f0 + 2 * s + 1, i]
+        if mode == 3:
+            surge_held_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
+        elif mode == 1:
             dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
-        elif rhs == RHS_ACTUATORS:
+        elif mode == 0:
             actuator_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
         else:
-            surge_held_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
+            dynamics_extra(t + 0.5 * dt, xt, P, env, prof, C, k2, work, scratch)
         for i in range(n):
             xt[i] = x[i] + 0.5 * dt * k2[i]
-        if rhs == RHS_VEHICLE:
+        if mode == 2:
+            for i in range(3):
+                xt[12 + i] = act[f0 + 2 * s + 1, i]
+        if mode == 3:
+            surge_held_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
+        elif mode == 1:
             dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
-        elif rhs == RHS_ACTUATORS:
+        elif mode == 0:
             actuator_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
         else:
-            surge_held_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
+            dynamics_extra(t + 0.5 * dt, xt, P, env, prof, C, k3, work, scratch)
         for i in range(n):
             xt[i] = x[i] + dt * k3[i]
-        if rhs == RHS_VEHICLE:
+        if mode == 2:
+            for i in range(3):
+                xt[12 + i] = act[f0 + 2 * s + 2, i]
+        if mode == 3:
+            surge_held_dynamics(t + dt, xt, cmd, P, env, prof, k4, work)
+        elif mode == 1:
             dynamics(t + dt, xt, cmd, P, env, prof, k4, work)
-        elif rhs == RHS_ACTUATORS:
+        elif mode == 0:
             actuator_dynamics(t + dt, xt, cmd, P, env, prof, k4, work)
         else:
-            surge_held_dynamics(t + dt, xt, cmd, P, env, prof, k4, work)
+            dynamics_extra(t + dt, xt, P, env, prof, C, k4, work, scratch)
         ok = True
         for i in range(n):
             xt[i] = x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
@@ -517,6 +645,9 @@ def _rk4(t0, x, cmd, P, env, prof, dt, nsteps, rhs):  # type: ignore[no-untyped-
             return s
         for i in range(n):
             x[i] = xt[i]
+        if mode == 2:
+            for i in range(3):
+                x[12 + i] = act[f0 + 2 * s + 2, i]
     return -1
 
 
@@ -527,7 +658,19 @@ def rk4_steps(t0, x, cmd, P, env, prof, dt, nsteps):  # type: ignore[no-untyped-
     Returns -1 on success, else the index of the first step whose result is non-finite
     (``x`` then holds the last finite state).
     """
-    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, RHS_VEHICLE)
+    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, 1, _NO_C, _NO_ACT, 0)
+
+
+@njit(cache=True)
+def rk4_prescribed(t0, x, P, env, prof, dt, nsteps, C, act, f0):  # type: ignore
+    """Advance the vehicle ``x`` (15) in place by ``nsteps`` RK4 steps of ``dt`` [s] from
+    ``t0`` [s] with its actuator positions prescribed (BAR, helm [rad], thrust [N]: rows
+    ``act[f0 + j]`` at ``t0 + j dt / 2``, a grid of half steps; ``x[12:15]`` ends at row
+    ``f0 + 2 nsteps``) and the extra wrench ``phi(x)^T C`` (:func:`extra_basis`, ``C``
+    NB_EXTRA x 6) added: the model a diagnosis runs against a log. Returns as
+    :func:`rk4_steps`."""
+    cmd = np.zeros(3)
+    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, 2, C, act, f0)
 
 
 @njit(cache=True)
@@ -539,7 +682,7 @@ def actuator_steps(x, cmd, P, dt, nsteps):  # type: ignore[no-untyped-def]
     not depend on the vehicle states). Returns as :func:`rk4_steps`."""
     env = np.zeros(ENV_SIZE)
     prof = np.zeros((0, 4))
-    return _rk4(0.0, x, cmd, P, env, prof, dt, nsteps, RHS_ACTUATORS)
+    return _rk4(0.0, x, cmd, P, env, prof, dt, nsteps, 0, _NO_C, _NO_ACT, 0)
 
 
 @njit(cache=True)
@@ -547,7 +690,7 @@ def surge_held_steps(t0, x, cmd, P, env, prof, dt, nsteps):  # type: ignore[no-u
     """:func:`rk4_steps` of :func:`surge_held_dynamics` (the surge speed ``x[6]`` held by a
     perfect speed loop). ``x`` may be complex (complex-step derivatives). Returns as
     :func:`rk4_steps`."""
-    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, RHS_SURGE_HELD)
+    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, 3, _NO_C, _NO_ACT, 0)
 
 
 @njit(cache=True)

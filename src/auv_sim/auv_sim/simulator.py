@@ -73,7 +73,7 @@ class Simulator:
         self._delays = self.environment.delays()
         self._pending: list[collections.deque[tuple[int, float]]] = [
             collections.deque() for _ in CHANNELS]
-        self._bias_z, self._bias_theta = self.environment.sensor_bias()
+        self._sensors = self.environment.sensors()
 
     @property
     def t(self) -> float:
@@ -151,11 +151,10 @@ class Simulator:
         self._apply_due()
 
     def measured_state(self) -> np.ndarray:
-        """The state as the vehicle's sensors report it (depth and pitch biases added)."""
-        x = self.x.copy()
-        x[2] += self._bias_z
-        x[4] += self._bias_theta
-        return x
+        """The state as the vehicle's sensors report it: depth and pitch with the
+        environment's sensor scale, latency and bias (:class:`auv_sim.environment.Sensors`;
+        call once per sample, time non-decreasing)."""
+        return self._sensors.measure(self.t, self.x)
 
     def wrenches(self) -> np.ndarray:
         """Force breakdown (4 x 6) at the current state, rows as model.WRENCH_NAMES."""

@@ -6,24 +6,31 @@ manoeuvres that can tell it from other effects. How it changes the model is expr
 the primitives of :class:`Perturbation`, which the compiled free-run and equation-error
 kernels (:mod:`auv_ident.gap.kernel`) understand:
 
-* ``current`` (3): a constant water current in NED [m/s];
+* ``current`` (3): a water current in NED [m/s], with ``shear`` (2, north and east change per
+  metre of depth [1/s]) and ``drift`` (2, change per second from the start of the first log
+  [m/s^2]): the model's own environment vector;
 * ``C`` (NB x 6): an extra body-FRD wrench ``sum_j phi_j(x) C[j]`` [N, N m] over the basis
   functions of :data:`auv_ident.gap.kernel.BASIS_NAMES` (gravity direction, depth times
   gravity direction, quadratic speeds, ...);
+* ``factors``: factors on vehicle-file parameters (the mass matrix rebuilt with them);
 * ``delay``, ``tau``, ``rate`` (3 each, channels bar, helm, thrust): the actuator model
   driven by the logged commands (transport delay [s], first-order lag [s], rate limit
   [rad/s or N/s]);
-* ``bias`` (12): what the sensors add to the true state (eta, nu), SI units.
+* ``bias``, ``scale``, ``latency`` (12 each): the sensors read ``scale x(t - latency) + bias``
+  of the true state (eta, nu), SI units.
 
 The same perturbation drives the equation error (the model's wrench at the logged states)
 and the free run (the model integrated from a logged state), so an effect written once is
-fitted both ways. A new effect is a subclass registered with :func:`register`; nothing else
-changes. An effect that needs a primitive the kernels lack (a wrench that varies in time,
-say) is a change of the kernels, not of the diagnosis.
+fitted both ways. A new effect is declared in the one registry of effects
+(:func:`auv_sim.environment.declare_effect`: name, fields, units) and a subclass registered
+with :func:`register`, which checks it against the declaration; nothing else changes. An
+effect that needs a primitive the kernels lack is a change of the kernels, not of the
+diagnosis.
 
-These implementations are separate from the simulator's effect code
-(:mod:`auv_sim.environment`), which makes the synthetic logs: a test that makes the data
-with one and explains it with the other checks both.
+The effects are declared once, in :data:`auv_sim.environment.EFFECT_FIELDS`; their
+implementations here are separate from the simulator's (:mod:`auv_sim.environment`), which
+makes the synthetic logs: a test that makes the data with one and explains it with the other
+compares two implementations of one declared effect.
 """
 from __future__ import annotations
 
@@ -49,6 +56,8 @@ from auv_ident.gap.kernel import (
     B_ZG,
     NB,
 )
+from auv_sim.environment import EFFECT_FIELDS
+from auv_sim.model import E_DRIFT, E_SHEAR, E_VC, ENV_SIZE
 from auv_sim.params import VehicleParams
 
 #: Manoeuvres that separate effects, with what a user should fly. An effect's signature gives,
@@ -64,6 +73,9 @@ MANOEUVRES: dict[str, str] = {
                                          'one speed',
     'surface reference': 'a pass at the surface or a fix against a known depth (the '
                          'dynamics alone cannot see a constant depth offset)',
+    'repeated leg': 'the same straight leg at constant depth and speed flown at the start '
+                    'and at the end of the mission (an hour or more apart), in both '
+                    'directions',
 }
 
 
@@ -104,7 +116,15 @@ class Parameter:
 
 @dataclasses.dataclass
 class Perturbation:
-    """What a set of effects changes in the model (see module docstring); SI units."""
+    """What a set of effects changes in the model (see module docstring); SI units.
+
+    ``current`` (3) NED [m/s], ``shear`` (2) its north and east change per metre of depth
+    [1/s] (zero at the surface), ``drift`` (2) their change per second [m/s^2] from the start
+    of the first log; ``C`` (NB x 6) extra-wrench coefficients; ``delay``, ``tau``, ``rate``
+    (3: bar, helm, thrust) the actuator model; ``factors`` multiply vehicle-file parameters
+    (the mass matrix is rebuilt with them); the sensors read ``scale * x(t - latency) +
+    bias`` for each of the 12 states (``bias``, ``scale``, ``latency`` 12 each).
+    """
 
     current: np.ndarray
     C: np.ndarray
@@ -112,6 +132,11 @@ class Perturbation:
     tau: np.ndarray
     rate: np.ndarray
     bias: np.ndarray
+    shear: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(2))
+    drift: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(2))
+    scale: np.ndarray = dataclasses.field(default_factory=lambda: np.ones(12))
+    latency: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(12))
+    factors: dict[str, float] = dataclasses.field(default_factory=dict)
 
     @classmethod
     def nominal(cls, vehicle: VehicleParams) -> Perturbation:
@@ -120,6 +145,24 @@ class Perturbation:
                    tau=np.array([vehicle.bar_tau, vehicle.helm_tau, vehicle.thrust_tau]),
                    rate=np.array([vehicle.bar_rate, vehicle.helm_rate, math.inf]),
                    bias=np.zeros(12))
+
+    def env_vector(self) -> np.ndarray:
+        """The water of this perturbation as the model's environment vector
+        (:mod:`auv_sim.model`: constant current, shear, drift)."""
+        env = np.zeros(ENV_SIZE)
+        env[E_VC:E_VC + 3] = self.current
+        env[E_SHEAR:E_SHEAR + 2] = self.shear
+        env[E_DRIFT:E_DRIFT + 2] = self.drift
+        return env
+
+    def params_key(self) -> tuple[tuple[str, float], ...]:
+        """The parameter factors as a hashable key."""
+        return tuple(sorted(self.factors.items()))
+
+    @property
+    def sensors_exact(self) -> bool:
+        """No sensor scale or latency (a bias alone is applied by subtraction)."""
+        return bool(np.all(self.scale == 1.0) and np.all(self.latency == 0.0))
 
 
 class Effect:
@@ -159,8 +202,29 @@ def register(effect: Effect) -> Effect:
     unknown = set(effect.signature) - set(MANOEUVRES)
     if unknown:
         raise GapError(f'effect {effect.name}: unknown manoeuvre(s) {sorted(unknown)}')
+    check_declared(effect)
     CATALOGUE[effect.name] = effect
     return effect
+
+
+def check_declared(effect: Effect, vehicle: VehicleParams | None = None) -> None:
+    """GapError unless ``effect`` is declared in the one registry of effects
+    (:data:`auv_sim.environment.EFFECT_FIELDS`) and, given the ``vehicle`` its parameters
+    are sized for, each of its parameters is a declared field with the declared unit."""
+    fields = EFFECT_FIELDS.get(effect.name)
+    if fields is None:
+        raise GapError(f'effect {effect.name!r} is not declared in the effect registry '
+                       '(auv_sim.environment.EFFECT_FIELDS; declare_effect adds one)')
+    if vehicle is None:
+        return
+    for prm in effect.parameters(vehicle):
+        spec = fields.get(prm.name)
+        if spec is None:
+            raise GapError(f'effect {effect.name}: parameter {prm.name!r} is not a declared '
+                           f'field (fields: {", ".join(fields)})')
+        if spec[0] != prm.unit:
+            raise GapError(f'effect {effect.name}: parameter {prm.name} in {prm.unit!r}, '
+                           f'declared in {spec[0]!r}')
 
 
 def get_effect(name: str) -> Effect:
@@ -214,6 +278,26 @@ SRC_PLANE = ('fouling, damage and hull interference lower a fin\'s lift; a lift-
              'estimate may be low by a third: gain 0.3-1.5 (assumed)')
 SRC_THRUST = ('propeller thrust against the command: wear, fouling, a mis-set thrust map; '
               'gain 0.7-1.3 (assumed)')
+
+SRC_SHEAR = ('vertical shear of horizontal currents: 1e-3 to 1e-2 1/s in thermoclines and '
+             'tidal bottom layers; a sheared flow stays stable while N^2/S^2 > 1/4 (Miles '
+             '1961, Howard 1961), so S < 2N, and N reaches 0.02-0.03 1/s in strong '
+             'thermoclines (Thorpe 2005): |S| <= 0.05 1/s')
+SRC_DRIFT = ('a tidal stream changes at most by its amplitude times the tide\'s angular '
+             'frequency: 2.5 m/s x 2 pi / 12.42 h = 3.5e-4 m/s^2 for the M2 tide: '
+             '|dv/dt| <= 4e-4 m/s^2')
+SRC_ADDED_MASS = ('slender-body and strip-theory added masses of torpedo hulls agree with '
+                  'measurements to 10-30 % (Prestero 2001; Fossen 2011, ch. 6): factor '
+                  '0.5-2 (assumed)')
+SRC_DEPTH_SCALE = ('pressure to depth: sea-water density 1020-1030 kg/m^3 against the one '
+                   'assumed (+-0.5 %), a fresh-water setting in the sea (2.5 %), transducer '
+                   'gain 0.1-0.5 % of full scale: scale 0.95-1.05')
+SRC_DEPTH_LATENCY = ('pressure sensors are low-pass filtered and polled: latencies of tens to '
+                     'hundreds of ms; 1 s bounds a slow filter (assumed)')
+SRC_PITCH_SCALE = ('attitude scale errors of a mis-calibrated AHRS are a few per cent: '
+                   'scale 0.9-1.1 (assumed)')
+SRC_PITCH_LATENCY = ('AHRS filter and bus latencies: 10-100 ms; 0.5 s bounds a slow filter '
+                     '(assumed)')
 
 #: The largest cross-flow drag coefficient of the hull that is physically plausible.
 CROSSFLOW_CD_MAX = 1.2
@@ -487,7 +571,113 @@ class ThrustError(Effect):
         pert.C[B_THRUST, 0] += values[0] - 1.0
 
 
-for _effect in (Current(), BuoyancyOffset(), BuoyancyDepth(), ActuatorDelay(), ActuatorLag(),
-                ActuatorRateLimit(), BarBias(), CrossflowDrag(), CgOffset(), DepthSensorBias(),
-                PitchSensorBias(), Coefficients(), PlaneEffectiveness(), ThrustError()):
+class CurrentShear(Effect):
+    name = 'current_shear'
+    description = ('a current that changes linearly with depth: north and east components '
+                   'grow by S [1/s] per metre of depth (zero at the surface; with `current`, '
+                   'v = v0 + S z)')
+    equations = ('surge', 'heave', 'pitch', 'sway', 'yaw')
+    signature = {'depth excursion': 1.0, 'heading change': 1.0, 'speed change': 0.0}
+
+    def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
+        return (Parameter('north', '1/s', -0.1, 0.1, 0.0, 1e-3, (-0.05, 0.05), SRC_SHEAR),
+                Parameter('east', '1/s', -0.1, 0.1, 0.0, 1e-3, (-0.05, 0.05), SRC_SHEAR))
+
+    def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
+        pert.shear += values[:2]
+
+
+class CurrentDrift(Effect):
+    name = 'current_drift'
+    description = ('a current that drifts linearly in time over the mission (a tide): north '
+                   'and east components change by D [m/s^2], zero at the start of the first '
+                   'log (with `current`, v = v0 + D t)')
+    equations = ('surge', 'heave', 'pitch', 'sway', 'yaw')
+    signature = {'repeated leg': 1.0, 'heading change': 1.0, 'speed change': 0.0}
+
+    def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
+        return (Parameter('north', 'm/s^2', -2e-3, 2e-3, 0.0, 1e-5, (-4e-4, 4e-4), SRC_DRIFT),
+                Parameter('east', 'm/s^2', -2e-3, 2e-3, 0.0, 1e-5, (-4e-4, 4e-4), SRC_DRIFT))
+
+    def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
+        pert.drift += values[:2]
+
+
+class AddedMass(Effect):
+    name = 'added_mass'
+    description = ("the heave and pitch added masses are a factor times the file's (Zwdot, "
+                   'Mqdot): inertia and the added-mass Coriolis (Munk) terms change together')
+    equations = ('heave', 'pitch')
+    signature = {'plane doublets of several periods': 2.0, 'speed change': 1.0,
+                 'plane steps of several sizes': 0.0}
+
+    def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
+        return (Parameter('Zwdot', 'x file value', 0.2, 4.0, 1.0, 0.05, (0.5, 2.0),
+                          SRC_ADDED_MASS),
+                Parameter('Mqdot', 'x file value', 0.2, 4.0, 1.0, 0.05, (0.5, 2.0),
+                          SRC_ADDED_MASS))
+
+    def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
+        for key, value in zip(('Zwdot', 'Mqdot'), values):
+            if value != 1.0:
+                pert.factors[key] = pert.factors.get(key, 1.0) * float(value)
+
+
+class DepthSensorScale(Effect):
+    name = 'depth_sensor_scale'
+    description = 'the depth sensor reads a scale times the true depth'
+    equations = ('depth kinematics',)
+    signature = {'depth excursion': 1.0, 'surface reference': 1.0}
+
+    def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
+        return (Parameter('scale', '-', 0.8, 1.25, 1.0, 0.002, (0.95, 1.05), SRC_DEPTH_SCALE),)
+
+    def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
+        pert.scale[2] *= values[0]
+
+
+class DepthSensorLatency(Effect):
+    name = 'depth_sensor_latency'
+    description = 'the depth sensor reads the depth of a latency (s) ago'
+    equations = ('depth kinematics',)
+    signature = {'plane doublets of several periods': 1.0, 'depth excursion': 0.0}
+
+    def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
+        return (Parameter('latency', 's', 0.0, 3.0, 0.0, 0.05, (0.0, 1.0), SRC_DEPTH_LATENCY),)
+
+    def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
+        pert.latency[2] += values[0]
+
+
+class PitchSensorScale(Effect):
+    name = 'pitch_sensor_scale'
+    description = 'the attitude sensor reads a scale times the true pitch'
+    equations = ('depth kinematics', 'pitch')
+    signature = {'plane steps of several sizes': 1.0, 'depth excursion': 1.0}
+
+    def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
+        return (Parameter('scale', '-', 0.5, 1.5, 1.0, 0.01, (0.9, 1.1), SRC_PITCH_SCALE),)
+
+    def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
+        pert.scale[4] *= values[0]
+
+
+class PitchSensorLatency(Effect):
+    name = 'pitch_sensor_latency'
+    description = 'the attitude sensor reads the pitch of a latency (s) ago'
+    equations = ('depth kinematics', 'pitch')
+    signature = {'plane doublets of several periods': 1.0, 'plane steps of several sizes': 0.0}
+
+    def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
+        return (Parameter('latency', 's', 0.0, 2.0, 0.0, 0.02, (0.0, 0.5), SRC_PITCH_LATENCY),)
+
+    def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
+        pert.latency[4] += values[0]
+
+
+for _effect in (Current(), CurrentShear(), CurrentDrift(), BuoyancyOffset(), BuoyancyDepth(),
+                ActuatorDelay(), ActuatorLag(), ActuatorRateLimit(), BarBias(), CrossflowDrag(),
+                CgOffset(), AddedMass(), DepthSensorBias(), DepthSensorScale(),
+                DepthSensorLatency(), PitchSensorBias(), PitchSensorScale(),
+                PitchSensorLatency(), Coefficients(), PlaneEffectiveness(), ThrustError()):
     register(_effect)

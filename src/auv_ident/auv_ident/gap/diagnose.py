@@ -15,8 +15,10 @@ Steps (see :func:`diagnose`):
    effect identifies something (an interval that excludes its "absent" value).
 5. Verdict (:func:`_verdict`): plausibility, the held-out share of the gap explained, the
    residual tests of :mod:`auv_ident.gap.residuals`, and the candidates the held-out windows
-   cannot tell from the best. When the best leaves structure in its residuals, a larger
-   plausible set that leaves none, within ``RESCUE`` of its score, replaces it.
+   cannot tell from the best (within ``AMBIGUOUS_RATIO`` of its held-out cost and of its
+   explained share, and not worse by ``AMBIGUOUS_T`` standard errors over the windows).
+   When the best leaves structure in its residuals, a larger plausible set that leaves
+   none, within ``RESCUE`` of its score, replaces it.
 
 Score: ``ln(J_nominal / J_candidate) - PARAM_PRICE * k`` with ``J`` the held-out free-run
 cost (mean over samples of the squared channel errors over their scales) and ``k`` the number
@@ -233,7 +235,10 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     err_h = (out_h[0][:, CH_INDEX] - meas_h[:, CH_INDEX]) / scales
     err_h = np.clip(np.where(np.isfinite(err_h), err_h, 1e3), -1e3, 1e3)
     nominal_cost = float(np.mean(np.sum(err_h[held_idx] ** 2, axis=1)))
-    floor_cost = float(np.sum((floor / scales) ** 2))
+    # the floor of each channel, but never above what the nominal model already reaches on
+    # the held-out windows (a channel without a gap can shrink by nothing)
+    floor_cost = float(np.sum(np.minimum((floor / scales) ** 2,
+                                         np.mean(err_h[held_idx] ** 2, axis=0))))
     scorer = _Scorer(pr, frf, nominal_cost, floor_cost)
     nominal_cand = scorer.evaluate([FitResult(EffectSet([], vehicle), np.zeros(0),
                                               np.zeros(0, bool), np.zeros(0), np.zeros(0),
@@ -407,8 +412,12 @@ def _verdict(gap_channels: list[str], best: Candidate | None, candidates: list[C
     ambiguous: list[str] = []
     for c in candidates:
         s = set(c.names)
+        # a contender is close in held-out cost and in the share of the gap above the floor
+        # it explains (the cost alone is dominated by the floor when the gap sits in one
+        # channel, e.g. depth only)
         if not (c.plausible and c.identifies) or _nested(s, mine) or _nested(mine, s) \
-                or c.cost > AMBIGUOUS_RATIO * best.cost:
+                or c.cost > AMBIGUOUS_RATIO * best.cost \
+                or c.explained < best.explained / AMBIGUOUS_RATIO:
             continue
         d = c.window_cost - best.window_cost
         se = float(np.std(d, ddof=1) / np.sqrt(d.size)) if d.size > 1 else math.inf

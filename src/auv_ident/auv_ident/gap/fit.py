@@ -10,11 +10,13 @@ scale`` (:func:`scipy.optimize.least_squares`, trust-region reflective):
   ``z, theta, u, w, q, v, r`` with fixed channel scales ``s_c``; the Jacobian's columns are
   free runs of perturbed models, run in one parallel batch.
 
-Intervals (95 %) come from the cluster jackknife (CV3) covariance with the windows as
-clusters (residuals inside a window are strongly correlated; windows are independent runs)
-and Student's t with ``G - 1`` degrees of freedom for ``G`` windows; a free-run interval is
-widened to cover the equation-error estimate (two estimators with different systematic
-errors: initial-state smoothing for the free run, derivative filtering for the equation).
+Intervals (95 %) come from the bias-reduced cluster-robust covariance (CR2) with the windows
+as clusters (residuals inside a window are strongly correlated; windows are independent runs)
+and Student's t with the Bell-McCaffrey degrees of freedom of each parameter (``G - 1`` for
+``G`` equally informative windows, fewer when a few windows carry the information); a
+free-run interval is widened to cover the equation-error estimate (two estimators with
+different systematic errors: initial-state smoothing for the free run, derivative filtering
+for the equation).
 A parameter whose residual sensitivity is negligible is "not identifiable from these data": it
 is held at its "absent" value and its interval is its whole range. Of several parameters, those
 whose free-run interval covers their "absent" value are dropped after the free-run fit and the
@@ -62,35 +64,68 @@ class FitResult:
         return int(self.active.sum())
 
 
-def _sandwich(J: np.ndarray, r: np.ndarray, clusters: np.ndarray) -> tuple[np.ndarray, int]:
-    """Cluster jackknife (CV3) covariance of least-squares parameters, and the number of
-    clusters.
+def cluster_covariance(J: np.ndarray, r: np.ndarray, clusters: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Cluster-robust covariance of least-squares parameters (windows as clusters) and, per
+    parameter, the degrees of freedom of its t reference.
 
-    ``V = (G - 1) / G sum_g (d_g - d_mean)(d_g - d_mean)^T`` with ``d_g = (J^T J - J_g^T J_g)^+
-    J_g^T r_g`` the one-step change of the parameters when cluster ``g`` is left out
-    (MacKinnon and White 1985; MacKinnon, Nielsen and Webb 2023 recommend it over the plain
-    cluster-robust sandwich when the clusters are few or unequally informative, as windows
-    are: a delay is seen mostly in the windows with doublets).
+    The bias-reduced linearisation CR2 (Bell and McCaffrey 2002)::
+
+        V = B^-1 [sum_g J_g^T A_g r_g r_g^T A_g J_g] B^-1,  B = J^T J,
+        A_g = (I - H_gg)^(-1/2),  H_gg = J_g B^-1 J_g^T
+
+    (exactly unbiased for independent equal-variance residuals; ``A_g`` through the thin SVD
+    of ``J_g B^-1/2``, whose rank is at most the number of parameters), with the
+    Bell-McCaffrey degrees of freedom of each parameter ``k``: ``(tr G^T G)^2 / tr (G^T G)^2``,
+    column ``g`` of ``G`` being ``(I - H)_{:, g} A_g J_g B^-1 e_k``. Equally informative
+    clusters give about ``G - 1``; a parameter that only a few windows inform (a plane delay
+    seen in the windows with doublets) gets fewer, and a wider t quantile: with few, unequally
+    informative clusters the plain ``G - 1`` under-covers (Imbens and Kolesar 2016, Pustejovsky
+    and Tipton 2018).
     """
     ids = np.unique(clusters)
-    g = ids.size
-    jtj = J.T @ J
-    deltas = []
+    p = J.shape[1]
+    B = J.T @ J
+    w, U = np.linalg.eigh(B)
+    w = np.maximum(w, w.max() * 1e-14 if w.size else 0.0)
+    b_inv = (U / w) @ U.T
+    b_isqrt = (U / np.sqrt(w)) @ U.T
+    meat = np.zeros((p, p))
+    cols = []  # per cluster: (rows, A_g J_g B^-1) for the degrees of freedom
     for c in ids:
-        m = clusters == c
+        m = np.flatnonzero(clusters == c)
         Jg = J[m]
-        deltas.append(np.linalg.pinv(jtj - Jg.T @ Jg) @ (Jg.T @ r[m]))
-    d = np.array(deltas)
-    d -= d.mean(axis=0)
-    return (g - 1) / max(g, 1) * (d.T @ d), g
+        Ug, sg, _ = np.linalg.svd(Jg @ b_isqrt, full_matrices=False)
+        fac = 1.0 / np.sqrt(np.maximum(1.0 - sg ** 2, 1e-12)) - 1.0
+
+        def adjust(v: np.ndarray, Ug: np.ndarray = Ug, fac: np.ndarray = fac) -> np.ndarray:
+            out: np.ndarray = v + Ug @ (fac[:, None] * (Ug.T @ v))
+            return out
+
+        u = Jg.T @ adjust(r[m][:, None])[:, 0]
+        meat += np.outer(u, u)
+        cols.append((m, adjust(Jg @ b_inv)))
+    V = b_inv @ meat @ b_inv
+    df = np.empty(p)
+    for k in range(p):
+        G = np.zeros((J.shape[0], len(cols)))
+        for j, (m, AJ) in enumerate(cols):
+            v = AJ[:, k]                      # A_g J_g B^-1 e_k on the rows of cluster g
+            G[m, j] += v
+            G[:, j] -= J @ (b_inv @ (J[m].T @ v))   # minus H[:, g] v
+        gtg = G.T @ G
+        tr = float(np.trace(gtg))
+        tr2 = float(np.sum(gtg * gtg))
+        df[k] = tr * tr / tr2 if tr2 > 0 else float(len(ids) - 1)
+    return V, np.clip(df, 1.0, max(len(ids) - 1, 1))
 
 
 def _intervals(es: EffectSet, values: np.ndarray, active: np.ndarray, cov_s: np.ndarray,
-               groups: int) -> tuple[np.ndarray, np.ndarray]:
+               df: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     lo, hi = es.lo.copy(), es.hi.copy()
-    tq = float(stats.t.ppf(0.975, max(groups - 1, 1)))
     idx = np.flatnonzero(active)
     for k, i in enumerate(idx):
+        tq = float(stats.t.ppf(0.975, df[k]))
         half = tq * np.sqrt(max(cov_s[k, k], 0.0)) * es.scale[i]
         lo[i] = max(es.lo[i], values[i] - half)
         hi[i] = min(es.hi[i], values[i] + half)
@@ -114,7 +149,12 @@ class EquationFit:
             if self.act_nominal is None:
                 self.act_nominal = self.pr.actuators(pert)
             act = self.act_nominal
-        e: np.ndarray = self.pr.equation_error(pert, act) / self.pr.eq_sigma
+        # a candidate that changes the mass matrix changes how much of the measured
+        # acceleration's noise its equations carry: weighting each equation by its own noise
+        # keeps the fit from shrinking the inertia to shed noise (errors in variables)
+        sigma = self.pr.eq_sigma if not pert.factors else self.pr.equation_sigma(
+            self.pr.model_arrays(pert)[1])
+        e: np.ndarray = self.pr.equation_error(pert, act) / sigma
         return e if mask is None else e[mask]
 
     def cost(self, es: EffectSet, values: np.ndarray, held_out: bool) -> float:
@@ -147,8 +187,8 @@ class EquationFit:
         if active.any():
             values, J, r = self._solve(es, (values - es.absent) / es.scale, active)
             clusters = np.repeat(self.pr.eq_window[self.train], 6)
-            cov, g = _sandwich(J, r, clusters)
-            lo, hi = _intervals(es, values, active, cov, g)
+            cov, df = cluster_covariance(J, r, clusters)
+            lo, hi = _intervals(es, values, active, cov, df)
         else:
             lo, hi = es.lo.copy(), es.hi.copy()
         return FitResult(es, values, active, lo, hi, 'equation_error')
@@ -273,8 +313,8 @@ class FreeRunFit:
                                      max_nfev=max_nfev, x_scale=1.0)
         values = full(sol.x)
         nch = len(CH_INDEX)
-        cov, g = _sandwich(sol.jac, sol.fun, np.repeat(self.clusters, nch))
-        lo, hi = _intervals(es, values, active, cov, g)
+        cov, df = cluster_covariance(sol.jac, sol.fun, np.repeat(self.clusters, nch))
+        lo, hi = _intervals(es, values, active, cov, df)
         covers = active & (lo <= es.absent) & (hi >= es.absent)
         if prune and active.sum() >= 2 and covers.any() and not covers[active].all():
             # drop what the free run cannot tell from "absent", refit the rest

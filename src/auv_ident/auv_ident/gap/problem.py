@@ -19,9 +19,16 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from auv_ident.errors import GapError
-from auv_ident.gap.catalogue import CATALOGUE, Parameter, Perturbation, get_effect
+from auv_ident.gap.catalogue import (
+    CATALOGUE,
+    Parameter,
+    Perturbation,
+    check_declared,
+    get_effect,
+)
 from auv_ident.gap.kernel import actuator_series, equation_terms, free_run_batch
 from auv_ident.gap.logs import CHANNELS, GapLog, Smoothed, smooth
+from auv_sim.model import ENV_SIZE
 from auv_sim.params import VehicleParams, mass_matrix
 
 #: Equations of the equation error: body wrench rows (surge, heave, pitch, sway, yaw) and the
@@ -55,6 +62,8 @@ class EffectSet:
     def __init__(self, names: Sequence[str], vehicle: VehicleParams) -> None:
         self.names = tuple(names)
         self.effects = [get_effect(n) for n in self.names]
+        for e in self.effects:
+            check_declared(e, vehicle)
         self.vehicle = vehicle
         self.params: list[tuple[str, Parameter]] = [
             (e.name, p) for e in self.effects for p in e.parameters(vehicle)]
@@ -107,6 +116,11 @@ class Problem:
         self.logs = list(logs)
         self.P = vehicle.as_array()
         self.M = mass_matrix(vehicle)
+        self._param_cache: dict[tuple[tuple[str, float], ...], tuple[np.ndarray, np.ndarray]] = {
+            (): (self.P, self.M)}
+        #: time origin of the kernels [s]: the start of the first log (a current drift is
+        #: zero here)
+        self.t_ref = float(self.logs[0].t[0])
         periods = np.array([lg.period for lg in self.logs])
         if np.ptp(periods) > 1e-6 * periods.max():
             raise GapError('all logs must have the same state sample period '
@@ -221,27 +235,74 @@ class Problem:
                               for w in wins], dtype=np.int64)
         act = np.empty((nc, int(sum(self.fine_n)), 3))
         X0 = np.zeros((nc, nw, 15))
-        cur = np.empty((nc, 3))
+        env = np.empty((nc, ENV_SIZE))
         C = np.empty((nc, *perts[0].C.shape))
+        P = np.empty((nc, self.P.size))
+        t0 = np.array([float(self.logs[w.log].t[w.i0]) - self.t_ref for w in wins])
         for c, pert in enumerate(perts):
             act[c] = self.actuators(pert)
-            cur[c] = pert.current
+            env[c] = pert.env_vector()
             C[c] = pert.C
+            P[c] = self.model_arrays(pert)[0]
             for k, w in enumerate(wins):
-                X0[c, k, :12] = self.initial[w.log][w.i0] - pert.bias
+                src = self.initial[w.log]
                 if x0_bias:
-                    X0[c, k, :12] += self.initial_bias[w.log][w.i0]
+                    src = src + self.initial_bias[w.log]
+                X0[c, k, :12] = self.true_state(src, np.array([float(w.i0)]), pert)[0]
                 X0[c, k, 12:] = act[c, fine_base[k]]
         if x0_noise is not None:
             X0[:, :, :12] += x0_noise
         out = np.empty((nc, int(nsamp.sum()), 12))
-        free_run_batch(self.P, X0, act, fine_base, nsamp, out_base, cur, C, self.dt, self.sub,
+        free_run_batch(P, X0, act, fine_base, nsamp, out_base, t0, env, C, self.dt, self.sub,
                        out)
-        for c, pert in enumerate(perts):
-            out[c] += pert.bias
         meas = np.concatenate([self.smoothed[w.log].state[w.i0:w.i0 + w.n:self.m]
                                for w in wins])
+        step = self.m * self.period
+        for c, pert in enumerate(perts):
+            if pert.sensors_exact:
+                out[c] += pert.bias
+                continue
+            for k in np.flatnonzero(pert.latency > 0.0).tolist():
+                # the sensor reads the state of ``latency`` ago: before the window's start
+                # that is the logged state itself
+                for r0, n in zip(out_base.tolist(), nsamp.tolist()):
+                    tj = np.arange(n) * step
+                    y = out[c, r0:r0 + n, k]
+                    late = tj - pert.latency[k]
+                    out[c, r0:r0 + n, k] = np.where(
+                        late >= 0.0, np.interp(late, tj, y),
+                        (meas[r0:r0 + n, k] - pert.bias[k]) / pert.scale[k])
+            out[c] = out[c] * pert.scale + pert.bias
         return out, meas
+
+    def model_arrays(self, pert: Perturbation) -> tuple[np.ndarray, np.ndarray]:
+        """The model's parameter vector and mass matrix with the factors of ``pert`` (cached:
+        do not modify the results)."""
+        key = pert.params_key()
+        hit = self._param_cache.get(key)
+        if hit is None:
+            v = self.vehicle.replace(**{k: f * float(getattr(self.vehicle, k)) for k, f in key})
+            hit = (v.as_array(), mass_matrix(v))
+            if len(self._param_cache) > 16:
+                self._param_cache = {(): (self.P, self.M)}
+            self._param_cache[key] = hit
+        return hit
+
+    def true_state(self, series: np.ndarray, index: np.ndarray, pert: Perturbation
+                   ) -> np.ndarray:
+        """The true state (n x 12) behind a measured series (N x 12, one log on its sample
+        grid) at fractional sample positions ``index`` (n): the sensors of ``pert`` read
+        ``scale x(t - latency) + bias``, so ``x(t) = (y(t + latency) - bias) / scale``."""
+        if pert.sensors_exact and np.all(index == np.round(index)):
+            out: np.ndarray = series[index.astype(np.int64)] - pert.bias
+            return out
+        grid = np.arange(series.shape[0], dtype=np.float64)
+        pos = index[:, None] + pert.latency[None, :] / self.period
+        out = np.empty((index.size, 12))
+        for k in range(12):
+            out[:, k] = np.interp(pos[:, k], grid, series[:, k])
+        true: np.ndarray = (out - pert.bias) / pert.scale
+        return true
 
     def outputs(self, w: Window) -> int:
         """Number of free-run outputs of window ``w`` (every ``m``-th log sample)."""
@@ -292,19 +353,36 @@ class Problem:
             fine[m] = self.fine_off[li] + self.eq_index[m] * (self.sub * 2.0 / self.m)
         self.eq_t, self.eq_state, self.eq_rate, self.eq_fine = tt, xs, xd, fine
         # noise of each equation: velocity noise through the derivative filter and M
+        self.eq_sigma = self.equation_sigma(self.M)
+
+    def equation_sigma(self, M: np.ndarray) -> np.ndarray:
+        """Noise (1 sigma) of each equation of the equation error with mass matrix ``M``
+        [N, N m, m/s]: the velocity noise through the derivative filter and ``M``."""
         sd = self.noise[6:12] * self.deriv_gain
-        sig = np.sqrt((self.M ** 2) @ (sd ** 2))
+        sig = np.sqrt((M ** 2) @ (sd ** 2))
         sz = np.hypot(self.noise[2] * self.deriv_gain, self.noise[8] * self.smooth_gain)
-        self.eq_sigma = np.array([sig[r] for r in EQ_ROWS] + [sz])
+        return np.array([sig[r] for r in EQ_ROWS] + [sz])
 
     def equation_error(self, pert: Perturbation, act: np.ndarray | None = None) -> np.ndarray:
-        """Equation error (n x 6) at the equation samples: ``M (nu_dot + omega x nu_c) -
-        tau`` for surge, heave, pitch, sway, yaw [N, N m] and the depth-kinematics error
-        [m/s], with the states corrected for the sensor biases of ``pert``."""
+        """Equation error (n x 6) at the equation samples: ``M nu_dot - tau`` for surge,
+        heave, pitch, sway, yaw [N, N m] (``M`` and ``tau`` of the model with the factors,
+        water and extra wrench of ``pert``) and the depth-kinematics error [m/s], with the
+        states and their rates corrected for the sensors of ``pert`` (bias, scale, latency)."""
         if act is None:
             act = self.actuators(pert)
         X = np.empty((self.eq_index.size, 15))
-        X[:, :12] = self.eq_state - pert.bias
+        if pert.sensors_exact:
+            X[:, :12] = self.eq_state - pert.bias
+            rate = self.eq_rate
+        else:
+            rate = np.empty_like(self.eq_rate)
+            for li, sm in enumerate(self.smoothed):
+                m = self.eq_log == li
+                idx = self.eq_index[m].astype(np.float64)
+                X[m, :12] = self.true_state(sm.state, idx, pert)
+                # rates: shifted and scaled alike, no bias
+                rate[m] = self.true_state(sm.rate, idx, dataclasses.replace(
+                    pert, bias=np.zeros(12)))
         key = np.concatenate([pert.delay, pert.tau, pert.rate]).tobytes()
         eq_act = self._eq_act_cache.get(key)
         if eq_act is None:
@@ -313,19 +391,17 @@ class Problem:
                 self._eq_act_cache.clear()
             self._eq_act_cache[key] = eq_act
         X[:, 12:] = eq_act
-        tau, oxc = equation_terms(X, pert.current, pert.C, self.P)
-        acc = self.eq_rate[:, 6:12].copy()
-        acc[:, :3] += oxc
-        lhs = acc @ self.M.T
+        P, M = self.model_arrays(pert)
+        tau = equation_terms(self.eq_t - self.t_ref, X, pert.env_vector(), pert.C, P)
+        lhs = rate[:, 6:12] @ M.T
         e = np.empty((X.shape[0], 6))
         for k, r in enumerate(EQ_ROWS):
             e[:, k] = lhs[:, r] - tau[:, r]
         th, ph = X[:, 4], X[:, 3]
         zdot = (-X[:, 6] * np.sin(th) + X[:, 7] * np.cos(th) * np.sin(ph)
                 + X[:, 8] * np.cos(th) * np.cos(ph))
-        e[:, 5] = self.eq_rate[:, 2] - zdot
+        e[:, 5] = rate[:, 2] - zdot
         return e
-
 
     def _smoothed_actuators(self, act: np.ndarray) -> np.ndarray:
         """Actuator positions at the equation samples, smoothed by the same filter as the

@@ -60,7 +60,8 @@ def describe(fit: FitResult) -> str:
         for i in idx:
             _, p = fit.effects.params[i]
             if fit.active[i]:
-                vals.append(f'{p.name} = {fit.values[i]:.4g} {p.unit} (95 % interval '
+                unit = '' if p.unit == '-' else f' {p.unit}'
+                vals.append(f'{p.name} = {fit.values[i]:.4g}{unit} (95 % interval '
                             f'{fit.lo95[i]:.4g} to {fit.hi95[i]:.4g})')
         parts.append(f'{name} ' + ', '.join(vals) if vals else name)
     text = '; '.join(parts)
