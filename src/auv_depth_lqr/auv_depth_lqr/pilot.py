@@ -47,10 +47,10 @@ from auv_sim.params import VehicleParams
 from auv_sim.trim import VerticalPlane
 
 SAFE_BAR_DEFAULT = -0.12
-"""Safe dive-plane angle [rad] without state of the A18M: a gentle climb (nose up); the
-default of the node's ``safe_bar`` parameter. :meth:`DepthPilot.for_vehicle` derives the
-vehicle's own (:func:`auv_depth_lqr.tuning.derive_tuning`) when ``PilotSettings.safe_bar``
-is ``None``."""
+"""Safe dive-plane angle [rad] without state of the A18M (a gentle nose-up climb), for
+reference: every pilot, the node's included (its ``safe_bar`` parameter is NaN by default),
+derives its vehicle's own (:func:`auv_depth_lqr.tuning.derive_tuning`) when
+``PilotSettings.safe_bar`` is ``None``."""
 
 CURRENT_TIME = 30.0
 """Time constant [s] over which a pilot told its water speed follows the current along its
