@@ -6,8 +6,8 @@
   vehicle with that buoyancy, solved by ``auv_sim.trim``), so the depth holds with no offset.
 * A pilot told its water speed on a vehicle that slows down in a dive: the surge it flies its
   model at is the true one (oracle: the hand-worked ``u - c cos(theta)``), not the setting.
-* Settings derived from the vehicle file: the reference's ``jerk_time`` scales with
-  ``sqrt(L/g)`` (Froude), the safe BAR with the plane travel.
+* Settings derived from the vehicle file: the disturbance estimate's time constant scales
+  with ``sqrt(L/g)`` (Froude), the safe BAR with the plane travel.
 
 Frames and units: NED, z down [m]; pitch nose up [rad]; BAR [rad].
 """
@@ -83,13 +83,14 @@ def test_told_its_water_speed_the_pilot_flies_its_true_surge(a18m: VehicleParams
 
 
 def test_settings_scale_with_the_vehicle(a18m: VehicleParams) -> None:
-    """jerk_time is 1 s on the A18M and scales with sqrt(L/g); the safe BAR with the plane
-    travel (REMUS 100: L 1.33 m, 13.6 deg fins; hand-worked)."""
+    """The disturbance estimate's time constant is 3 s on the A18M and scales with
+    sqrt(L/g); the safe BAR with the plane travel (REMUS 100: L 1.33 m, 13.6 deg fins;
+    hand-worked)."""
     remus = load_vehicle(ROOT / 'config' / 'remus100.yaml')
     mine = derive_tuning(a18m, THETA_MAX)
     other = derive_tuning(remus, THETA_MAX)
-    assert mine.governor.jerk_time == pytest.approx(1.0, rel=1e-9)
-    assert other.governor.jerk_time == pytest.approx(math.sqrt(remus.L_ref / 4.6), rel=1e-9)
     assert mine.governor.disturbance_time == pytest.approx(3.0, rel=1e-9)
+    assert other.governor.disturbance_time == pytest.approx(3.0 * math.sqrt(remus.L_ref / 4.6),
+                                                            rel=1e-9)
     assert mine.safe_bar == pytest.approx(-0.12, rel=1e-9)
     assert abs(other.safe_bar) == pytest.approx(0.12 / 0.4363 * remus.bar_max, rel=1e-9)

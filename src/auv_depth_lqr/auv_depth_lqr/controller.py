@@ -329,10 +329,6 @@ class DepthController:
             xi_max = reach / abs(k_xi)
             self._xi = min(max(self._xi, -xi_max), xi_max)
 
-        # The plane at its stop while the reference climbs or dives steadily: the vehicle
-        # cannot fly the model's climb; the reference slows down (the governor's authority).
-        self.reference.saturated(abs(bar_linear) >= lim.bar_max,
-                                 v_r != 0.0 and abs(a_r) <= 0.1 * settings.accel_max)
         self.reference.accept(Reference(z_r, v_r, a_r, j_r, s_r))
         self._bar_prev = bar_cmd
         self._z_prev = z

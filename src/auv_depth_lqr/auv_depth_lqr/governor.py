@@ -107,12 +107,6 @@ class GovernorSettings:
     the linear model does not explain (a buoyancy or trim offset, a plane bias, coefficients
     off), low-passed; the level trim the pilot flies about is moved to hold them
     (:meth:`auv_depth_lqr.controller.DepthController.step`)."""
-    authority_time: float = 10.0
-    """Time [s] in which a plane held at its stop in a steady climb or dive takes the
-    reference's climb or dive speed from all to nothing
-    (:meth:`ReferenceGovernor.saturated`)."""
-    authority_min: float = 0.2
-    """Least share of the steady climb or dive speed the reference keeps [-]."""
     trim_bar_share: float = 0.8
     """Largest share of ``bar_max`` the trim BAR moved by the disturbance estimate may
     use; the rest is the feedback's [-]."""
@@ -126,7 +120,7 @@ class GovernorSettings:
 
     def __post_init__(self) -> None:
         for name in ('margin', 'bar_margin', 'brake_bar_share', 'pitch_guard',
-                     'jerk_bar_share', 'bar_rate_margin', 'trim_bar_share', 'authority_min',
+                     'jerk_bar_share', 'bar_rate_margin', 'trim_bar_share',
                      'trim_pitch_share'):
             value = finite(f'GovernorSettings.{name}', getattr(self, name), positive=True)
             if value > 1.0:
@@ -138,7 +132,7 @@ class GovernorSettings:
         for name in ('accel_max', 'approach_length', 'jerk_time', 'landing_distance',
                      'integrate_within',
                      'integrate_below_speed', 'max_lag', 'stall_time', 'stall_speed',
-                     'disturbance_time', 'authority_time'):
+                     'disturbance_time'):
             finite(f'GovernorSettings.{name}', getattr(self, name), positive=True)
 
 
@@ -192,9 +186,6 @@ class ReferenceGovernor:
         self._landing: tuple[float, float] | None = None
         self._switch_hint = [0]
         self._s_root: float | None = None
-        self.authority = 1.0
-        """Share (0, 1] of the steady climb or dive the reference may fly: lowered while the
-        plane saturates in a steady climb or dive (:meth:`saturated`)."""
 
     @property
     def reference(self) -> Reference | None:
@@ -211,22 +202,6 @@ class ReferenceGovernor:
     def accept(self, ref: Reference) -> None:
         """Store ``ref`` as the reference flown this sample."""
         self._z_r, self._v_r, self._a_r, self._j_r, self._s_r = ref
-
-    def saturated(self, saturated: bool, steady: bool) -> None:
-        """Adapt :attr:`authority` to the plane's use over one sample.
-
-        ``saturated``: the plane's command was at its angle limit; ``steady``: the reference
-        was in a steady climb or dive (no acceleration to speak of). A plane at its stop in a
-        steady climb or dive has nothing left to hold the attitude or to stop with (a heavy
-        vehicle or a weak plane in a climb, a light one in a dive, a slower speed than
-        planned): the model's climb is not this vehicle's, and the authority falls at the
-        rate ``1 / authority_time``, down to ``authority_min``. It recovers at a tenth of
-        that rate while the plane is free."""
-        rate = self.ts / self.settings.authority_time
-        if saturated and steady:
-            self.authority = max(self.authority - rate, self.settings.authority_min)
-        elif not saturated:
-            self.authority = min(self.authority + 0.1 * rate, 1.0)
 
     def limits_toward(self, op: OperatingPoint, u: float, travel: float, landing: float
                        ) -> tuple[float, float, Brake]:
@@ -251,7 +226,7 @@ class ReferenceGovernor:
         if b[2] != 0.0:
             jerk = min(jerk, settings.jerk_bar_share * budget / abs(float(b[2])))
         v_lo, v_hi = GainSchedule.vertical_speed_bounds(op, u, lim, settings.margin)
-        v_cap = (v_hi if travel > 0.0 else -v_lo) * self.authority
+        v_cap = v_hi if travel > 0.0 else -v_lo
         v_land = settings.landing_distance / landing
         share = settings.brake_bar_share * budget
         sign = 1.0 if float(b[1]) >= 0.0 else -1.0
