@@ -30,8 +30,8 @@ __all__ = [
     'Matrix',
     'OperatingPoint',
     'check_linearization',
-    'feedforward',
     'disturbance_map',
+    'feedforward',
     'feedforward_series',
     'steady_matrix',
 ]
@@ -115,7 +115,8 @@ def disturbance_map(A: Matrix, B: Matrix, u0: float) -> tuple[Matrix, Matrix]:
     P[:, :3], P[:, 3] = A[:2][:, cols], B[:2, 0]
     rhs = np.zeros((4, 2))
     rhs[0, 0] = rhs[1, 1] = -1.0
-    return P, np.linalg.solve(steady_matrix(A, B, u0), rhs)
+    D: Matrix = np.asarray(np.linalg.solve(steady_matrix(A, B, u0), rhs), dtype=np.float64)
+    return P, D
 
 
 def feedforward_series(A: Matrix, B: Matrix, u0: float) -> Matrix:
