@@ -13,7 +13,6 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64
 from test_pilot_interfaces import DEADLINE_S, PilotProcess, set_remote_parameter
 
-from auv_depth_lqr.pilot import SAFE_BAR_DEFAULT
 from auv_msgs.msg import ActuatorSetpoint, VehicleState
 
 
@@ -84,11 +83,13 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
         bars.clear()
         spin_for(3.0, publish_state=False)
         assert len(bars) >= 25
-        assert bars[-1][1] == pytest.approx(SAFE_BAR_DEFAULT, abs=1e-9)
+        # the safe BAR derived from the vehicle file (no safe_bar parameter given): 0.12/0.4363
+        # of the A18M's 0.4363 rad plane travel to the nose-up side (negative: CMbar < 0)
+        assert bars[-1][1] == pytest.approx(-0.12, abs=1e-9)
         # state returns: control resumes
         bars.clear()
         spin_for(2.0)
-        assert bars[-1][1] != pytest.approx(SAFE_BAR_DEFAULT, abs=1e-6)
+        assert bars[-1][1] != pytest.approx(-0.12, abs=1e-3)
     finally:
         node.destroy_node()
         rclpy.shutdown()

@@ -102,6 +102,17 @@ class GovernorSettings:
     reference by a steady disturbance. The reference then no longer waits for it
     (``max_lag``) and the integrator runs at any distance from the reference at rest
     (``integrate_within`` no longer applies), so integral action removes steady offsets."""
+    disturbance_time: float = 3.0
+    """Time constant [s] of the disturbance estimate: the heave and pitch accelerations
+    the linear model does not explain (a buoyancy or trim offset, a plane bias, coefficients
+    off), low-passed; the level trim the pilot flies about is moved to hold them
+    (:meth:`auv_depth_lqr.controller.DepthController.step`)."""
+    trim_bar_share: float = 0.8
+    """Largest share of ``bar_max`` the trim BAR moved by the disturbance estimate may
+    use; the rest is the feedback's [-]."""
+    trim_pitch_share: float = 0.5
+    """Largest share of ``theta_max`` the trim pitch moved by the disturbance estimate
+    may use [-]."""
     pitch_guard: float = 0.97
     """Fraction of ``theta_max`` beyond which the depth feedback may not ask for more pitch:
     the pitch command ``theta_ref + (depth and integral terms) / K_theta`` of the LQR is
@@ -109,7 +120,8 @@ class GovernorSettings:
 
     def __post_init__(self) -> None:
         for name in ('margin', 'bar_margin', 'brake_bar_share', 'pitch_guard',
-                     'jerk_bar_share', 'bar_rate_margin'):
+                     'jerk_bar_share', 'bar_rate_margin', 'trim_bar_share',
+                     'trim_pitch_share'):
             value = finite(f'GovernorSettings.{name}', getattr(self, name), positive=True)
             if value > 1.0:
                 raise DesignError(f'GovernorSettings.{name} must be in (0, 1], got {value!r}')
@@ -119,7 +131,8 @@ class GovernorSettings:
                               f'{share!r}')
         for name in ('accel_max', 'approach_length', 'jerk_time', 'landing_distance',
                      'integrate_within',
-                     'integrate_below_speed', 'max_lag', 'stall_time', 'stall_speed'):
+                     'integrate_below_speed', 'max_lag', 'stall_time', 'stall_speed',
+                     'disturbance_time'):
             finite(f'GovernorSettings.{name}', getattr(self, name), positive=True)
 
 

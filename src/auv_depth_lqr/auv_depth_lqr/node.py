@@ -28,7 +28,8 @@ instant, so the simulator can wait for it (see :mod:`auv_sim.node`).
 Parameters (validated at start: a bad one ends the node with one line ``error: ...`` and exit
 status 1; and on change, where a bad one is refused with a reason): ``vehicle_file``,
 ``rate`` [Hz], ``weights`` (preset name), ``theta_max`` [rad], ``bar_max`` /
-``bar_rate`` [rad, rad/s; 0 = vehicle file], ``state_timeout`` [s], ``safe_bar`` [rad],
+``bar_rate`` [rad, rad/s; 0 = vehicle file], ``state_timeout`` [s], ``safe_bar`` [rad;
+NaN (default) = derived from the vehicle file, :func:`auv_depth_lqr.tuning.derive_tuning`],
 ``lockstep`` (bool), ``water_speed`` [m/s; 0 = schedule on the measured surge over ground,
 else the known speed through the water, see :func:`auv_depth_lqr.pilot.water_relative`],
 ``publish_delay`` [s], ``depth_min`` / ``depth_max`` [m; NaN (default) = the vehicle file's
@@ -84,7 +85,7 @@ from std_msgs.msg import Float64
 
 from auv_depth_lqr.controller import PlaneState
 from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
-from auv_depth_lqr.pilot import SAFE_BAR_DEFAULT, DepthPilot, PilotSettings
+from auv_depth_lqr.pilot import DepthPilot, PilotSettings
 from auv_depth_lqr.recovery import RecoverySettings
 from auv_depth_lqr.state_input import ODOM_FRAMES, plane_state_from_odometry
 from auv_msgs.msg import ActuatorSetpoint, VehicleState
@@ -117,7 +118,7 @@ _LEVELS = {'ok': DiagnosticStatus.OK, 'recovery': DiagnosticStatus.WARN,
 #: Numeric parameters (double; an integer value is accepted too) and their defaults.
 _NUMBERS: dict[str, float] = {
     'rate': 10.0, 'theta_max': PilotSettings.theta_max, 'bar_max': 0.0, 'bar_rate': 0.0,
-    'state_timeout': 0.5, 'safe_bar': SAFE_BAR_DEFAULT, 'water_speed': 0.0,
+    'state_timeout': 0.5, 'safe_bar': math.nan, 'water_speed': 0.0,
     'publish_delay': 0.01, 'depth_min': math.nan, 'depth_max': math.nan,
     'recovery_pitch_margin': RecoverySettings.pitch_margin,
     'recovery_rate_residual': RecoverySettings.rate_residual_max,
@@ -184,7 +185,8 @@ def pilot_from_values(v: dict[str, Any]) -> DepthPilot:
         rate_hz=v['rate'], weights=str(v['weights']),
         theta_max=v['theta_max'],
         bar_max=v['bar_max'] or None, bar_rate=v['bar_rate'] or None,
-        state_timeout=v['state_timeout'], safe_bar=v['safe_bar'],
+        state_timeout=v['state_timeout'],
+        safe_bar=None if math.isnan(v['safe_bar']) else v['safe_bar'],
         water_speed=v['water_speed'] or None, publish_delay=v['publish_delay'],
         recovery=recovery)
     return DepthPilot.for_vehicle(

@@ -47,10 +47,20 @@ from auv_sim.params import VehicleParams
 from auv_sim.trim import VerticalPlane
 
 SAFE_BAR_DEFAULT = -0.12
-"""Safe dive-plane angle [rad] without state of the A18M: a gentle climb (nose up); the
-default of the node's ``safe_bar`` parameter. :meth:`DepthPilot.for_vehicle` derives the
-vehicle's own (:func:`auv_depth_lqr.tuning.derive_tuning`) when ``PilotSettings.safe_bar``
-is ``None``."""
+"""Safe dive-plane angle [rad] without state of the A18M (a gentle nose-up climb), for
+reference: every pilot, the node's included (its ``safe_bar`` parameter is NaN by default),
+derives its vehicle's own (:func:`auv_depth_lqr.tuning.derive_tuning`) when
+``PilotSettings.safe_bar`` is ``None``."""
+
+CURRENT_TIME = 30.0
+"""Time constant [s] over which a pilot told its water speed follows the current along its
+heading (see :meth:`DepthPilot.on_state`): long against a depth change, short against the
+tides."""
+
+LEVEL_SHARE = 0.1
+"""A vehicle whose pitch is within this share of ``theta_max`` of its trim pitch is level:
+a pilot told its water speed then takes the difference of its measured surge from that speed
+as current [-]."""
 
 DEFAULT_SPEEDS = tuple(round(0.5 + 0.1 * k, 1) for k in range(36))
 """Gain-scheduling grid [m/s]: 0.5 to 4.0 m/s every 0.1 m/s, less the speeds the vehicle
@@ -206,6 +216,9 @@ class DepthPilot:
         self._stale = True
         self._last_bar: float | None = None
         self.status = 'no_state'
+        self._current: float | None = None
+        """Estimated current along the heading [m/s] (``water_speed`` given), see
+        :meth:`on_state`."""
 
     @classmethod
     def for_vehicle(cls, params: VehicleParams, settings: PilotSettings | None = None,
@@ -260,11 +273,37 @@ class DepthPilot:
         if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in values):
             raise InvalidInputError(f'state with non-finite fields {values} ignored')
         if self.settings.water_speed is not None:
-            u, w = water_relative(u, w, theta, self.settings.water_speed)
+            u, w = self._through_water(t, u, w, theta)
         self._state = PlaneState(z=z, theta=theta, w=w, q=q, u=u)
         self._t_state = float(t)
         if self.z_ref is None:
             self.z_ref = min(max(float(z), self.depth_min), self.depth_max)
+
+    def _through_water(self, t: float, u: float, w: float, theta: float
+                       ) -> tuple[float, float]:
+        """Surge and heave through the water [m/s] from those over ground (body FRD).
+
+        ``water_speed`` is the surge through the water in steady level flight (the
+        propeller's setting). What the measured surge differs from it there is the current
+        along the heading, ``c = (u - water_speed) / cos(theta)`` (:func:`water_relative`);
+        the pilot takes it from the first state and then follows it, low-passed over
+        ``CURRENT_TIME``, only while the vehicle is level (pitch within ``LEVEL_SHARE *
+        theta_max`` of its trim). In a climb or dive the vehicle slows down or speeds up
+        (the thrust does not change with the pitch): the surge through the water is then
+        ``u - c cos(theta)``, not the setting, and the plane's authority goes with its
+        square."""
+        along = (u - self.settings.water_speed) / math.cos(theta) \
+            if self.settings.water_speed is not None else 0.0
+        if self._current is None or self._t_state is None:
+            self._current = along
+        else:
+            u_r = u - self._current * math.cos(theta)
+            level = abs(theta - self.controller.design.at(u_r).theta_e) \
+                <= LEVEL_SHARE * self.controller.limits.theta_max
+            dt = t - self._t_state
+            if level and dt > 0.0:
+                self._current += dt / (CURRENT_TIME + dt) * (along - self._current)
+        return (u - self._current * math.cos(theta), w - self._current * math.sin(theta))
 
     def command(self, t: float) -> tuple[float, str]:
         """BAR command [rad] at time ``t`` [s] and the status that produced it.

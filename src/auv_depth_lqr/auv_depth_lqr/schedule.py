@@ -30,8 +30,10 @@ __all__ = [
     'Matrix',
     'OperatingPoint',
     'check_linearization',
+    'disturbance_map',
     'feedforward',
     'feedforward_series',
+    'steady_matrix',
 ]
 
 N_STATES = 5
@@ -77,6 +79,44 @@ class OperatingPoint(NamedTuple):
     """Feed-forward series (4, 4): row ``k`` holds ``(w, q, theta, BAR)`` per unit
     ``v^(k)`` [m/s, rad/s, rad, rad per m s^(k-1)]; row 0 is ``(dw_dv, 0, dtheta_dv,
     dbar_dv)``."""
+    P: Matrix = np.zeros((2, 4))
+    """Heave and pitch rows of the linear model (2, 4) over ``(w, q, theta, BAR)``:
+    ``(w_dot, q_dot) = P (w - w_e, q, theta - theta_e, BAR - BAR_e)`` [m/s^2, rad/s^2]
+    (the depth column is zero)."""
+    D: Matrix = np.zeros((4, 2))
+    """Steady trim shift (4, 2) per unit constant disturbance: a disturbance ``d`` of the
+    heave and pitch accelerations [m/s^2, rad/s^2] moves the level trim ``(w, q, theta,
+    BAR)`` by ``D d`` (``P (shift) + d = 0`` with the depth rate kept zero)."""
+
+
+def steady_matrix(A: Matrix, B: Matrix, u0: float) -> Matrix:
+    """The steady-motion rows of the linear model (4, 4) over ``(w, q, theta, BAR)``:
+    heave and pitch accelerations, ``theta_dot = q`` and the depth rate (see
+    :func:`feedforward_series`). DesignError when singular (no steady climb at ``u0``)."""
+    cols = [0, 1, 3]
+    M = np.zeros((4, 4))
+    M[0, :3], M[0, 3] = A[0, cols], B[0, 0]
+    M[1, :3], M[1, 3] = A[1, cols], B[1, 0]
+    M[2, 1] = 1.0
+    M[3, :3], M[3, 3] = A[2, cols], B[2, 0]
+    if abs(np.linalg.det(M)) < 1e-12 * max(1.0, float(np.max(np.abs(M)))) ** 4:
+        raise DesignError(
+            f'the linear model at u0={u0:g} m/s has no steady climb: heave, pitch and depth '
+            f'rows are singular in (w, q, theta, BAR): {M.tolist()}')
+    return M
+
+
+def disturbance_map(A: Matrix, B: Matrix, u0: float) -> tuple[Matrix, Matrix]:
+    """``(P, D)`` of :class:`OperatingPoint`: the heave and pitch rows of the model over
+    ``(w, q, theta, BAR)`` (2, 4), and the level trim's shift per unit constant heave and
+    pitch disturbance (4, 2): ``M shift = -(d, 0, 0)``, ``M`` of :func:`steady_matrix`."""
+    cols = [0, 1, 3]
+    P = np.zeros((2, 4))
+    P[:, :3], P[:, 3] = A[:2][:, cols], B[:2, 0]
+    rhs = np.zeros((4, 2))
+    rhs[0, 0] = rhs[1, 1] = -1.0
+    D: Matrix = np.asarray(np.linalg.solve(steady_matrix(A, B, u0), rhs), dtype=np.float64)
+    return P, D
 
 
 def feedforward_series(A: Matrix, B: Matrix, u0: float) -> Matrix:
@@ -95,16 +135,7 @@ def feedforward_series(A: Matrix, B: Matrix, u0: float) -> Matrix:
     zeros of BAR -> depth (time scale ~ 1 / |zero|, 0.6 s for the A18M at 2 m/s).
     Depth dependence of the forces (column z) is neglected; it is zero without depth effects.
     """
-    cols = [0, 1, 3]
-    M = np.zeros((4, 4))
-    M[0, :3], M[0, 3] = A[0, cols], B[0, 0]
-    M[1, :3], M[1, 3] = A[1, cols], B[1, 0]
-    M[2, 1] = 1.0
-    M[3, :3], M[3, 3] = A[2, cols], B[2, 0]
-    if abs(np.linalg.det(M)) < 1e-12 * max(1.0, float(np.max(np.abs(M)))) ** 4:
-        raise DesignError(
-            f'the linear model at u0={u0:g} m/s has no steady climb: heave, pitch and depth '
-            f'rows are singular in (w, q, theta, BAR): {M.tolist()}')
+    M = steady_matrix(A, B, u0)
     F = np.zeros((N_FF, 4))
     previous = np.zeros(4)
     for k in range(N_FF):
@@ -136,6 +167,10 @@ class GainSchedule:
     """Feed-forward series (g, 4, 4), see :class:`OperatingPoint`."""
     Ts: float
     """Sample period the gains were designed for [s]."""
+    P: Matrix = field(repr=False, default_factory=lambda: np.zeros((0, 2, 4)))
+    """Heave and pitch rows of the model (g, 2, 4), see :class:`OperatingPoint`."""
+    D: Matrix = field(repr=False, default_factory=lambda: np.zeros((0, 4, 2)))
+    """Trim shift per unit disturbance (g, 4, 2), see :class:`OperatingPoint`."""
     Q: Matrix = field(repr=False, default_factory=lambda: np.zeros((0, 0)))
     """State weight used in the design (5, 5)."""
     R: Matrix = field(repr=False, default_factory=lambda: np.zeros((0, 0)))
@@ -200,6 +235,7 @@ class GainSchedule:
         rows: list[list[float]] = []
         gains: list[Matrix] = []
         series: list[Matrix] = []
+        maps: list[tuple[Matrix, Matrix]] = []
         for u0 in grid:
             x_e, u_e, A, B = check_linearization(linearize, float(u0))
             try:
@@ -208,11 +244,14 @@ class GainSchedule:
                 raise type(exc)(f'at u0={u0:g} m/s: {exc}') from None
             result = lqrd(A, B, q_mat, r_mat, ts)
             series.append(feedforward_series(A, B, float(u0)))
+            maps.append(disturbance_map(A, B, float(u0)))
             gains.append(result.K[0])
             rows.append([float(x_e[0]), float(x_e[3]), float(u_e)])
         table = np.array(rows)
         return cls(speeds=grid, K=np.array(gains), w_e=table[:, 0], theta_e=table[:, 1],
-                   bar_e=table[:, 2], F=np.array(series), Ts=ts, Q=q_mat, R=r_mat)
+                   bar_e=table[:, 2], F=np.array(series), Ts=ts,
+                   P=np.array([m[0] for m in maps]), D=np.array([m[1] for m in maps]),
+                   Q=q_mat, R=r_mat)
 
     def weights(self, u: float) -> tuple[float, int, int, float]:
         """``(u_c, i, j, s)``: ``u`` [m/s] clamped to the grid and the interpolation between
@@ -233,10 +272,13 @@ class GainSchedule:
             return out
 
         F = interp(self.F)
+        known = self.P.shape[0] == self.speeds.size
+        P = interp(self.P) if known else np.zeros((2, 4))
+        D = interp(self.D) if known else np.zeros((4, 2))
         return OperatingPoint(
             u0=uc, K=interp(self.K), w_e=float(interp(self.w_e)),
             theta_e=float(interp(self.theta_e)), bar_e=float(interp(self.bar_e)),
-            dw_dv=float(F[0, 0]), dtheta_dv=float(F[0, 2]), dbar_dv=float(F[0, 3]), F=F)
+            dw_dv=float(F[0, 0]), dtheta_dv=float(F[0, 2]), dbar_dv=float(F[0, 3]), F=F, P=P, D=D)
 
     @staticmethod
     def climb_speed(op: OperatingPoint, u: float, v_lin: float) -> float:

@@ -58,6 +58,7 @@ APPROACH_LENGTHS = 8.0 / _A18M_L        # landing time constant x speed, of L: 8
 LANDING_PITCH = 0.12 / 8.0              # landing length / approach length [rad]: 0.015
 LAG_LENGTHS = 0.5 / _A18M_L             # reference lead over the vehicle, of L: 0.5 m
 INTEGRATE_LENGTHS = 0.2 / _A18M_L       # integrator band about the reference, of L: 0.2 m
+DISTURBANCE_TIMES = 3.0 / _A18M_TIME    # disturbance estimate's time constant, of sqrt(L/g): 3 s
 
 # Safe plane without state: a gentle nose-up climb.
 SAFE_BAR_SHARE = 0.12 / _A18M_BAR_MAX   # of bar_max, nose up: 0.12 rad on the A18M
@@ -121,7 +122,9 @@ def derive_tuning(params: VehicleParams, theta_max: float,
       ``approach_length / u``, the time to run 1.74 hull lengths;
     * ``landing_distance = 0.015 approach_length`` [m] (0.12 m): the landing starts at the
       vertical speed ``0.015 u``, i.e. 0.015 rad (0.86 deg) of flight path at any speed;
-    * ``max_lag = 0.1087 L`` [m] (0.5 m) and ``integrate_within = 0.04348 L`` [m] (0.2 m).
+    * ``max_lag = 0.1087 L`` [m] (0.5 m) and ``integrate_within = 0.04348 L`` [m] (0.2 m);
+    * ``disturbance_time = 4.380 sqrt(L/g)`` [s] (3 s): time constant of the disturbance
+      estimate (:meth:`auv_depth_lqr.controller.DepthController.step`).
 
     Safe BAR: ``0.275 bar_max`` [rad] (0.12 rad) to the side whose moment pitches the nose
     up (the sign of ``-CMbar``: a negative ``CMbar`` makes a negative BAR nose up).
@@ -140,6 +143,7 @@ def derive_tuning(params: VehicleParams, theta_max: float,
         approach_length=approach,
         landing_distance=LANDING_PITCH * approach,
         max_lag=LAG_LENGTHS * s.length,
-        integrate_within=INTEGRATE_LENGTHS * s.length)
+        integrate_within=INTEGRATE_LENGTHS * s.length,
+        disturbance_time=DISTURBANCE_TIMES * s.time)
     nose_up = -1.0 if float(params.CMbar) <= 0.0 else 1.0
     return Tuning(weights, governor, nose_up * SAFE_BAR_SHARE * s.bar_max)
