@@ -71,15 +71,15 @@ def test_told_its_water_speed_the_pilot_flies_its_true_surge(a18m: VehicleParams
     c = 0.3
     pilot.on_state(0.0, z=20.0, theta=theta0, w=c * math.sin(theta0),
                    q=0.0, u=2.0 + c * math.cos(theta0))
-    assert pilot._state is not None
-    assert pilot._state.u == pytest.approx(2.0, abs=1e-12)
-    assert pilot._state.w == pytest.approx(0.0, abs=1e-12)
+    assert pilot.state is not None
+    assert pilot.state.u == pytest.approx(2.0, abs=1e-12)
+    assert pilot.state.w == pytest.approx(0.0, abs=1e-12)
     theta = math.radians(-20.0)
     u_r, w_r = 1.6, 0.05
     pilot.on_state(0.1, z=20.0, theta=theta, w=w_r + c * math.sin(theta), q=0.0,
                    u=u_r + c * math.cos(theta))
-    assert pilot._state.u == pytest.approx(u_r, abs=1e-12)
-    assert pilot._state.w == pytest.approx(w_r, abs=1e-12)
+    assert pilot.state.u == pytest.approx(u_r, abs=1e-12)
+    assert pilot.state.w == pytest.approx(w_r, abs=1e-12)
 
 
 def test_settings_scale_with_the_vehicle(a18m: VehicleParams) -> None:

@@ -220,6 +220,13 @@ class DepthPilot:
         """Estimated current along the heading [m/s] (``water_speed`` given), see
         :meth:`on_state`."""
 
+    @property
+    def state(self) -> PlaneState | None:
+        """The vertical-plane state the pilot flies from, as its last :meth:`on_state` made
+        it (z [m] down, theta [rad] nose up, w [m/s], q [rad/s] in body FRD; u [m/s] through
+        the water when told its water speed), or None before the first state."""
+        return self._state
+
     @classmethod
     def for_vehicle(cls, params: VehicleParams, settings: PilotSettings | None = None,
                     depth_min: float | None = None, depth_max: float | None = None,
