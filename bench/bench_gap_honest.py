@@ -13,9 +13,11 @@ with realistic sensor noise, each of a plant the diagnosis is not told:
   30 % higher, plane effectiveness 70 %, Munk moment 20 % lower, surge drag 30 % higher): right
   when named by ``coefficients`` or ``plane_effectiveness``; never to be ``explained`` by
   another effect;
-* ``outside``: forms the catalogue lacks (a shear that stops inside the depths flown, a
-  vertical current changing with depth, an internal wave, tidal oscillations shorter than or
-  about the log, a cross-flow drag beyond what the hull can have): wrong when ``explained``;
+* ``outside``: forms the catalogue lacks (a shear that stops inside the depths flown, alone
+  and on top of a buoyancy error, a vertical current changing with depth, internal waves,
+  tidal oscillations along and across the track shorter than or about the log, zero-lift
+  offsets growing with the square of the speed, a cross-flow drag beyond what the hull can
+  have): wrong when ``explained``;
 * ``clean``: no effect, several seeds: a false alarm is any verdict but ``no_gap``.
 
 Figures: right effect named, clean false alarms, outside cases wrongly explained (goal 0),
@@ -141,6 +143,18 @@ CASES: dict[str, Case] = {
                       'closed'),
     'crossflow_cd_3': ('outside', {}, _fx(crossflow_drag={'Zww': -3400.0, 'Mqq': -10300.0}),
                        {}, 'closed'),
+    # zero-lift force and moment twice the file's: offsets that grow with u^2 (the panel flies
+    # three speeds), which no constant buoyancy or centre-of-gravity error reproduces
+    'zero_lift_x2': ('outside', {'CZ0': 2.0, 'CM0': 2.0}, _fx(), {}, 'closed'),
+    # an outside form on top of an inside one: only part of the gap can be named
+    'kinked_shear+buoyancy': ('outside', {}, {
+        'effects': {'buoyancy_offset': {'dB': 15.0}},
+        'current_profile': [[50.0, 0.0, 0.0, 0.0], [75.0, 0.0, 0.3, 0.0]]}, {}, 'closed'),
+    'internal_wave_600_open': ('outside', {}, _fx(current_oscillation={'down': 0.03,
+                                                                       'period': 600.0}),
+                               {}, 'open'),
+    'cross_tidal_450': ('outside', {}, _fx(current_oscillation={'east': 0.2, 'period': 450.0}),
+                        {}, 'closed'),
     'clean_1': ('clean', {}, _fx(), {}, 'closed'),
     'clean_2': ('clean', {}, _fx(), {}, 'closed'),
     'clean_3_open': ('clean', {}, _fx(), {}, 'open'),
