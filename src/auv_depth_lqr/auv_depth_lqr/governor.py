@@ -102,6 +102,10 @@ class GovernorSettings:
     reference by a steady disturbance. The reference then no longer waits for it
     (``max_lag``) and the integrator runs at any distance from the reference at rest
     (``integrate_within`` no longer applies), so integral action removes steady offsets."""
+    disturbance_estimate: bool = True
+    """Whether the controller estimates the heave and pitch accelerations its linear model
+    does not explain and moves its level trim to hold them (``disturbance_time``). Off, the
+    integrator alone removes steady offsets (as on an open-loop-unstable vehicle)."""
     disturbance_time: float = 3.0
     """Time constant [s] of the disturbance estimate: the heave and pitch accelerations
     the linear model does not explain (a buoyancy or trim offset, a plane bias, coefficients
