@@ -101,10 +101,12 @@ ROWS: list[tuple[str, str, str]] = [
      '{vehicles:vehicles.npsauv2.5->40m.settling_over_time_optimal_bound:.2f}', '<= 1.5'),
     ('gap honesty panel: right effect in the catalogue (else not `explained`); model '
      'coefficients named; out-of-catalogue cases wrongly `explained`; false alarms on clean '
-     'logs',
+     'logs; median held-out shrink (in the catalogue); true values inside their 95 % intervals',
      '{gap_honest:panel.inside_right}; {gap_honest:panel.coefficients_right}; '
      '{gap_honest:panel.outside_wrongly_explained} of {gap_honest:panel.outside_cases}; '
-     '{gap_honest:panel.clean_false_alarms} of {gap_honest:panel.clean_cases}', '0 wrong'),
+     '{gap_honest:panel.clean_false_alarms} of {gap_honest:panel.clean_cases}; '
+     '{gap_honest:panel.median_shrink_inside:.2f}; {gap_honest:panel.truth_in_ci95}',
+     '0 wrong'),
     ('gap: 95 % interval coverage over 100 seeds per effect: buoyancy error / plane delay / '
      'plane lag / current shear / current drift / added mass / depth-sensor latency / '
      'pitch-sensor scale',
