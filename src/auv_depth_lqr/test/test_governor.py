@@ -132,10 +132,10 @@ def test_feedforward_series_is_a_trajectory_of_the_linear_model(
         assert z_dot == pytest.approx(d[0], abs=1e-12)
 
 
-#: The governor's tests fly idealised vehicles (one that follows the reference exactly at zero
-#: pitch, one held at a depth) that are not trajectories of the model: the disturbance
-#: estimate would read the difference as a disturbance and move the trim, so it is off here;
-#: tests/test_controller_disturbance.py tests it on the simulator.
+#: Some of the governor's tests fly idealised vehicles (one that follows the reference exactly
+#: at zero pitch, one jumped to a pitch cap) that are not trajectories of the model: the
+#: disturbance estimate would read the difference as a disturbance and move the trim, so it
+#: is off there; tests/test_controller_disturbance.py tests it on the simulator.
 IDEAL = GovernorSettings(disturbance_estimate=False)
 
 
@@ -184,7 +184,7 @@ def test_reference_feedforward_stays_within_the_bar_budget(schedule: GainSchedul
 
 def test_reference_waits_for_a_vehicle_that_lags(schedule: GainSchedule) -> None:
     """A vehicle climbing at only 0.05 m/s: the reference leads it by at most max_lag."""
-    governor = IDEAL
+    governor = GovernorSettings()
     ctrl = DepthController(schedule, Limits(), TS, governor)
     z = 40.0
     for _ in range(300):
@@ -198,7 +198,7 @@ def test_reference_goes_on_for_a_stalled_vehicle(schedule: GainSchedule) -> None
     """A vehicle held at 10.6 m (a steady disturbance), commanded to 10 m: once its depth
     rate has settled below stall_speed the reference no longer waits (max_lag 0.5 m) but
     reaches the command at rest, and the integrator runs (0.6 m beyond integrate_within)."""
-    governor = IDEAL
+    governor = GovernorSettings()
     ctrl = DepthController(schedule, Limits(), TS, governor)
     for _ in range(600):
         ctrl.step(PlaneState(z=10.6, theta=0.0069, w=0.0138, q=0.0, u=2.0), 10.0)
