@@ -13,11 +13,14 @@ test may still be shutting down.
 from __future__ import annotations
 
 import fcntl
+import importlib.util
 import os
 import pathlib
+import sys
 import tempfile
 import time
 from collections.abc import Iterator
+from types import ModuleType
 from typing import IO
 
 import pytest
@@ -32,6 +35,20 @@ LOCK_DIR = pathlib.Path(tempfile.gettempdir()) / 'auv-ros-domains'
 #: how long to wait for a free id when every id is held (s)
 RESERVE_TIMEOUT = 120.0
 
+
+def load_bench(name: str) -> ModuleType:
+    """The benchmark module ``bench/bench_<name>.py`` (its cases and judges, for a test that
+    flies a few of a benchmark's cases)."""
+    path = ROOT / 'bench' / f'bench_{name}.py'
+    spec = importlib.util.spec_from_file_location(f'bench_{name}', path)
+    assert spec is not None and spec.loader is not None, path
+    module = importlib.util.module_from_spec(spec)
+    sys.path.insert(0, str(path.parent))  # the benchmarks import their own ``timing``
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(path.parent))
+    return module
 
 class DomainReservation:
     """An exclusive hold on one DDS domain id, across processes, until :meth:`release`."""

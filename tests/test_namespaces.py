@@ -69,6 +69,8 @@ def test_pilot_on_the_simulators_odometry_flies_the_offline_run(tmp_path: pathli
     codes = run_graph(cfg, duration=240.0, env=ros_env)
     assert codes['simulator'] == 0, codes
     assert 'state from /auv/odom (enu_flu)' in (tmp_path / 'logs' / 'pilot.log').read_text()
+    # the simulator waits for the recorder on /auv/state, not for the pilot, which is on odom
+    assert 'fewer than' not in (tmp_path / 'logs' / 'simulator.log').read_text()
     bar = read_arrays(bag, ['/auv/bar_command'])['/auv/bar_command']
     offline = run_closed_loop(load_vehicle(A18M), [(0.0, 10.0)], 30.0, z0=40.0)
     assert len(bar) == 301

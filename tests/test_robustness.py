@@ -14,14 +14,12 @@ the last 10 s below 0.1 m (integral action). The Monte Carlo over 1000 plants is
 """
 from __future__ import annotations
 
-import importlib.util
 import math
 import pathlib
-from typing import Any
 
 import numpy as np
 import pytest
-from conftest import A18M, ROOT
+from conftest import A18M, load_bench
 
 from auv_depth_lqr.bound import settling_bound
 from auv_depth_lqr.closed_loop import ClosedLoopRun
@@ -100,23 +98,9 @@ def test_pilot_flies_a_light_vehicle_down(design: VehicleParams) -> None:
     assert_flies(outcome, run, bound, DIVE)
 
 
-def _bench() -> Any:
-    spec = importlib.util.spec_from_file_location(
-        'bench_robustness', ROOT / 'bench' / 'bench_robustness.py')
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    import sys
-    sys.path.insert(0, str(ROOT / 'bench'))
-    try:
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(ROOT / 'bench'))
-    return module
-
-
 def test_pilot_designed_on_an_identified_model_flies_the_true_vehicle(
         design: VehicleParams, bound: float, tmp_path: pathlib.Path) -> None:
-    bench = _bench()
+    bench = load_bench('robustness')
     truth = design.replace(**{k: design.values[k] * f for k, f in bench.IDENT_TRUTH.items()})
     identified, _ = bench.identify_truth(truth, A18M, tmp_path)
     # the heave derivatives are identified to the truth (the base file is 20 % off) ...

@@ -107,6 +107,9 @@ ROWS: list[tuple[str, str, str]] = [
      '{gap_honest:panel.clean_false_alarms} of {gap_honest:panel.clean_cases}; '
      '{gap_honest:panel.median_shrink_inside:.2f}; {gap_honest:panel.truth_in_ci95}',
      '0 wrong'),
+    ('gap effect panel, one 15-minute log per file of `config/effects` (and a clean log, two '
+     'effects at once): cases judged right',
+     '{gap_panel:passed} of {gap_panel:total}', 'all'),
     ('gap: 95 % interval coverage over 100 seeds per effect: buoyancy error / plane delay / '
      'plane lag / current shear / current drift / added mass / depth-sensor latency / '
      'pitch-sensor scale',

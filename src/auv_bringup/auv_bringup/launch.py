@@ -183,10 +183,18 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
         use_sim_clock=cfg.sim_clock,
         real_time_factor=cfg.real_time_factor, initial_depth=cfg.initial_depth,
         initial_speed=cfg.initial_speed, stop_time=cfg.stop_time,
-        start_subscribers=float(int(cfg.pilot or bool(cfg.mission)) + int(bool(cfg.record))
-                                + int(cfg.foxglove is not None)),
+        start_subscribers=float(state_subscribers(cfg)),
         control_period=1.0 / cfg.pilot_rate), *remaps(cfg)], log('simulator')))
     return nodes
+
+
+def state_subscribers(cfg: GraphConfig) -> int:
+    """The ``/auv/state`` subscribers of the graph ``cfg`` the simulator waits for before
+    t = 0: the mission or a pilot on ``VehicleState`` (a pilot on ``nav_msgs/Odometry``
+    subscribes to ``odom`` instead), the recorder and the Foxglove bridge."""
+    pilot_on_state = cfg.pilot and not cfg.mission and cfg.pilot_state == 'vehicle_state'
+    return (int(bool(cfg.mission) or pilot_on_state) + int(bool(cfg.record))
+            + int(cfg.foxglove is not None))
 
 
 def send_depth_command(z: float, env: dict[str, str], subscribers: int = 1,

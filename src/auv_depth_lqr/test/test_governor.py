@@ -23,7 +23,7 @@ def schedule() -> GainSchedule:
     return GainSchedule.design(linearize, (1.0, 1.5, 2.0, 2.5, 3.0), Ts=TS)
 
 
-def _fine_sample(state: np.ndarray, u: float, b: np.ndarray, n: int = 200) -> np.ndarray:
+def _fine_sample(state: np.ndarray, u: float, b: np.ndarray, n: int = 40) -> np.ndarray:
     """One sample of the third-order series model b0 V + b1 A + b2 J + b3 J' = U, RK4 in n
     steps; state (P, V, A, J)."""
     def f(x: np.ndarray) -> np.ndarray:
@@ -83,7 +83,7 @@ def test_stop_distance_matches_the_finely_integrated_stop(
     schedule: GainSchedule, v: float, a: float, j: float
 ) -> None:
     """Climb at 2 m/s: the sampled stop (exact one-sample maps, bisection over the switch)
-    equals the brute-force stop integrated in 200 steps per sample."""
+    equals the brute-force stop integrated in 40 RK4 steps per sample."""
     ctrl = DepthController(schedule, Limits(), TS)
     op = schedule.at(2.0)
     landing = ctrl.governor.approach_length / 2.0  # s, as for a command flown at 2 m/s

@@ -412,11 +412,12 @@ class SimulatorNode(Node):
         timeout = self.settings.lockstep_startup_timeout
 
         def connected() -> bool:
-            return (self._pub_state.get_subscription_count() > 0
+            return ((self._pub_state.get_subscription_count() > 0
+                     or self._pub_odom.get_subscription_count() > 0)
                     and self._subs['bar'].get_publisher_count() > 0)
 
         self.get_logger().info(f'lockstep: waiting up to {timeout} s for a pilot '
-                               f'(state subscriber and bar_command publisher)')
+                               f'(state or odom subscriber and bar_command publisher)')
         if self._spin_until(executor, time.monotonic() + timeout, connected):
             self.get_logger().info('lockstep: pilot connected')
         elif not self._stop.is_set():
