@@ -32,7 +32,6 @@ CASES: dict[str, tuple[dict[str, float], dict[str, Any]]] = {
                                                                [200.0, 0.4, 0.2, 0.0]]}),
     'crossflow_cd_3': ({}, {'effects': {'crossflow_drag': {'Zww': -3400.0, 'Mqq': -10300.0}}}),
     # the model's own coefficients
-    'damping_30_higher': ({'CZuw': 1.3, 'CMuq': 1.3}, {'effects': {}}),
     'plane_70_percent': ({'CZbar': 0.7, 'CMbar': 0.7}, {'effects': {}}),
     'added_mass_30': ({'Zwdot': 1.3}, {'effects': {}}),
     # in the catalogue, physically sized: cross-flow drag coefficient 1.0 on the hull
@@ -89,7 +88,7 @@ def test_crossflow_beyond_the_hull_is_flagged_implausible(panel) -> None:  # typ
 
 
 @pytest.mark.parametrize('case,truth', [
-    ('damping_30_higher', {'CZuw': 1.3, 'CMuq': 1.3}),
+    # heave and pitch damping 30 % higher: bench/bench_gap_honest.py (damping_30_higher)
     ('plane_70_percent', {'CZbar': 0.7, 'CMbar': 0.7}),
 ])
 def test_coefficient_errors_are_named_or_not_explained(panel, case: str,  # type: ignore

@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import control
 import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
@@ -322,6 +321,8 @@ def lqrd(
     W = 0.5 * (W + W.T)
     Qd, Nd, Rd = W[:n, :n], W[:n, n:], W[n:, n:]
     Phi, Gamma = G22[:n, :n], G22[:n, n:]
+
+    import control  # here, not at import: it loads scipy.signal and matplotlib (about 1.3 s)
 
     try:
         K, S, E = control.dlqr(Phi, Gamma, Qd, Rd, Nd)
