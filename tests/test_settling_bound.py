@@ -71,6 +71,20 @@ def test_the_pilot_cannot_beat_the_bound(params, bound) -> None:  # type: ignore
     assert m.settling_time >= bound.settling_time - STEP
 
 
+def test_a_small_change_is_bounded_by_the_dynamics_not_the_climb(params) -> None:  # type: ignore[no-untyped-def]
+    """1 m: pitching up and back takes longer than four times the kinematic climb time; the
+    bound exists, and the pilot on the same model is not faster."""
+    z1 = Z0 + 1.0
+    bound = settling_bound(params, Z0, z1, U0, THETA_MAX, step=STEP, hold=HOLD)
+    assert bound.settling_time > 4.0 * 1.0 / (U0 * math.sin(THETA_MAX))
+    run = run_closed_loop(params, [(0.0, z1)], 40.0, z0=Z0, u0=U0,
+                          settings=PilotSettings(theta_max=THETA_MAX))
+    rec = run.record
+    m = step_metrics(rec.t, rec.x[:, 2], rec.x[:, 4], rec.x[:, 10], rec.x[:, 12], z1,
+                     bar_max=params.bar_max, u0=U0, theta_max=THETA_MAX)
+    assert bound.settling_time - STEP <= m.settling_time < math.inf
+
+
 @pytest.mark.parametrize(('kwargs', 'match'), [
     ({'u0': 0.0}, 'u0 > 0'),
     ({'theta_max': 2.0}, 'theta_max'),

@@ -272,7 +272,8 @@ def settling_bound(params: VehicleParams, z0: float, z1: float, u0: float,
     Raises
     ------
     DesignError
-        Bad arguments, a speed without trim, or no solution within ``4 T_kin``.
+        Bad arguments, a speed without trim, or no solution within
+        ``4 (T_kin + L/u0 + bar_max/bar_rate)``.
     """
     for name, value in (('z0', z0), ('z1', z1), ('u0', u0), ('theta_max', theta_max),
                         ('band', band), ('step', step), ('hold', hold)):
@@ -297,10 +298,13 @@ def settling_bound(params: VehicleParams, z0: float, z1: float, u0: float,
     trim_state = np.array([trim.w, 0.0, z1, trim.theta])
     limits = (bar_max, bar_rate * step, theta_max, band)
     t_kin = abs(z1 - z0) / (u0 * math.sin(theta_max))
+    # search horizon: four times the kinematic time plus the vehicle's own time scales (the
+    # hull passing its length, the plane reaching its stop), which dominate small changes
+    ceiling = 4.0 * (t_kin + params.L_ref / u0 + bar_max / bar_rate)
     n_hold = int(math.ceil(hold / step))
     hi = int(math.ceil(1.5 * t_kin / step))
     found: np.ndarray | None = None
-    while hi * step <= 4.0 * t_kin:
+    while hi * step <= ceiling:
         ok, bars = feasible(model, X0, trim_state, trim.bar, z1, hi,
                              np.full(hi + n_hold, trim.bar), limits)
         if ok:
@@ -309,7 +313,8 @@ def settling_bound(params: VehicleParams, z0: float, z1: float, u0: float,
         hi = int(math.ceil(hi * 1.5))
     if found is None:
         raise DesignError(f'settling_bound: no BAR sequence settles {z0} -> {z1} m at '
-                          f'{u0} m/s within 4 T_kin = {4 * t_kin:.1f} s')
+                          f'{u0} m/s within {ceiling:.1f} s (4 (T_kin + L/u0 + '
+                          f'bar_max/bar_rate))')
     lo = int(math.floor(0.5 * t_kin / step))
     while hi - lo > 1:
         mid = (lo + hi) // 2
