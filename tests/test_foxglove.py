@@ -55,6 +55,9 @@ def bridge(ros_env: dict[str, str]) -> Iterator[tuple[int, subprocess.Popen[str]
     reader = LineReader(proc.stderr)
     try:
         line = reader.wait_for('foxglove: serving', 60.0)
+        # every channel of the graph exists before a client can connect (a channel added while
+        # a client subscribes can be refused as unknown): the 8 topics and 3 pose topics
+        assert 'serving 11 topics' in line, line
         port = int(line.rsplit(':', 1)[1])
         yield port, proc, reader
     finally:

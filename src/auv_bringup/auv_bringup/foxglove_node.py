@@ -48,7 +48,13 @@ from typing import Any, NamedTuple
 
 from auv_bringup.cli import CliError, standalone
 from auv_bringup.errors import BridgeError
-from auv_bringup.record_node import KNOWN_TOPICS, NAMESPACE, header_stamp, message_class
+from auv_bringup.record_node import (
+    KNOWN_TOPICS,
+    NAMESPACE,
+    header_stamp,
+    known_types,
+    message_class,
+)
 
 VEHICLE = pathlib.Path(__file__).resolve().parents[3] / 'config' / 'a18m.yaml'
 DEFAULT_PORT = 8765  # Foxglove's default WebSocket port
@@ -171,9 +177,10 @@ class Bridge:
         self._hull_size = hull
         self._hull = SceneUpdateChannel(HULL_TOPIC) if pose and hull else None
         self._hull_sent = -math.inf  # time.monotonic() of the last hull update
+        known = known_types(node)
         for topic in topics:
             name = node.resolve_topic_name(topic)
-            msgtype = KNOWN_TOPICS.get(name)
+            msgtype = known.get(name)
             if msgtype is None:
                 self._pending.append(name)
             else:

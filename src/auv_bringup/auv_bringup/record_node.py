@@ -46,6 +46,12 @@ KNOWN_TOPICS: dict[str, str] = {
 NAMESPACE = '/auv'  # the recorder node's default namespace
 DEFAULT_TOPICS = list(KNOWN_TOPICS)
 
+
+def known_types(node: Any) -> dict[str, str]:
+    """:data:`KNOWN_TOPICS` by their names resolved for ``node`` (an rclpy node: relative
+    names in its namespace, e.g. ``/auv/state``) -> message type."""
+    return {node.resolve_topic_name(name): msgtype for name, msgtype in KNOWN_TOPICS.items()}
+
 DRAIN_QUIET = 0.3  # s without a new message that ends the drain after a stop
 DRAIN_MAX = 3.0  # s, longest drain after a stop
 GRAPH_POLL = 0.5  # s between looks at the graph for topics of unknown type
@@ -115,7 +121,7 @@ class Recorder:
         self._time = Time
         self._progress = node.create_publisher(Time, PROGRESS_TOPIC, PROGRESS_QOS)
         self._state_topic = node.resolve_topic_name('state')
-        known = {node.resolve_topic_name(name): msgtype for name, msgtype in KNOWN_TOPICS.items()}
+        known = known_types(node)
         self._unreported = 0  # /auv/state messages written since the last progress report
         self._last_state = b''  # the last of them (CDR)
         self._reported_at = 0.0  # time.monotonic() of the last report
