@@ -109,3 +109,16 @@ def test_pilot_removes_a_pitch_sensor_bias_in_closed_loop() -> None:
             assert pilot.pitch_offset.offset == pytest.approx(bias, abs=0.05 * DEG)
     assert tails[False] > 0.06       # the biased pitch costs a depth offset ...
     assert tails[True] < 0.02        # ... which the estimate removes
+
+
+def test_forgetting_time_is_froude_scaled_from_the_vehicle_file() -> None:
+    """20 s on the A18M (L = 4.6 m); sqrt(L/g) scaling to another hull (hand-worked)."""
+    from auv_depth_lqr.tuning import derive_tuning
+    a18m = load_vehicle(ROOT / 'config' / 'a18m.yaml')
+    remus = load_vehicle(ROOT / 'config' / 'remus100.yaml')
+    assert derive_tuning(a18m, 25.0 * DEG).pitch_offset_time == pytest.approx(20.0, rel=1e-3)
+    expected = 20.0 * math.sqrt(float(remus.L_ref) / 4.6)
+    assert derive_tuning(remus, 25.0 * DEG).pitch_offset_time == pytest.approx(expected,
+                                                                             rel=1e-3)
+    pilot = DepthPilot.for_vehicle(remus)
+    assert pilot.settings.pitch_offset_time == pytest.approx(expected, rel=1e-3)
