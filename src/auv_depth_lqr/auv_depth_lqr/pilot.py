@@ -15,6 +15,10 @@ pilot on a vehicle must also do:
   0.25 m/s climb for the A18M at 2 m/s) and says so; when state returns it resumes, with the
   controller reset so that no stale integrator or reference acts;
 * any failure of the controller on a sample gives the safe BAR, never an exception;
+* a pitch-sensor offset (misalignment, AHRS bias) is estimated from the depth kinematics
+  (:mod:`auv_depth_lqr.attitude`, model-free) and removed from the measured pitch before the
+  controller sees it, so the pilot does not hold a depth offset of ``b K_theta / K_z``
+  (0.2 m per degree on the A18M) that only its slow integrator would remove;
 * when the vehicle leaves the envelope its design model describes (pitch beyond the limit
   plus a margin, a depth rate the model cannot explain) it flies the conservative recovery
   law of :mod:`auv_depth_lqr.recovery` until the vehicle is back inside, then resumes with
@@ -29,6 +33,7 @@ import dataclasses
 import math
 from collections.abc import Sequence
 
+from auv_depth_lqr.attitude import PitchOffset, PitchOffsetEstimator
 from auv_depth_lqr.controller import DepthController, PlaneState
 from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
 from auv_depth_lqr.limits import Limits
@@ -62,6 +67,10 @@ LEVEL_SHARE = 0.1
 a pilot told its water speed then takes the difference of its measured surge from that speed
 as current [-]."""
 
+PITCH_OFFSET_TIME = 20.0
+"""Forgetting time [s] of the pitch-offset estimate of a pilot built without its vehicle file
+(the A18M's derived value, :func:`auv_depth_lqr.tuning.derive_tuning`)."""
+
 DEFAULT_SPEEDS = tuple(round(0.5 + 0.1 * k, 1) for k in range(36))
 """Gain-scheduling grid [m/s]: 0.5 to 4.0 m/s every 0.1 m/s, less the speeds the vehicle
 cannot trim at (:func:`trimmable_speeds`). The stop of the reference governor is planned on
@@ -88,6 +97,13 @@ class PilotSettings:
     ``t_k + publish_delay``, so the time its step took (and a late wake-up) does not move the
     publish instant (logical-execution-time output); 0 publishes as soon as it is computed.
     ``recovery``: when the envelope fallback acts and how (:class:`RecoverySettings`).
+    ``pitch_offset``: estimate a pitch-sensor offset from the depth kinematics and fly the
+    corrected pitch (:class:`~auv_depth_lqr.attitude.PitchOffsetEstimator`), with the
+    forgetting time ``pitch_offset_time`` [s] (``None``: derived from the vehicle by
+    :meth:`DepthPilot.for_vehicle`, :func:`~auv_depth_lqr.tuning.derive_tuning`; a pilot
+    built directly takes :data:`PITCH_OFFSET_TIME`) and ``pitch_offset_max`` [rad], the
+    largest offset taken as physical (default 3 deg, assumed: a sensor mounted within a few
+    degrees; a larger fit is not applied).
     """
 
     rate_hz: float = 10.0
@@ -101,6 +117,9 @@ class PilotSettings:
     water_speed: float | None = None
     publish_delay: float = 0.01
     recovery: RecoverySettings = dataclasses.field(default_factory=RecoverySettings)
+    pitch_offset: bool = True
+    pitch_offset_time: float | None = None
+    pitch_offset_max: float = math.radians(3.0)
 
     def __post_init__(self) -> None:
         for name in ('rate_hz', 'theta_max', 'state_timeout'):
@@ -111,6 +130,11 @@ class PilotSettings:
                 and 0.0 <= self.publish_delay < 0.5 / self.rate_hz):
             raise DesignError(f'pilot setting publish_delay = {self.publish_delay!r} s must be '
                               f'>= 0 and below half the sample period ({0.5 / self.rate_hz:g} s)')
+        for name in ('pitch_offset_time', 'pitch_offset_max'):
+            value = getattr(self, name)
+            if value is not None and not (isinstance(value, (int, float))
+                                          and math.isfinite(value) and value > 0):
+                raise DesignError(f'pilot setting {name} = {value!r} must be finite and > 0')
         if self.safe_bar is not None and not math.isfinite(self.safe_bar):
             raise DesignError(f'pilot setting safe_bar = {self.safe_bar!r} must be finite')
         if self.water_speed is not None and not (
@@ -219,6 +243,13 @@ class DepthPilot:
         self._current: float | None = None
         """Estimated current along the heading [m/s] (``water_speed`` given), see
         :meth:`on_state`."""
+        offset_time = settings.pitch_offset_time if settings.pitch_offset_time is not None \
+            else PITCH_OFFSET_TIME
+        self._pitch_offset = PitchOffsetEstimator(offset_time, settings.pitch_offset_max,
+                                                  settings.state_timeout)
+        self.pitch_offset = PitchOffset(0.0, False, math.nan)
+        """The last pitch-sensor offset estimate (:class:`~auv_depth_lqr.attitude.PitchOffset`;
+        its ``offset`` [rad] is subtracted from the measured pitch when ``pitch_offset``)."""
 
     @property
     def state(self) -> PlaneState | None:
@@ -235,10 +266,12 @@ class DepthPilot:
         file's unless ``depth_min`` / ``depth_max`` narrow it (DesignError if they are
         outside the file's rated envelope)."""
         settings = settings or PilotSettings()
+        bar_max = settings.bar_max if settings.bar_max is not None else params.bar_max
+        tuning = derive_tuning(params, settings.theta_max, bar_max)
         if settings.safe_bar is None:
-            bar_max = settings.bar_max if settings.bar_max is not None else params.bar_max
-            settings = dataclasses.replace(
-                settings, safe_bar=derive_tuning(params, settings.theta_max, bar_max).safe_bar)
+            settings = dataclasses.replace(settings, safe_bar=tuning.safe_bar)
+        if settings.pitch_offset_time is None:
+            settings = dataclasses.replace(settings, pitch_offset_time=tuning.pitch_offset_time)
         lo = params.depth_min if depth_min is None else depth_min
         hi = params.depth_max if depth_max is None else depth_max
         for name, value in (('depth_min', lo), ('depth_max', hi)):
@@ -281,6 +314,11 @@ class DepthPilot:
             raise InvalidInputError(f'state with non-finite fields {values} ignored')
         if self.settings.water_speed is not None:
             u, w = self._through_water(t, u, w, theta)
+        if self.settings.pitch_offset:
+            # The kinematics hold for the velocities over ground, and through the water in a
+            # horizontal current, with the pitch they were converted with (the measured one).
+            self.pitch_offset = self._pitch_offset.update(t, z, theta, w, u)
+            theta -= self.pitch_offset.offset
         self._state = PlaneState(z=z, theta=theta, w=w, q=q, u=u)
         self._t_state = float(t)
         if self.z_ref is None:

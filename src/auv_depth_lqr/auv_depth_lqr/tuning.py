@@ -60,6 +60,11 @@ LAG_LENGTHS = 0.5 / _A18M_L             # reference lead over the vehicle, of L:
 INTEGRATE_LENGTHS = 0.2 / _A18M_L       # integrator band about the reference, of L: 0.2 m
 DISTURBANCE_TIMES = 3.0 / _A18M_TIME    # disturbance estimate's time constant, of sqrt(L/g): 3 s
 
+# Pitch-sensor offset estimate (auv_depth_lqr.attitude): forgetting time, of sqrt(L/g): 20 s,
+# the time to run ~9 hull lengths at the A18M's Froude speed share (2 m/s): long enough to
+# average a 0.05 m depth noise to 3e-4 rad, short against a depth change of a few minutes.
+PITCH_OFFSET_TIMES = 20.0 / _A18M_TIME
+
 # Safe plane without state: a gentle nose-up climb.
 SAFE_BAR_SHARE = 0.12 / _A18M_BAR_MAX   # of bar_max, nose up: 0.12 rad on the A18M
 
@@ -90,6 +95,9 @@ class Tuning(NamedTuple):
     """Reference-governor settings with the derived lengths and acceleration."""
     safe_bar: float
     """Safe plane angle without state [rad] (nose up)."""
+    pitch_offset_time: float = 20.0
+    """Forgetting time of the pitch-sensor offset estimate [s]
+    (:class:`auv_depth_lqr.attitude.PitchOffsetEstimator`)."""
 
 
 def scales(params: VehicleParams, theta_max: float, bar_max: float | None = None) -> Scales:
@@ -126,6 +134,9 @@ def derive_tuning(params: VehicleParams, theta_max: float,
     * ``disturbance_time = 4.380 sqrt(L/g)`` [s] (3 s): time constant of the disturbance
       estimate (:meth:`auv_depth_lqr.controller.DepthController.step`).
 
+    Pitch-sensor offset estimate: ``pitch_offset_time = 29.20 sqrt(L/g)`` [s] (20 s)
+    (:class:`auv_depth_lqr.attitude.PitchOffsetEstimator`).
+
     Safe BAR: ``0.275 bar_max`` [rad] (0.12 rad) to the side whose moment pitches the nose
     up (the sign of ``-CMbar``: a negative ``CMbar`` makes a negative BAR nose up).
     """
@@ -146,4 +157,5 @@ def derive_tuning(params: VehicleParams, theta_max: float,
         integrate_within=INTEGRATE_LENGTHS * s.length,
         disturbance_time=DISTURBANCE_TIMES * s.time)
     nose_up = -1.0 if float(params.CMbar) <= 0.0 else 1.0
-    return Tuning(weights, governor, nose_up * SAFE_BAR_SHARE * s.bar_max)
+    return Tuning(weights, governor, nose_up * SAFE_BAR_SHARE * s.bar_max,
+                  PITCH_OFFSET_TIMES * s.time)
