@@ -165,9 +165,10 @@ def test_buoyancy_and_lag_ranges(vehicle) -> None:  # type: ignore
 
 # -- the model's own coefficients -------------------------------------------------------------
 @pytest.mark.parametrize('name,changes,values', [
-    ('coefficients', {'CZuw': 1.3, 'CMuq': 1.3, 'CZbar': 0.8, 'Ksh': 1.3},
+    ('coefficients', {'CZuw': 1.3, 'CMuq': 1.3, 'CZbar': 0.8, 'Ksh': 1.3, 'CZ0': 2.0,
+                      'CM0': 2.0},
      {'CZuw': 1.3, 'CMuw': 1.0, 'CZuq': 1.0, 'CMuq': 1.3, 'CZbar': 0.8, 'CMbar': 1.0,
-      'Ksh': 1.3}),
+      'Ksh': 1.3, 'CZ0': 2.0, 'CM0': 2.0}),
     ('plane_effectiveness', {'CZbar': 0.7, 'CMbar': 0.7}, {'gain': 0.7}),
 ])
 def test_coefficient_effects_reproduce_a_changed_vehicle_file(vehicle, name: str, changes,  # type: ignore
@@ -192,11 +193,12 @@ def test_wording_of_a_current_and_of_coefficients(vehicle) -> None:  # type: ign
     es = EffectSet(['current', 'coefficients'], vehicle)
     n = len(es.params)
     values = np.array([0.3 * math.cos(math.radians(30)), 0.3 * math.sin(math.radians(30)),
-                       0.0, 1.3, 1.0, 1.0, 0.8, 1.0, 1.0, 1.0])
+                       0.0, 1.3, 1.0, 1.0, 0.8, 1.0, 1.0, 1.0, 1.0, 1.0])
     lo, hi = values - 0.02, values + 0.02
-    active = np.array([True, True, False, True, False, False, True, False, False, False])
+    active = np.array([True, True, False, True, False, False, True, False, False, False,
+                       False, False])
     text = describe(FitResult(es, values, active, lo, hi, 'free_run'))
-    assert n == 10
+    assert n == 12
     assert '0.30 m/s towards 030 deg' in text
     assert "the model's CZuw is 30 % low" in text
     assert "the model's CMuq is 20 % high" in text
