@@ -10,13 +10,14 @@ with realistic sensor noise, each of a plant the diagnosis is not told:
   latency; the truth is the effect file. Counted right when the verdict is ``explained`` with
   exactly the true set, or ``ambiguous`` with the true set among the named;
 * ``coefficients``: the plant's own coefficients differ from the file (heave and pitch damping
-  30 % higher, plane effectiveness 70 %, Munk moment 20 % lower, surge drag 30 % higher): right
+  30 % higher, plane effectiveness 70 %, Munk moment 20 % lower, surge drag 30 % higher,
+  zero-lift force and moment twice the file's): right
   when named by ``coefficients`` or ``plane_effectiveness``; never to be ``explained`` by
   another effect;
 * ``outside``: forms the catalogue lacks (a shear that stops inside the depths flown, alone
   and on top of a buoyancy error, a vertical current changing with depth, internal waves,
-  tidal oscillations along and across the track shorter than or about the log, zero-lift
-  offsets growing with the square of the speed, a cross-flow drag beyond what the hull can
+  tidal oscillations along and across the track shorter than or about the log, a surface
+  current decaying exponentially with depth, a cross-flow drag beyond what the hull can
   have): wrong when ``explained``;
 * ``clean``: no effect, several seeds: a false alarm is any verdict but ``no_gap``.
 
@@ -34,6 +35,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import pathlib
 import statistics
 import time
@@ -144,8 +146,10 @@ CASES: dict[str, Case] = {
     'crossflow_cd_3': ('outside', {}, _fx(crossflow_drag={'Zww': -3400.0, 'Mqq': -10300.0}),
                        {}, 'closed'),
     # zero-lift force and moment twice the file's: offsets that grow with u^2 (the panel flies
-    # three speeds), which no constant buoyancy or centre-of-gravity error reproduces
-    'zero_lift_x2': ('outside', {'CZ0': 2.0, 'CM0': 2.0}, _fx(), {}, 'closed'),
+    # three speeds), which no constant buoyancy or centre-of-gravity error reproduces; CZ0 and
+    # CM0 are among the coefficients the `coefficients` candidate re-fits
+    'zero_lift_x2': ('coefficients', {'CZ0': 2.0, 'CM0': 2.0}, _fx(),
+                     {'coefficients': {'CZ0': 2.0, 'CM0': 2.0}}, 'closed'),
     # an outside form on top of an inside one: only part of the gap can be named
     'kinked_shear+buoyancy': ('outside', {}, {
         'effects': {'buoyancy_offset': {'dB': 15.0}},
@@ -158,6 +162,11 @@ CASES: dict[str, Case] = {
     'clean_1': ('clean', {}, _fx(), {}, 'closed'),
     'clean_2': ('clean', {}, _fx(), {}, 'closed'),
     'clean_3_open': ('clean', {}, _fx(), {}, 'open'),
+    # a wind-driven surface current decaying with depth, 0.8 / 0.3 m/s north / east at the
+    # surface, e-folding over 25 m (an Ekman-like profile): curved over the depths flown
+    'surface_current_decaying': ('outside', {}, {'effects': {}, 'current_profile': [
+        [z, 0.8 * math.exp(-z / 25.0), 0.3 * math.exp(-z / 25.0), 0.0]
+        for z in range(0, 161, 10)]}, {}, 'closed'),
 }
 
 

@@ -63,11 +63,7 @@ def panel(vehicle):  # type: ignore[no-untyped-def]
 
 @pytest.mark.parametrize('case', [
     'shear_kinked',
-    pytest.param('crossflow_cd_3', marks=pytest.mark.xfail(strict=True, reason=(
-        'measured on this log (seed 11, flown by the LQR pilot): `explained` by the '
-        "coefficients candidate, \"the model's CZuw is 17 % low\", while the cross-flow fit "
-        '(Zww -3260 kg/m) is flagged implausible; the benchmark panel\'s log of the same '
-        'plant (seed 23 + k) gives partly_explained. A wrong explained: open'))),
+    'crossflow_cd_3',
 ])
 def test_outside_the_catalogue_is_never_explained(panel, case: str) -> None:  # type: ignore
     r = panel(case).report

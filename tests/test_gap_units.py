@@ -55,9 +55,9 @@ ORACLES = {
     'pitch_sensor_latency': ({'pitch_sensor_latency': {'latency': 0.2}}, {'latency': 0.2}),
     'plane_effectiveness': ({'plane_effectiveness': {'gain': 0.7}}, {'gain': 0.7}),
     'thrust_error': ({'thrust_error': {'gain': 1.2}}, {'gain': 1.2}),
-    'coefficients': ({'coefficients': {'CZuw': 1.3, 'CMuq': 1.3}},
+    'coefficients': ({'coefficients': {'CZuw': 1.3, 'CMuq': 1.3, 'CM0': 1.5}},
                      {'CZuw': 1.3, 'CMuw': 1.0, 'CZuq': 1.0, 'CMuq': 1.3, 'CZbar': 1.0,
-                      'CMbar': 1.0, 'Ksh': 1.0}),
+                      'CMbar': 1.0, 'Ksh': 1.0, 'CZ0': 1.0, 'CM0': 1.5}),
 }
 
 

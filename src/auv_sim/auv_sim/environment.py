@@ -45,7 +45,7 @@ from auv_sim.model import (
 from auv_sim.params import VehicleParams
 
 #: The model's own coefficients an effect can scale (factor on the vehicle file's value).
-COEFFICIENT_FIELDS = ('CZuw', 'CMuw', 'CZuq', 'CMuq', 'CZbar', 'CMbar', 'Ksh')
+COEFFICIENT_FIELDS = ('CZuw', 'CMuw', 'CZuq', 'CMuq', 'CZbar', 'CMbar', 'Ksh', 'CZ0', 'CM0')
 _FACTOR = 'x file value'
 
 #: The registry: effect name -> {field: (unit, value meaning "absent")}.

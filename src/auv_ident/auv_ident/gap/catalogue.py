@@ -423,6 +423,8 @@ class ActuatorRateLimit(Effect):
 
 class BarBias(Effect):
     name = 'bar_bias'
+    #: a plane bias adds CZbar bias and CMbar bias to the zero-lift CZ0 and CM0
+    within = ('coefficients',)
     description = 'the plane sits at its logged angle plus a bias (rad): force ~ u^2'
     equations = ('heave', 'pitch')
     signature = {'speed change': 2.0}
@@ -514,17 +516,19 @@ class PitchSensorBias(Effect):
 
 #: The coefficients of the vertical plane and of surge that ``auv ident`` fits, as (name,
 #: basis row, body row, power of L_ref in the wrench; None: the basis holds the whole term per
-#: unit coefficient): ``Z = qs (CZuw ur wr + CZuq L ur q + CZbar ur|ur| bar)``,
-#: ``M = qs L (CMuw ur wr + CMuq L ur q + CMbar ur|ur| bar)``, ``X = -Ksh qs C_XF(Re) ur|ur|``.
+#: unit coefficient): ``Z = qs (CZ0 ur|ur| + CZuw ur wr + CZuq L ur q + CZbar ur|ur| bar)``,
+#: ``M = qs L (CM0 ur|ur| + CMuw ur wr + CMuq L ur q + CMbar ur|ur| bar)``,
+#: ``X = -Ksh qs C_XF(Re) ur|ur|``. CZ0 and CM0 (the zero-lift force and moment) are fitted by
+#: ``auv ident --fit-c0``.
 COEFFICIENTS = (('CZuw', B_UW, 2, 0), ('CMuw', B_UW, 4, 1), ('CZuq', B_UQ, 2, 1),
                 ('CMuq', B_UQ, 4, 2), ('CZbar', B_UUBAR, 2, 0), ('CMbar', B_UUBAR, 4, 1),
-                ('Ksh', B_XDRAG, 0, None))
+                ('Ksh', B_XDRAG, 0, None), ('CZ0', B_UU, 2, 0), ('CM0', B_UU, 4, 1))
 
 
 class Coefficients(Effect):
     name = 'coefficients'
     description = ("the model's own coefficients are off: each of CZuw, CMuw, CZuq, CMuq, "
-                   'CZbar, CMbar and Ksh is re-fitted as a factor on its file value')
+                   'CZbar, CMbar, Ksh, CZ0 and CM0 is re-fitted as a factor on its file value')
     equations = ('heave', 'pitch', 'surge')
     signature = {'speed change': 1.0, 'plane doublets of several periods': 1.0,
                  'plane steps of several sizes': 0.0}

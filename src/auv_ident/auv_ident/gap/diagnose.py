@@ -53,6 +53,7 @@ AMBIGUOUS_RATIO = 1.25   # held-out cost within this factor of the best ...
 AMBIGUOUS_T = 2.0        # ... and not worse by this many standard errors over the windows
 TIE = 0.02               # scores closer than this are a tie: the simpler candidate wins
 RESCUE = 0.1             # a larger set with white residuals may score this much less
+GAIN_LEVEL = 0.01        # one-sided level of the held-out predictive-gain test (a rival)
 MC_RUNS = 4
 
 Progress = Callable[[str], None]
@@ -70,6 +71,8 @@ class Candidate:
     explained: float = 0.0
     beyond: dict[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
     empty: list[str] = dataclasses.field(default_factory=list)
+    #: per held-out window: the loss of each sample (squared scaled errors over the states)
+    loss: list[np.ndarray] = dataclasses.field(default_factory=list)
 
     @property
     def plausible(self) -> bool:
@@ -111,8 +114,17 @@ class _Scorer:
         self.pr, self.frf = pr, frf
         self.nominal_cost, self.floor_cost = nominal_cost, floor_cost
         self.rows = pr.window_rows(frf.held)
+        #: Newey-West lags of the predictive-gain test: half the shortest held-out window
+        self.lags = max(1, min(r.stop - r.start for r in self.rows) // 2)
+
+    def gain(self, base: Candidate, cand: Candidate) -> tuple[float, float]:
+        """``(t, p)`` of the Diebold-Mariano test that ``cand`` predicts the held-out
+        windows better than ``base`` (:func:`auv_ident.gap.residuals.predictive_gain`)."""
+        t, p, _ = residuals.predictive_gain(base.loss, cand.loss, self.lags)
+        return t, p
 
     def evaluate(self, fits: Sequence[FitResult]) -> list[Candidate]:
+        """Score ``fits`` on the held-out windows."""
         if not fits:
             return []
         perts = [f.effects.perturbation(f.values) for f in fits]
@@ -127,7 +139,8 @@ class _Scorer:
             phys = out[c][:, CH_INDEX] - meas[:, CH_INDEX]
             phys = np.where(np.isfinite(phys), phys, 1e3)
             rms = {n: float(np.sqrt(np.mean(phys[:, i] ** 2))) for i, n in enumerate(CH_NAMES)}
-            cand = Candidate(f, cost, per_w, rms)
+            cand = Candidate(f, cost, per_w, rms,
+                             loss=[np.sum(err[r][1:] ** 2, axis=1) for r in self.rows])
             cand.score = self.score(cost, f.n_active)
             gap = self.nominal_cost - self.floor_cost
             cand.explained = float(np.clip((self.nominal_cost - cost) / gap, 0.0, 1.0)) \
@@ -329,6 +342,13 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
                 candidates.sort(key=lambda c: (c is not best, not (c.plausible and c.identifies),
                                                -c.score, c.fit.n_active, len(c.names)))
                 break
+    if tested is not None and gap_channels:
+        # a fit beyond physics that predicts the held-out windows significantly better than
+        # the answer shows structure the answer leaves: not explained (its form is the hint)
+        rival = _better_implausible(scorer, tested, candidates)
+        if rival is not None:
+            white = False
+            left = [rival, *left]
     verdict, ambiguous, suggestion = _verdict(gap_channels, tested, candidates, white)
     best_label = best.label if verdict not in ('no_gap', 'unexplained') else None
     after = best if best_label else nominal_cand
@@ -429,6 +449,26 @@ def _verdict(gap_channels: list[str], best: Candidate | None, candidates: list[C
     if ambiguous:
         return 'ambiguous', ambiguous, separating_manoeuvre(best.names[0], ambiguous[0])
     return verdict, [], None
+
+
+def _better_implausible(scorer: _Scorer, best: Candidate, candidates: Sequence[Candidate]
+                        ) -> str | None:
+    """The text naming an implausible candidate that predicts the held-out windows better
+    than ``best`` (Diebold-Mariano, level ``GAIN_LEVEL``), or None. A fit that needs
+    parameters beyond physics is no explanation, but when it beats the plausible answer on
+    data neither was fitted to, the answer has left structure of that fit's form (a
+    quadratic drag that a linear coefficient follows only on average, say)."""
+    for c in sorted(candidates, key=lambda c: c.cost):
+        if c.plausible or c.cost >= best.cost or not c.loss:
+            continue
+        t, p = scorer.gain(best, c)
+        if p < GAIN_LEVEL:
+            ks = ', '.join(f'{k} = {v:.4g}' for k, v in _entry_params(c).items()
+                           if k in c.beyond)
+            return (f'a fit beyond the plausible range, {c.label} ({ks}), predicts the '
+                    f'held-out data better (Diebold-Mariano t = {t:.1f}): structure of its '
+                    'form is left')
+    return None
 
 
 def _nested(a: set[str], b: set[str]) -> bool:

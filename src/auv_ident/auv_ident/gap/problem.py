@@ -367,15 +367,20 @@ class Problem:
         """Equation error (n x 6) at the equation samples: ``M nu_dot - tau`` for surge,
         heave, pitch, sway, yaw [N, N m] (``M`` and ``tau`` of the model with the factors,
         water and extra wrench of ``pert``) and the depth-kinematics error [m/s], with the
-        states and their rates corrected for the sensors of ``pert`` (bias, scale, latency)."""
+        states and their rates corrected for the sensors of ``pert`` (bias, scale, latency).
+        The depth-kinematics error is ``y_z_dot(t) - scale z_dot(t - latency)``: the logged
+        depth rate against the rate the depth sensor of ``pert`` reads."""
         if act is None:
             act = self.actuators(pert)
         X = np.empty((self.eq_index.size, 15))
+        kin = X
+        depth_rate = self.eq_rate[:, 2]
         if pert.sensors_exact:
             X[:, :12] = self.eq_state - pert.bias
             rate = self.eq_rate
         else:
             rate = np.empty_like(self.eq_rate)
+            kin = np.empty((self.eq_index.size, 12))
             for li, sm in enumerate(self.smoothed):
                 m = self.eq_log == li
                 idx = self.eq_index[m].astype(np.float64)
@@ -383,6 +388,8 @@ class Problem:
                 # rates: shifted and scaled alike, no bias
                 rate[m] = self.true_state(sm.rate, idx, dataclasses.replace(
                     pert, bias=np.zeros(12)))
+                # the true states at the instant the depth sensor reads (t - latency)
+                kin[m] = self.true_state(sm.state, idx - pert.latency[2] / self.period, pert)
         key = np.concatenate([pert.delay, pert.tau, pert.rate]).tobytes()
         eq_act = self._eq_act_cache.get(key)
         if eq_act is None:
@@ -397,10 +404,16 @@ class Problem:
         e = np.empty((X.shape[0], 6))
         for k, r in enumerate(EQ_ROWS):
             e[:, k] = lhs[:, r] - tau[:, r]
-        th, ph = X[:, 4], X[:, 3]
-        zdot = (-X[:, 6] * np.sin(th) + X[:, 7] * np.cos(th) * np.sin(ph)
-                + X[:, 8] * np.cos(th) * np.cos(ph))
-        e[:, 5] = rate[:, 2] - zdot
+        # depth kinematics in the depth sensor's terms: the logged depth rate at its own
+        # samples against the rate the sensor reads, ``scale z_dot(t - latency)``. The noisy
+        # measured rate is never shifted by a candidate latency (shifting it moves its noise
+        # with the parameter and makes the cost as rough as the noise in the latency: an
+        # estimate off by its noise's correlation time with an interval far too narrow);
+        # the smooth, nearly noise-free kinematic states are read at ``t - latency`` instead
+        th, ph = kin[:, 4], kin[:, 3]
+        zdot = (-kin[:, 6] * np.sin(th) + kin[:, 7] * np.cos(th) * np.sin(ph)
+                + kin[:, 8] * np.cos(th) * np.cos(ph))
+        e[:, 5] = depth_rate - pert.scale[2] * zdot
         return e
 
     def _smoothed_actuators(self, act: np.ndarray) -> np.ndarray:

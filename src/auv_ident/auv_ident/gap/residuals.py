@@ -193,3 +193,39 @@ def residual_tests(groups: Sequence[Group], alpha: float = ALPHA
     level = alpha / max(1, len(findings))
     left = [f.text for f in sorted(findings, key=lambda f: f.p_value) if f.p_value < level]
     return not left, findings, left
+
+
+def predictive_gain(loss_a: Sequence[np.ndarray], loss_b: Sequence[np.ndarray],
+                    lags: int) -> tuple[float, float, float]:
+    """Diebold-Mariano test of equal predictive accuracy (Diebold and Mariano 1995): does
+    model ``b`` predict held-out data better than model ``a``?
+
+    ``loss_a``, ``loss_b``: per-sample losses (e.g. squared normalised free-run errors summed
+    over the channels) of the two models on the same held-out samples, as time-ordered pieces
+    (one per held-out window). The loss differential ``d = loss_a - loss_b`` is averaged over
+    all samples; its long-run variance is the Newey-West (Bartlett-kernel) estimate with
+    ``lags`` lags, autocovariances pooled over the pieces (each piece a run of its own, no
+    products across pieces), so a gain carried by one window is weighed against the spread
+    of every window's differential rather than against the number of windows.
+
+    Returns ``(t, p, n_eff)``: the mean differential over its standard error, the one-sided
+    p-value (normal reference) of "``b`` is no better", and the effective sample size.
+    """
+    d = [np.asarray(a, dtype=np.float64) - np.asarray(b, dtype=np.float64)
+         for a, b in zip(loss_a, loss_b)]
+    allv = np.concatenate(d)
+    n = allv.size
+    if n < 2:
+        return 0.0, 1.0, float(n)
+    mu = float(np.mean(allv))
+    c = [p - mu for p in d]
+    gamma0 = sum(float(p @ p) for p in c) / n
+    if gamma0 <= 0:
+        return 0.0, 1.0, float(n)
+    lrv = gamma0
+    for k in range(1, max(0, lags) + 1):
+        gk = sum(float(p[k:] @ p[:p.size - k]) for p in c if p.size > k) / n
+        lrv += 2.0 * (1.0 - k / (lags + 1.0)) * gk
+    lrv = max(lrv, gamma0 / n)
+    t = mu / float(np.sqrt(lrv / n))
+    return t, float(stats.norm.sf(t)), n * gamma0 / lrv
