@@ -41,6 +41,7 @@ import statistics
 import time
 from typing import Any
 
+from gap_truth import truth_in_intervals
 from timing import save_figures
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -172,20 +173,7 @@ CASES: dict[str, Case] = {
 
 def _truth_covered(report: dict[str, Any], truth: dict[str, dict[str, float]]
                    ) -> list[bool]:
-    best = report['best']
-    if not best:
-        return []
-    entry = next(c for c in report['candidates'] if c['effect'] == best)
-    named = best.split('+')
-    out = []
-    for effect, fields in truth.items():
-        if effect not in named:
-            continue
-        for name, value in fields.items():
-            key = name if len(named) == 1 else f'{effect}.{name}'
-            lo, hi = entry['ci95'][key]
-            out.append(bool(lo <= value <= hi))
-    return out
+    return [bool(lo <= value <= hi) for _, value, lo, hi in truth_in_intervals(report, truth)]
 
 
 def _right(kind: str, report: dict[str, Any], truth: dict[str, dict[str, float]]) -> bool:

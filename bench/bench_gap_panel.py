@@ -31,6 +31,7 @@ import time
 from typing import Any
 
 import yaml
+from gap_truth import truth_in_intervals
 from timing import save_figures
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -84,16 +85,10 @@ def judge(report: dict[str, Any], truth: dict[str, dict[str, float]]) -> str | N
             return f"ambiguous between {report['best']} and {report['ambiguous_with']}"
         if not report['suggested_manoeuvre']:
             return 'ambiguous without a suggested manoeuvre'
-    entry = next(c for c in report['candidates'] if c['effect'] == report['best'])
-    for effect, fields in truth.items():
-        if effect not in named:
-            continue
-        for name, true in fields.items():
-            key = name if len(named) == 1 else f'{effect}.{name}'
-            lo, hi = entry['ci95'][key]
-            if not lo <= true <= hi:
-                return f"{key}: truth {true} outside [{lo}, {hi}] " \
-                       f"(estimate {entry['params'][key]})"
+    for key, true, lo, hi in truth_in_intervals(report, truth):
+        if not lo <= true <= hi:
+            entry = next(c for c in report['candidates'] if c['effect'] == report['best'])
+            return f"{key}: truth {true} outside [{lo}, {hi}] (estimate {entry['params'][key]})"
     if report['held_out']['shrink'] < 0.8:
         return f"held-out shrink {report['held_out']['shrink']:.2f} < 0.8"
     return None
