@@ -371,7 +371,8 @@ class DepthPilotNode(Node):
 
     def _take_state(self, s: PlaneState, stamp: Any) -> None:
         try:
-            self.pilot.on_state(self._now(), z=s.z, theta=s.theta, w=s.w, q=s.q, u=s.u)
+            self.pilot.on_state(self._now(), z=s.z, theta=s.theta, w=s.w, q=s.q, u=s.u,
+                                stamp=stamp.sec + stamp.nanosec / NS_PER_S)
         except InvalidInputError as exc:
             self.get_logger().warning(f'rejected: {exc}')
             return

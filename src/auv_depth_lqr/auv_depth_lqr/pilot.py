@@ -247,6 +247,12 @@ class DepthPilot:
             else PITCH_OFFSET_TIME
         self._pitch_offset = PitchOffsetEstimator(offset_time, settings.pitch_offset_max,
                                                   settings.state_timeout)
+        self._theta_measured = 0.0
+        self._t_measured = 0.0
+        """Measurement time [s] of the latest state (its stamp)."""
+        self._t_offset: float | None = None
+        """Measurement time [s] of the last state the pitch-offset estimate took."""
+        """Pitch [rad] of the latest state as measured (before the offset is removed)."""
         self.pitch_offset = PitchOffset(0.0, False, math.nan)
         """The last pitch-sensor offset estimate (:class:`~auv_depth_lqr.attitude.PitchOffset`;
         its ``offset`` [rad] is subtracted from the measured pitch when ``pitch_offset``)."""
@@ -306,19 +312,20 @@ class DepthPilot:
         self.z_ref = value
         return value
 
-    def on_state(self, t: float, z: float, theta: float, w: float, q: float, u: float) -> None:
+    def on_state(self, t: float, z: float, theta: float, w: float, q: float, u: float,
+                 stamp: float | None = None) -> None:
         """Record a measured state received at time ``t`` [s]; non-finite states are ignored
-        (InvalidInputError)."""
+        (InvalidInputError). ``stamp`` [s] is when it was measured (its header stamp; default
+        ``t``): the pitch-offset estimate integrates the kinematics over these times."""
         values = (z, theta, w, q, u)
         if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in values):
             raise InvalidInputError(f'state with non-finite fields {values} ignored')
         if self.settings.water_speed is not None:
             u, w = self._through_water(t, u, w, theta)
+        self._theta_measured = float(theta)
+        self._t_measured = float(t if stamp is None else stamp)
         if self.settings.pitch_offset:
-            # The kinematics hold for the velocities over ground, and through the water in a
-            # horizontal current, with the pitch they were converted with (the measured one).
-            self.pitch_offset = self._pitch_offset.update(t, z, theta, w, u)
-            theta -= self.pitch_offset.offset
+            theta -= self.pitch_offset.offset  # the latest estimate (see :meth:`command`)
         self._state = PlaneState(z=z, theta=theta, w=w, q=q, u=u)
         self._t_state = float(t)
         if self.z_ref is None:
@@ -365,6 +372,8 @@ class DepthPilot:
             self.monitor.reset()
             self.status = 'stale'
             return self._safe(), self.status
+        if self.settings.pitch_offset and self._t_offset != self._t_measured:
+            self._estimate_pitch_offset()
         if self._t_monitored != self._t_state:
             s = self._state
             self.verdict = self.monitor.update(self._t_state, s.z, s.theta, s.w, s.u)
@@ -386,6 +395,21 @@ class DepthPilot:
         self._last_bar = bar
         self.status = 'ok'
         return bar, self.status
+
+    def _estimate_pitch_offset(self) -> None:
+        """Add the latest state to the pitch-offset estimate and correct its pitch.
+
+        Called once per control step with a new state, so the estimate sees the states the
+        controller sees, whatever rate they arrive at (the simulator's 50 Hz or a 10 Hz
+        navigation solution give the same estimate). The kinematics hold for the velocities
+        over ground, and through the water in a horizontal current, with the pitch they were
+        converted with (the measured one)."""
+        s = self._state
+        assert s is not None
+        self.pitch_offset = self._pitch_offset.update(self._t_measured, s.z,
+                                                      self._theta_measured, s.w, s.u)
+        self._t_offset = self._t_measured
+        self._state = s._replace(theta=self._theta_measured - self.pitch_offset.offset)
 
     def _recovery(self) -> float:
         """The recovery law's BAR (see :func:`auv_depth_lqr.recovery.recovery_bar`) at the

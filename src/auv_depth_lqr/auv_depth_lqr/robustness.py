@@ -121,11 +121,12 @@ class NoisyDepthPilot(DepthPilot):
         self.depth_noise = float(sigma)
         self._rng = np.random.default_rng(seed)
 
-    def on_state(self, t: float, z: float, theta: float, w: float, q: float, u: float) -> None:
+    def on_state(self, t: float, z: float, theta: float, w: float, q: float, u: float,
+                 stamp: float | None = None) -> None:
         """Record a measured state, the depth [m] with the sensor's noise added."""
         if self.depth_noise:
             z = z + float(self._rng.standard_normal()) * self.depth_noise
-        super().on_state(t, z, theta, w, q, u)
+        super().on_state(t, z, theta, w, q, u, stamp)
 
     def command(self, t: float) -> tuple[float, str]:
         """The pilot's BAR command [rad] and status at ``t`` [s]; the status is kept."""
