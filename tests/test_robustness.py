@@ -131,9 +131,10 @@ class _DepthSeen(DepthPilot):
 
     seen: list[float]
 
-    def on_state(self, t: float, z: float, theta: float, w: float, q: float, u: float) -> None:
+    def on_state(self, t: float, z: float, theta: float, w: float, q: float, u: float,
+                 stamp: float | None = None) -> None:
         self.seen.append(z)
-        super().on_state(t, z, theta, w, q, u)
+        super().on_state(t, z, theta, w, q, u, stamp)
 
 
 class _NoisyProbe(NoisyDepthPilot, _DepthSeen):
