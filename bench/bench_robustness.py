@@ -13,7 +13,7 @@ at its RK4 step, lockstep) on:
 * **identified model**: the true vehicle is the A18M with CZuw x1.2, CMuw x1.25, CZuq x1.2,
   CMuq x0.75 and CMbar x0.85; its surge and pitch missions are simulated, written as bags
   with navigation-grade sensor noise (:meth:`SensorNoise.realistic`) and no force topic, and
-  identified with ``auv ident --base config/a18m.yaml`` (forces from the motion); the pilot
+  identified with ``auv ident --vehicle config/a18m.yaml`` (forces from the motion); the pilot
   designed on the identified file flies the true vehicle (CMbar is not identified by
   ``auv ident``: the design keeps the base file's, 18 % off);
 * **Monte Carlo**: ``--plants`` plants (default 1000), every effect and error at once,

@@ -1,4 +1,4 @@
-"""``auv gap --model VEHICLE.yaml BAG... --out DIR``: sim-to-real gap diagnosis from bags.
+"""``auv gap --vehicle VEHICLE.yaml BAG... --out DIR``: sim-to-real gap diagnosis from bags.
 
 Reads ``/auv/state`` and the actuator command topics of each bag (no force topic needed),
 diagnoses the gap between the vehicle file and the logs, and writes ``report.json`` (the

@@ -1,6 +1,6 @@
 """``auv campaign ident|gap|montecarlo``: campaigns on a Dask cluster.
 
-``auv campaign gap LOGS... --model VEHICLE.yaml --out DIR`` runs ``auv gap`` on every log
+``auv campaign gap LOGS... --vehicle VEHICLE.yaml --out DIR`` runs ``auv gap`` on every log
 as its own task (``ident``: ``auv ident``), each writing its full report under
 ``DIR/missions/<name>/``, and gathers them into ``DIR/campaign.json`` and
 ``DIR/campaign.md`` with plots of every quantity against mission time and the drift and
