@@ -11,7 +11,7 @@ demo: setup
 	@$(ENV) auv demo --out $(OUT)
 
 test: setup
-	@$(ENV) python -m pytest -q -p no:cacheprovider -n auto --maxprocesses 4 --dist loadfile tests src
+	@$(ENV) python -m pytest -q -p no:cacheprovider -n auto --maxprocesses 4 --dist loadfile --durations=25 tests src
 
 bench: setup
 	@$(ENV) python bench/run_all.py --out bench/results/latest.json
