@@ -42,3 +42,13 @@ def test_package_xml_declares_every_import(package: str) -> None:
     missing = sorted(f'{name} ({ROSDEP_KEYS.get(name, name)})' for name in _imports(package)
                      if ROSDEP_KEYS.get(name, name) not in declared)
     assert not missing, f'src/{package}/package.xml lacks exec_depend on {", ".join(missing)}'
+
+
+def test_recorded_message_packages_are_declared() -> None:
+    """The recorder and the Foxglove bridge load the message types of their known topics by
+    name at run time (no import statement names them): their packages are declared too."""
+    from auv_bringup.record_node import KNOWN_TOPICS
+    text = (ROOT / 'src' / 'auv_bringup' / 'package.xml').read_text()
+    declared = set(re.findall(r'<(?:exec_)?depend>([^<]+)</(?:exec_)?depend>', text))
+    needed = {msgtype.split('/')[0] for msgtype in KNOWN_TOPICS.values()}
+    assert needed - declared == set(), sorted(needed - declared)
