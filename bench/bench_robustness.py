@@ -147,8 +147,9 @@ def _shares(rows: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
-        table: bool = True) -> dict[str, Any]:
-    """Per-effect table, identified-model case and Monte Carlo; returns the figures."""
+        table: bool = True, mc: bool = True) -> dict[str, Any]:
+    """Per-effect table, identified-model case (``table``) and Monte Carlo (``mc``); returns
+    the figures."""
     design = load_vehicle(VEHICLE)
     changes = sorted({(m.z1 - m.z0, m.u0) for m in TABLE_MANOEUVRES.values()}
                      | {(dz, U0) for dz in MC_CHANGES})
@@ -198,31 +199,33 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
         t0 = time.perf_counter()
         rng = np.random.default_rng(seed)
         jobs = []
-        for i in range(plants):
+        for i in range(plants if mc else 0):
             plant = draw_plant(design, rng, f'mc{i:04d}')
             manoeuvre = _draw_manoeuvre(rng)
             jobs.append((design, plant, manoeuvre, bound_of(manoeuvre)))
         rows = pool.map(_fly, jobs, chunksize=4)
         mc_wall = time.perf_counter() - t0
-    for (_, plant, _m, _b), row in zip(jobs, rows):
-        row['water_speed_told'] = plant.water_speed_told
-    failures = [dict(row, factors={k: round(v, 3) for k, v in plant.factors.items()},
-                     effects=plant.effects, depth_noise_m=round(plant.depth_noise, 4))
-                for (_, plant, _m, _b), row in zip(jobs, rows) if not row['pass']]
-    monte_carlo = {
-        'seed': seed,
-        'distribution': dataclasses.asdict(Distribution()),
-        'changes_m': list(MC_CHANGES),
-        'all': _shares(rows),
-        'pilot_told_water_speed': _shares([r for r in rows if r['water_speed_told']]),
-        'pilot_not_told_water_speed': _shares([r for r in rows if not r['water_speed_told']]),
-        'by_change': {f'{dz:+g} m': _shares([r for r in rows
-                                             if round(r['z1_m'] - r['z0_m'], 6) == dz])
-                      for dz in MC_CHANGES},
-        'failures': failures,
-        'wall_s': round(mc_wall, 1),
-        'wall_per_plant_s': round(mc_wall / max(plants, 1), 3),
-    }
+    monte_carlo: dict[str, Any] | None = None
+    if mc:
+        for (_, plant, _m, _b), row in zip(jobs, rows):
+            row['water_speed_told'] = plant.water_speed_told
+        failures = [dict(row, factors={k: round(v, 3) for k, v in plant.factors.items()},
+                         effects=plant.effects, depth_noise_m=round(plant.depth_noise, 4))
+                    for (_, plant, _m, _b), row in zip(jobs, rows) if not row['pass']]
+        monte_carlo = {
+            'seed': seed,
+            'distribution': dataclasses.asdict(Distribution()),
+            'changes_m': list(MC_CHANGES),
+            'all': _shares(rows),
+            'pilot_told_water_speed': _shares([r for r in rows if r['water_speed_told']]),
+            'pilot_not_told_water_speed': _shares([r for r in rows if not r['water_speed_told']]),
+            'by_change': {f'{dz:+g} m': _shares([r for r in rows
+                                                 if round(r['z1_m'] - r['z0_m'], 6) == dz])
+                          for dz in MC_CHANGES},
+            'failures': failures,
+            'wall_s': round(mc_wall, 1),
+            'wall_per_plant_s': round(mc_wall / max(plants, 1), 3),
+        }
     return {
         'vehicle': VEHICLE.name, 'u0_m_s': U0, 'theta_max_deg': math.degrees(THETA_MAX),
         'criteria': {'settle_within_bound_x': 2.0, 'tumble_deg': 35.0,
@@ -232,7 +235,7 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
                                   for (dz, u0), b in bounds.items()},
         'bounds_wall_s': round(bounds_wall, 1),
         **results,
-        'monte_carlo': monte_carlo,
+        **({'monte_carlo': monte_carlo} if monte_carlo is not None else {}),
         'workers': workers,
         'total_wall_s': round(time.perf_counter() - wall0, 1),
         'python': platform.python_version(), 'machine': platform.machine(),
@@ -247,15 +250,21 @@ def main() -> None:
     parser.add_argument('--no-table', action='store_true',
                         help='Monte Carlo only; the per-effect table and identified-model '
                              'figures already in the results file are kept')
+    parser.add_argument('--no-mc', action='store_true',
+                        help='per-effect table and identified model only; the Monte-Carlo '
+                             'figures already in the results file are kept')
     args = parser.parse_args()
-    figures = run(args.plants, args.workers, args.seed, table=not args.no_table)
+    if args.no_table and args.no_mc:
+        parser.error('--no-table and --no-mc leave nothing to run')
+    figures = run(args.plants, args.workers, args.seed, table=not args.no_table,
+                  mc=not args.no_mc)
     previous = pathlib.Path(__file__).resolve().parent / 'results' / 'robustness.json'
-    if args.no_table and previous.exists():
-        kept = json.loads(previous.read_text())
-        for key in ('per_effect', 'per_effect_all_pass', 'per_effect_wall_s',
-                    'identified_model'):
-            if key in kept:
-                figures[key] = kept[key]
+    kept = json.loads(previous.read_text()) if previous.exists() else {}
+    keys = (('per_effect', 'per_effect_all_pass', 'per_effect_wall_s', 'identified_model')
+            if args.no_table else ('monte_carlo',) if args.no_mc else ())
+    for key in keys:
+        if key in kept:
+            figures[key] = kept[key]
     save_figures('robustness', figures)
     summary = {k: v for k, v in figures.items() if k not in ('per_effect',)}
     summary['monte_carlo'] = {k: v for k, v in figures['monte_carlo'].items()
