@@ -211,6 +211,16 @@ def test_too_short_for_held_out_windows(vehicle) -> None:  # type: ignore
         Problem(vehicle, from_arrays('short', t, x, _cmds(t)), window=60.0)
 
 
+def test_cluster_covariance_of_parameters_that_change_nothing_is_unbounded() -> None:
+    """Residuals that do not depend on the parameters at all (an effect a short or slow log
+    cannot see) identify nothing: infinite variance, hence an interval over the whole
+    plausible range, and no linear-algebra error."""
+    from auv_ident.gap.fit import cluster_covariance
+    r = np.random.default_rng(5).standard_normal(60)
+    V, df = cluster_covariance(np.zeros((60, 2)), r, np.repeat(np.arange(3), 20))
+    assert np.all(np.isinf(np.diag(V))) and np.all(df == 1.0)
+
+
 def test_cluster_covariance_of_a_mean_by_hand() -> None:
     """The mean of G equal clusters: CR2 is the classic variance of the mean of the cluster
     means, sum (m_g - m)^2 / (G (G - 1)), and Bell-McCaffrey's degrees of freedom are G - 1;

@@ -85,6 +85,9 @@ def cluster_covariance(J: np.ndarray, r: np.ndarray, clusters: np.ndarray
     """
     ids = np.unique(clusters)
     p = J.shape[1]
+    if not np.any(J):
+        # the residuals do not depend on the parameters at all: nothing is identified
+        return np.diag(np.full(p, np.inf)), np.ones(p)
     B = J.T @ J
     w, U = np.linalg.eigh(B)
     w = np.maximum(w, w.max() * 1e-14 if w.size else 0.0)
