@@ -52,3 +52,18 @@ def test_depth_change_through_the_graph_settles(tmp_path: pathlib.Path, ros_env,
     assert abs(s['z'][-1] - z1) < 0.1
     assert m.peak_pitch <= math.radians(25.5), m
     assert np.all(np.abs(bar['value']) <= params.bar_max + 1e-12)
+
+
+def test_the_pilot_waits_for_every_command_subscriber_of_the_graph() -> None:
+    """The pilot's first command goes out once the simulator, the recorder (if it records
+    the command) and the Foxglove bridge have matched it: counted from the graph's
+    configuration, not from discovery, which is what races."""
+    from auv_bringup.launch import bar_subscribers
+    base = GraphConfig(vehicle=str(A18M))
+    assert bar_subscribers(base) == 1
+    assert bar_subscribers(GraphConfig(vehicle=str(A18M), record='bag')) == 2
+    assert bar_subscribers(GraphConfig(vehicle=str(A18M), record='bag', foxglove=8765)) == 3
+    assert bar_subscribers(GraphConfig(vehicle=str(A18M), record='bag',
+                                       topics=('state', 'depth_command'))) == 1
+    assert bar_subscribers(GraphConfig(vehicle=str(A18M), record='bag',
+                                       topics=('/auv/bar_command',))) == 2

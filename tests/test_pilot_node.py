@@ -109,6 +109,7 @@ def test_pilot_node_rate_bad_commands_and_stale_state(pilot_process) -> None:
     (['-p', 'theta_max:=0.0'], 'theta_max'),
     (['-p', 'publish_delay:=0.08'], 'publish_delay'),
     (['-p', 'realtime_priority:=150'], 'realtime_priority'),
+    (['-p', 'start_subscribers:=-1'], 'start_subscribers'),
     (['-p', 'depth_max:=500.0'], 'depth_max = 500.0 m is outside the envelope [0, 300]'),
     (['-p', 'depth_min:=40.0', '-p', 'depth_max:=20.0'], 'must be below depth_max'),
     (['-p', 'depth_min:=shallow'], 'depth_min'),

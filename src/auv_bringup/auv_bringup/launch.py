@@ -172,7 +172,7 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
             vehicle_file=cfg.vehicle, lockstep=cfg.lockstep, rate=cfg.pilot_rate,
             weights=cfg.weights, water_speed=float(cfg.water_speed),
             realtime_priority=int(cfg.realtime_priority), use_sim_time=cfg.sim_clock,
-            state_source=cfg.pilot_state),
+            state_source=cfg.pilot_state, start_subscribers=bar_subscribers(cfg)),
             *remaps(cfg)], log('pilot')))
     if cfg.foxglove is not None:
         nodes.append(NodeProcess('foxglove', [py, '-m', 'auv_bringup.foxglove_node', '--port',
@@ -195,6 +195,15 @@ def state_subscribers(cfg: GraphConfig) -> int:
     pilot_on_state = cfg.pilot and not cfg.mission and cfg.pilot_state == 'vehicle_state'
     return (int(bool(cfg.mission) or pilot_on_state) + int(bool(cfg.record))
             + int(cfg.foxglove is not None))
+
+
+def bar_subscribers(cfg: GraphConfig) -> int:
+    """The ``bar_command`` subscribers of the graph ``cfg`` the pilot waits for before its
+    first command: the simulator, the recorder (unless its ``--topics`` leave the command
+    out) and the Foxglove bridge."""
+    records = bool(cfg.record) and (not cfg.topics or any(
+        t.rstrip('/').rsplit('/', 1)[-1] == 'bar_command' for t in cfg.topics))
+    return 1 + int(records) + int(cfg.foxglove is not None)
 
 
 def send_depth_command(z: float, env: dict[str, str], subscribers: int = 1,

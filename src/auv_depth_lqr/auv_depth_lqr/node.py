@@ -38,7 +38,10 @@ fallback ``recovery`` (bool), ``recovery_pitch_margin`` [rad],
 ``recovery_rate_residual`` [m/s], ``recovery_rate_window`` [s], ``recovery_resume_time``
 [s], ``recovery_gain``, ``recovery_bar_fraction`` (see :mod:`auv_depth_lqr.recovery`),
 at start only: ``diagnostics_period`` [s], ``state_source`` (``vehicle_state`` or
-``odometry``), ``state_reliability``, ``realtime_priority`` (0-99; 0 = normal scheduling).
+``odometry``), ``state_reliability``, ``realtime_priority`` (0-99; 0 = normal scheduling),
+``start_subscribers`` (before its first command the node waits, at most ``startup_timeout``
+[s], until ``bar_command`` has this many matched subscriptions, so that a recorder started
+with the graph misses none of the first commands; 0 = do not wait).
 
 Real-time scheduling (``realtime_priority`` > 0): at start the node's threads move to
 ``SCHED_FIFO`` at that priority, as a control loop on a vehicle runs, so other processes do
@@ -110,7 +113,7 @@ STATE_RELIABILITY = {'reliable': ReliabilityPolicy.RELIABLE,
 STATE_SOURCES = ('vehicle_state', 'odometry')
 COMMAND_MODES = ('refuse', 'clamp')
 START_ONLY = ('realtime_priority', 'state_source', 'state_reliability',
-              'diagnostics_period')
+              'diagnostics_period', 'start_subscribers', 'startup_timeout')
 _SEEN_COMMANDS = 64  # depth-command samples remembered to apply each once
 _LEVELS = {'ok': DiagnosticStatus.OK, 'recovery': DiagnosticStatus.WARN,
            'no_state': DiagnosticStatus.WARN, 'stale': DiagnosticStatus.ERROR}
@@ -211,6 +214,12 @@ class DepthPilotNode(Node):
             self.declare_parameter(name, flag)
         self.declare_parameter('realtime_priority', 0)
         self.realtime_priority = _priority(self.get_parameter('realtime_priority').value)
+        self.declare_parameter('start_subscribers', 0)
+        self.declare_parameter('startup_timeout', 10.0, numbers)
+        self.start_subscribers, self.startup_timeout = _start_wait(
+            self.get_parameter('start_subscribers').value,
+            self.get_parameter('startup_timeout').value)
+        self._subscribers_awaited = self.start_subscribers == 0
         values = checked_values(self._values({}))
         self.pilot = pilot_from_values(values)
         self.command_mode = values['depth_command_mode']
@@ -408,6 +417,8 @@ class DepthPilotNode(Node):
         out.header.stamp = stamp
         out.header.frame_id = 'bar'
         out.value = float(bar)
+        if not self._subscribers_awaited:
+            self._await_subscribers()
         if out_ns is not None:
             wait = out_ns - time.time_ns()
             if wait > 0:
@@ -415,6 +426,21 @@ class DepthPilotNode(Node):
         self.pub.publish(out)
         if changed:
             self._publish_diagnostics()
+
+    def _await_subscribers(self) -> None:
+        """Before the first command: wait, at most ``startup_timeout`` wall seconds, until
+        ``bar_command`` has ``start_subscribers`` matched subscriptions (DDS matches each
+        subscription on its own; a command published before is lost to it)."""
+        self._subscribers_awaited = True
+        deadline = time.monotonic() + self.startup_timeout
+        while self.pub.get_subscription_count() < self.start_subscribers:
+            if time.monotonic() >= deadline:
+                self.get_logger().warning(
+                    f'{self.pub.get_subscription_count()} of {self.start_subscribers} '
+                    f'bar_command subscribers after {self.startup_timeout:g} s; publishing '
+                    'anyway')
+                return
+            time.sleep(0.005)
 
     def _status_text(self, status: str) -> str:
         settings = self.pilot.settings
@@ -480,6 +506,18 @@ def _priority(value: Any) -> int:
         raise DesignError(f'parameter realtime_priority = {value!r} must be an integer 0-99 '
                           '(0: normal scheduling)')
     return value
+
+
+def _start_wait(subscribers: Any, timeout: Any) -> tuple[int, float]:
+    """``start_subscribers`` (an integer >= 0) and ``startup_timeout`` (finite, > 0 s)
+    checked (DesignError otherwise)."""
+    if isinstance(subscribers, bool) or not isinstance(subscribers, int) or subscribers < 0:
+        raise DesignError(f'parameter start_subscribers = {subscribers!r} must be an integer '
+                          '>= 0 (0: do not wait)')
+    if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) \
+            or not (math.isfinite(timeout) and timeout > 0):
+        raise DesignError(f'parameter startup_timeout = {timeout!r} s must be finite and > 0')
+    return subscribers, float(timeout)
 
 
 def apply_realtime_priority(priority: int) -> str | None:
