@@ -77,7 +77,8 @@ def run_closed_loop(params: VehicleParams, depth_commands: Sequence[tuple[float,
                     environment: Environment | None = None,
                     settings: PilotSettings | None = None, sample_period: float = 0.02,
                     pilot: DepthPilot | None = None,
-                    speed_time_constant: float | None = None) -> ClosedLoopRun:
+                    speed_time_constant: float | None = None,
+                    excitation: Sequence[tuple[float, str, float]] = ()) -> ClosedLoopRun:
     """Fly depth commands ``[(t [s], z [m]), ...]`` from a trim at ``z0`` [m], ``u0`` [m/s].
 
     The vehicle starts trimmed for the nominal model in the water it is in (its trim
@@ -88,6 +89,13 @@ def run_closed_loop(params: VehicleParams, depth_commands: Sequence[tuple[float,
     ``T_trim + (m - Xudot) (u0 - u) / speed_time_constant`` [N] within the propeller's
     limits (``u`` the measured surge), as on a vehicle that holds its speed in a climb or
     dive (a positively buoyant vehicle with its thrust held slows down in a dive).
+
+    ``excitation`` flies an identification manoeuvre on top of the pilot (closed-loop
+    identification, for a vehicle that open-loop manoeuvres would pitch over): events
+    ``(t [s], channel, value)``, each from the first control instant at or after ``t``;
+    ``thrust`` [N] and ``helm`` [rad] are commanded as given (no speed loop with thrust
+    events), ``bar`` [rad] is an offset added to the pilot's BAR until the next ``bar`` event,
+    the sum within ``+-bar_max``. ``ClosedLoopRun.bar`` holds the BAR commanded.
     """
     settings = settings or PilotSettings()
     pilot = pilot or DepthPilot.for_vehicle(params, settings)
@@ -103,6 +111,14 @@ def run_closed_loop(params: VehicleParams, depth_commands: Sequence[tuple[float,
         raise ValueError(f'speed_time_constant must be > 0 s, got {speed_time_constant!r}')
     speed_gain = 0.0 if speed_time_constant is None else \
         (params.m - params.Xudot) / speed_time_constant
+    events = sorted(excitation, key=lambda e: e[0])
+    for _t, channel, _v in events:
+        if channel not in ('bar', 'helm', 'thrust'):
+            raise ValueError(f'excitation channel {channel!r} must be bar, helm or thrust')
+        if channel == 'thrust' and speed_gain:
+            raise ValueError('thrust excitation events and a speed loop '
+                             '(speed_time_constant) both command the thrust: give one')
+    bar_offset = 0.0
     n_control = int(math.floor(duration / ts + 1e-9))
     commands = sorted(depth_commands)
     samples, bar_t, bars, zr_t, zr = [], [], [], [], []
@@ -116,9 +132,17 @@ def run_closed_loop(params: VehicleParams, depth_commands: Sequence[tuple[float,
                 zr.append(z_cmd)
             except InvalidInputError:
                 pass
+        while events and events[0][0] <= t + 1e-9:
+            _, channel, value = events.pop(0)
+            if channel == 'bar':
+                bar_offset = float(value)
+            else:
+                sim.command(channel, float(value))
         x = sim.measured_state()
         pilot.on_state(t, z=x[2], theta=x[4], w=x[8], q=x[10], u=x[6])
         bar, _ = pilot.command(t)
+        if bar_offset:
+            bar = min(max(bar + bar_offset, -params.bar_max), params.bar_max)
         sim.command('bar', bar)
         if speed_gain:
             thrust = trim.thrust + speed_gain * (u0 - x[6])
