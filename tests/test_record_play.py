@@ -254,6 +254,16 @@ def test_play_bad_bag_is_one_line_error(ros_env: dict[str, str],
                                                  'got 0.0\n'
 
 
+
+def test_record_bad_await_option_is_one_line_error(ros_env: dict[str, str],
+                                                   tmp_path: pathlib.Path) -> None:
+    res = subprocess.run(_auv('record', '--out', str(tmp_path / 'bag'), '--topics', 'state',
+                              '--await-publishers', 'bar_command'),
+                         env=ros_env, capture_output=True, text=True, timeout=30)
+    assert res.returncode == 1 and res.stderr == ('error: --await-publishers bar_command: not '
+                                                  'among the recorded --topics\n')
+    assert not (tmp_path / 'bag').exists()
+
 LISTENER = r'''
 import importlib, json, sys, time
 import rclpy

@@ -160,6 +160,9 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
         argv = [py, '-m', 'auv_bringup.record_node', '--out', cfg.record]
         if cfg.topics:
             argv += ['--topics', *cfg.topics]
+        if (cfg.mission or cfg.pilot) and records_bar(cfg):
+            # the graph's BAR publisher (pilot or mission) matched before the simulator starts
+            argv += ['--await-publishers', 'bar_command']
         if cfg.namespace:
             argv += ['--ros-args', *remaps(cfg)]
         nodes.append(NodeProcess('recorder', argv, log('recorder')))
@@ -201,9 +204,14 @@ def bar_subscribers(cfg: GraphConfig) -> int:
     """The ``bar_command`` subscribers of the graph ``cfg`` the pilot waits for before its
     first command: the simulator, the recorder (unless its ``--topics`` leave the command
     out) and the Foxglove bridge."""
-    records = bool(cfg.record) and (not cfg.topics or any(
+    return 1 + int(records_bar(cfg)) + int(cfg.foxglove is not None)
+
+
+def records_bar(cfg: GraphConfig) -> bool:
+    """Whether the graph ``cfg`` records ``bar_command`` (a recorder whose ``--topics``, if
+    given, hold it)."""
+    return bool(cfg.record) and (not cfg.topics or any(
         t.rstrip('/').rsplit('/', 1)[-1] == 'bar_command' for t in cfg.topics))
-    return 1 + int(records) + int(cfg.foxglove is not None)
 
 
 def send_depth_command(z: float, env: dict[str, str], subscribers: int = 1,

@@ -26,6 +26,7 @@ import signal
 import struct
 import sys
 import time
+from collections.abc import Sequence
 from types import FrameType
 from typing import Any
 
@@ -76,6 +77,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='chunk compression (default: zstd, as rosbag2)')
     parser.add_argument('--flush-interval', type=float, metavar='S', default=1.0,
                         help='longest time a received message waits in memory (s)')
+    parser.add_argument('--await-publishers', nargs='+', metavar='TOPIC', default=[],
+                        help='subscribe to state only once these recorded topics have a '
+                             'matched publisher (at most --await-timeout): a simulator that '
+                             'waits for the recorder on state then starts only when the '
+                             'recorder will get the first messages of these topics too')
+    parser.add_argument('--await-timeout', type=float, metavar='S', default=30.0,
+                        help='longest wait for --await-publishers (s, wall clock)')
 
 
 def message_class(msgtype: str) -> Any:
@@ -111,7 +119,8 @@ def _default_out() -> str:
 class Recorder:
     """Raw subscriptions feeding a :class:`auv_bag.BagWriter`."""
 
-    def __init__(self, node: Any, writer: Any, topics: list[str], qos_depth: int) -> None:
+    def __init__(self, node: Any, writer: Any, topics: list[str], qos_depth: int,
+                 await_publishers: Sequence[str] = (), await_timeout: float = 30.0) -> None:
         from builtin_interfaces.msg import Time
         from rclpy.qos import QoSProfile, ReliabilityPolicy
 
@@ -136,13 +145,32 @@ class Recorder:
         self._best_effort = QoSProfile(depth=qos_depth,
                                        reliability=ReliabilityPolicy.BEST_EFFORT)
         self.subscriptions: dict[str, tuple[Any, bool]] = {}  # topic -> (sub, reliable)
-        for topic in topics:
-            name = node.resolve_topic_name(topic)
+        names = [node.resolve_topic_name(topic) for topic in topics]
+        # state last: a simulator that waits for its subscribers starts once it is matched
+        for name in sorted(names, key=lambda n: n == self._state_topic):
+            if name == self._state_topic:
+                self._await_publishers(await_publishers, await_timeout)
             msgtype = known.get(name)
             if msgtype is None:
                 self.pending.append(name)
             else:
                 self._subscribe(name, msgtype, reliable=True)
+
+    def _await_publishers(self, topics: Sequence[str], timeout: float) -> None:
+        """Wait (at most ``timeout`` wall seconds) until the subscriptions of ``topics`` have
+        a matched publisher: a reliable, volatile reader gets only what is published after it
+        has matched the writer itself, whatever the writer knows."""
+        subs = [self.subscriptions[n][0] for n in map(self.node.resolve_topic_name, topics)
+                if n in self.subscriptions]
+        deadline = time.monotonic() + timeout
+        while any(sub.get_publisher_count() < 1 for sub in subs):
+            if time.monotonic() >= deadline:
+                missing = [sub.topic_name for sub in subs if sub.get_publisher_count() < 1]
+                self.node.get_logger().warning(
+                    f'no publisher on {", ".join(missing)} after {timeout:g} s; recording '
+                    'anyway')
+                return
+            time.sleep(0.005)
 
     def _subscribe(self, topic: str, msgtype: str, reliable: bool) -> None:
         from auv_bag import qos_profiles_yaml
@@ -236,6 +264,14 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f'--duration must be a positive number of seconds, got {args.duration}')
     if args.qos_depth < 1:
         raise CliError(f'--qos-depth must be at least 1, got {args.qos_depth}')
+    if not (math.isfinite(args.await_timeout) and args.await_timeout > 0):
+        raise CliError(f'--await-timeout must be > 0 s, got {args.await_timeout}')
+    recorded = {t.rstrip('/').rsplit('/', 1)[-1] for t in args.topics}
+    unrecorded = sorted(t for t in args.await_publishers
+                        if t.rstrip('/').rsplit('/', 1)[-1] not in recorded)
+    if unrecorded:
+        raise CliError(f'--await-publishers {" ".join(unrecorded)}: not among the recorded '
+                       '--topics')
     if not (math.isfinite(args.flush_interval) and args.flush_interval >= 0):
         raise CliError(f'--flush-interval must be >= 0 s, got {args.flush_interval}')
     out = args.out or _default_out()
@@ -258,7 +294,8 @@ def run(args: argparse.Namespace) -> int:
         node = rclpy.create_node('auv_recorder', namespace=NAMESPACE)
         writer = BagWriter(out, compression=args.compression,
                            flush_interval=args.flush_interval)
-        recorder = Recorder(node, writer, list(dict.fromkeys(args.topics)), args.qos_depth)
+        recorder = Recorder(node, writer, list(dict.fromkeys(args.topics)), args.qos_depth,
+                            args.await_publishers, args.await_timeout)
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         print(f'recording {len(args.topics)} topics to {out}', file=sys.stderr, flush=True)
