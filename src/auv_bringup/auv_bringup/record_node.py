@@ -1,8 +1,12 @@
 """Record topics to an MCAP bag (``auv record``, ``ros2 run auv_bringup recorder``).
 
 Subscriptions are raw: the CDR bytes are written as received, never deserialized. Topics of
-the project have known types and are subscribed at once (so nothing published after the
-recorder starts is missed); other topics are subscribed when their type shows up in the graph.
+the project have known types and are subscribed at once, ``state`` last; other topics are
+subscribed when their type shows up in the graph. A reliable, volatile DDS reader gets only
+what is published after it has matched the writer itself: with ``--await-publishers TOPIC``
+the recorder subscribes to ``state`` only once those topics have a matched publisher, so a
+simulator that waits for its ``state`` subscribers (``auv launch``) starts when the recorder
+will get the first messages of those topics as well.
 SIGINT and SIGTERM stop the recording cleanly: spinning stops, the messages already received
 by DDS are drained, and the bag is closed with its summary and ``metadata.yaml``.
 
