@@ -217,7 +217,10 @@ def records_bar(cfg: GraphConfig) -> bool:
 def send_depth_command(z: float, env: dict[str, str], subscribers: int = 1,
                        timeout: float = 20.0, namespace: str = '') -> None:
     """Publish a depth command [m] with ``auv depth`` on ``<namespace>/depth_command`` once
-    ``subscribers`` match, and wait until it is delivered."""
+    ``subscribers`` match, and wait until it is delivered (acknowledged by every matched
+    subscriber: ``auv depth`` says "published on" only then). A process that dies after that
+    line (seen once in 9 fresh-clone test runs: exit status non-zero, nothing else on stderr,
+    i.e. in the DDS teardown) has delivered its command: said on stderr, not an error."""
     try:
         proc = subprocess.run([sys.executable, '-m', 'auv_bringup.cli', 'depth', str(z),
                                '--namespace', namespace_path(namespace),
@@ -226,8 +229,12 @@ def send_depth_command(z: float, env: dict[str, str], subscribers: int = 1,
                               text=True, timeout=timeout + 10.0)
     except subprocess.TimeoutExpired:
         raise LaunchError(f'depth command {z} m not delivered within {timeout} s') from None
+    if proc.returncode != 0 and ' published on ' not in proc.stderr:
+        raise LaunchError(f'depth command {z} m failed (exit status {proc.returncode}): '
+                          f'{proc.stderr.strip()}')
     if proc.returncode != 0:
-        raise LaunchError(f'depth command {z} m failed: {proc.stderr.strip()}')
+        print(f'launch: auv depth exited with status {proc.returncode} after its command was '
+              'acknowledged', file=sys.stderr, flush=True)
 
 
 def run_graph(cfg: GraphConfig, duration: float | None = None,
