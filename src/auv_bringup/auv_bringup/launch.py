@@ -211,7 +211,13 @@ def records_bar(cfg: GraphConfig) -> bool:
     """Whether the graph ``cfg`` records ``bar_command`` (a recorder whose ``--topics``, if
     given, hold it)."""
     return bool(cfg.record) and (not cfg.topics or any(
-        t.rstrip('/').rsplit('/', 1)[-1] == 'bar_command' for t in cfg.topics))
+        topic_basename(t) == 'bar_command' for t in cfg.topics))
+
+
+def topic_basename(topic: str) -> str:
+    """The last name of a topic, relative or absolute (``/auv1/bar_command`` ->
+    ``bar_command``)."""
+    return topic.rstrip('/').rsplit('/', 1)[-1]
 
 
 def send_depth_command(z: float, env: dict[str, str], subscribers: int = 1,

@@ -35,6 +35,7 @@ from types import FrameType
 from typing import Any
 
 from auv_bringup.cli import CliError, standalone
+from auv_bringup.launch import topic_basename
 
 #: Types of the project's topics (architecture contract), subscribed without waiting; names
 #: relative to the recorder's namespace (``/auv`` unless remapped with ``-r __ns:=...``).
@@ -270,9 +271,8 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f'--qos-depth must be at least 1, got {args.qos_depth}')
     if not (math.isfinite(args.await_timeout) and args.await_timeout > 0):
         raise CliError(f'--await-timeout must be > 0 s, got {args.await_timeout}')
-    recorded = {t.rstrip('/').rsplit('/', 1)[-1] for t in args.topics}
-    unrecorded = sorted(t for t in args.await_publishers
-                        if t.rstrip('/').rsplit('/', 1)[-1] not in recorded)
+    recorded = {topic_basename(t) for t in args.topics}
+    unrecorded = sorted(t for t in args.await_publishers if topic_basename(t) not in recorded)
     if unrecorded:
         raise CliError(f'--await-publishers {" ".join(unrecorded)}: not among the recorded '
                        '--topics')
