@@ -255,9 +255,11 @@ def test_depth_envelope_refuses_or_clamps_over_dds(ros_env, probe) -> None:
 
 def test_recovery_mode_on_diagnostics_and_back(ros_env, probe) -> None:
     statuses: list[DiagnosticStatus] = []
+    authority: list[DiagnosticStatus] = []
 
     def on_diagnostics(msg: DiagnosticArray) -> None:
         statuses.extend(s for s in msg.status if s.name == '/auv/depth_pilot: depth control')
+        authority.extend(s for s in msg.status if s.name == '/auv/depth_pilot: plane authority')
 
     probe.create_subscription(DiagnosticArray, '/diagnostics', on_diagnostics, 10)
     state = probe.create_publisher(VehicleState, '/auv/state', 50)
@@ -272,6 +274,13 @@ def test_recovery_mode_on_diagnostics_and_back(ros_env, probe) -> None:
         pitch[0] = math.radians(40.0)
         spin_until(probe, lambda: statuses[-1].level == DiagnosticStatus.WARN, DEADLINE_S,
                    'WARN diagnostics', every=lambda: state.publish(level_state(pitch[0])))
+        # the plane authority goes with every depth-control status: the A18M's 25 deg travel,
+        # its window derived from the hull (20 s); not judged after a few seconds of holding
+        assert len(authority) == len(statuses), (len(authority), len(statuses))
+        plane = diagnostics_of(authority)
+        assert plane['bar_max_deg'] == '25.00' and plane['window_s'] == '20.0', plane
+        assert plane['level'] == 'unknown' and authority[-1].level == DiagnosticStatus.OK
+        assert 'not judged' in authority[-1].message
         warn = diagnostics_of(statuses)
         assert warn['mode'] == 'recovery' and warn['status'] == 'recovery'
         assert 'pitch 40.0 deg beyond 30.0 deg' in warn['reason']

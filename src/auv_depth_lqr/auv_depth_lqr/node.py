@@ -17,7 +17,10 @@ each topic also with ``-r state:=/nav/state`` etc.):
 * publishes ``bar_command`` (auv_msgs/ActuatorSetpoint, rad) at a fixed rate (``rate``,
   default 10 Hz) from a timer, whether or not new state arrived, and ``/diagnostics``
   (diagnostic_msgs/DiagnosticArray, absolute as the ROS convention has it) every
-  ``diagnostics_period`` seconds and at once when the pilot's mode changes.
+  ``diagnostics_period`` seconds and at once when the pilot's mode or its plane authority
+  changes: two statuses, ``<node>: depth control`` (mode, command, envelope) and ``<node>:
+  plane authority`` (how much of the plane holding depth takes, WARN when little is left:
+  :mod:`auv_depth_lqr.authority`).
 
 All logic is in :class:`auv_depth_lqr.pilot.DepthPilot`; this module converts messages.
 
@@ -86,6 +89,7 @@ from rclpy.qos import (
 from rclpy.timer import Timer, TimerInfo
 from std_msgs.msg import Float64
 
+from auv_depth_lqr.authority import LOW, UNKNOWN
 from auv_depth_lqr.controller import PlaneState
 from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
 from auv_depth_lqr.pilot import DepthPilot, PilotSettings
@@ -247,6 +251,7 @@ class DepthPilotNode(Node):
                 VehicleState, 'state', self._on_state, state_qos, event_callbacks=state_events)
         self.timer: Timer | None = None
         self._reported = ''
+        self._authority_reported = UNKNOWN
         self._configure_timer()
         self.create_timer(values['diagnostics_period'], self._publish_diagnostics)
         self.get_logger().info(
@@ -413,6 +418,15 @@ class DepthPilotNode(Node):
             else:
                 self.get_logger().warning(self._status_text(status))
             self._reported = status
+        authority = self.pilot.authority
+        if authority.level != self._authority_reported and authority.level != UNKNOWN:
+            text = f'plane authority {authority.level}: {self._authority_text()}'
+            if authority.level == LOW:
+                self.get_logger().warning(text)
+            elif self._authority_reported == LOW:
+                self.get_logger().info(text)
+            self._authority_reported = authority.level
+            changed = True
         out = ActuatorSetpoint()
         out.header.stamp = stamp
         out.header.frame_id = 'bar'
@@ -459,8 +473,39 @@ class DepthPilotNode(Node):
             return 'no state yet: publishing safe BAR'
         return status
 
+    def _authority_text(self) -> str:
+        monitor = self.pilot.authority_monitor
+        return self.pilot.authority.message(monitor.share_max, monitor.saturated_max)
+
+    def _authority_status(self) -> DiagnosticStatus:
+        """The plane authority (:mod:`auv_depth_lqr.authority`) as a DiagnosticStatus: WARN
+        when low."""
+        a, monitor = self.pilot.authority, self.pilot.authority_monitor
+        out = DiagnosticStatus()
+        out.level = DiagnosticStatus.WARN if a.level == LOW else DiagnosticStatus.OK
+        out.name = f'{self.get_fully_qualified_name()}: plane authority'
+        out.message = self._authority_text()
+        out.hardware_id = self.get_namespace()
+
+        def number(value: float, scale: float = 1.0, digits: int = 2) -> str:
+            return f'{value * scale:.{digits}f}' if math.isfinite(value) else 'none'
+
+        values = {
+            'level': a.level,
+            'hold_bar_deg': number(a.hold_bar, 180.0 / math.pi),
+            'hold_share_of_travel': number(a.share, digits=3),
+            'hold_share_at_stop': number(a.saturated, digits=3),
+            'hold_time_s': number(a.hold_time, digits=1),
+            'window_share_at_stop': number(a.at_stop, digits=3),
+            'window_s': number(monitor.window, digits=1),
+            'bar_max_deg': number(monitor.bar_max, 180.0 / math.pi),
+        }
+        out.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+        return out
+
     def _publish_diagnostics(self) -> None:
-        """One DiagnosticStatus for the pilot on ``/diagnostics`` (ROS convention)."""
+        """The pilot's DiagnosticStatus (depth control) and its plane authority on
+        ``/diagnostics`` (ROS convention)."""
         pilot = self.pilot
         status = pilot.status
         verdict = pilot.verdict
@@ -484,7 +529,7 @@ class DepthPilotNode(Node):
         out.values = [KeyValue(key=k, value=v) for k, v in values.items()]
         array = DiagnosticArray()
         array.header.stamp = self.get_clock().now().to_msg()
-        array.status = [out]
+        array.status = [out, self._authority_status()]
         self.pub_diagnostics.publish(array)
 
 

@@ -22,7 +22,9 @@ pilot on a vehicle must also do:
 * when the vehicle leaves the envelope its design model describes (pitch beyond the limit
   plus a margin, a depth rate the model cannot explain) it flies the conservative recovery
   law of :mod:`auv_depth_lqr.recovery` until the vehicle is back inside, then resumes with
-  the controller reset.
+  the controller reset;
+* it measures how much of the plane holding depth takes (:mod:`auv_depth_lqr.authority`,
+  model-free) and says when that leaves little to manoeuvre with (:attr:`DepthPilot.authority`).
 
 The depth-pilot node and offline closed-loop runs both drive this class, so a lockstep graph
 run and an offline run give the same commands. Times are in seconds on any one clock.
@@ -34,6 +36,7 @@ import math
 from collections.abc import Sequence
 
 from auv_depth_lqr.attitude import PitchOffset, PitchOffsetEstimator
+from auv_depth_lqr.authority import Authority, AuthorityMonitor
 from auv_depth_lqr.controller import DepthController, PlaneState
 from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
 from auv_depth_lqr.limits import Limits
@@ -71,6 +74,10 @@ PITCH_OFFSET_TIME = 20.0
 """Forgetting time [s] of the pitch-offset estimate of a pilot built without its vehicle file
 (the A18M's derived value, :func:`auv_depth_lqr.tuning.derive_tuning`)."""
 
+AUTHORITY_WINDOW = 20.0
+"""Window [s] of the plane-authority measure of a pilot built without its vehicle file (the
+A18M's derived value, :func:`auv_depth_lqr.tuning.derive_tuning`)."""
+
 DEFAULT_SPEEDS = tuple(round(0.5 + 0.1 * k, 1) for k in range(36))
 """Gain-scheduling grid [m/s]: 0.5 to 4.0 m/s every 0.1 m/s, less the speeds the vehicle
 cannot trim at (:func:`trimmable_speeds`). The stop of the reference governor is planned on
@@ -103,7 +110,10 @@ class PilotSettings:
     :meth:`DepthPilot.for_vehicle`, :func:`~auv_depth_lqr.tuning.derive_tuning`; a pilot
     built directly takes :data:`PITCH_OFFSET_TIME`) and ``pitch_offset_max`` [rad], the
     largest offset taken as physical (default 3 deg, assumed: a sensor mounted within a few
-    degrees; a larger fit is not applied).
+    degrees; a larger fit is not applied). ``authority_window`` [s]: window of the
+    plane-authority measure (:class:`~auv_depth_lqr.authority.AuthorityMonitor`; ``None``:
+    derived from the vehicle by :meth:`DepthPilot.for_vehicle`; a pilot built directly takes
+    :data:`AUTHORITY_WINDOW`).
     """
 
     rate_hz: float = 10.0
@@ -120,6 +130,7 @@ class PilotSettings:
     pitch_offset: bool = True
     pitch_offset_time: float | None = None
     pitch_offset_max: float = math.radians(3.0)
+    authority_window: float | None = None
 
     def __post_init__(self) -> None:
         for name in ('rate_hz', 'theta_max', 'state_timeout'):
@@ -130,7 +141,7 @@ class PilotSettings:
                 and 0.0 <= self.publish_delay < 0.5 / self.rate_hz):
             raise DesignError(f'pilot setting publish_delay = {self.publish_delay!r} s must be '
                               f'>= 0 and below half the sample period ({0.5 / self.rate_hz:g} s)')
-        for name in ('pitch_offset_time', 'pitch_offset_max'):
+        for name in ('pitch_offset_time', 'pitch_offset_max', 'authority_window'):
             value = getattr(self, name)
             if value is not None and not (isinstance(value, (int, float))
                                           and math.isfinite(value) and value > 0):
@@ -256,6 +267,16 @@ class DepthPilot:
         self.pitch_offset = PitchOffset(0.0, False, math.nan)
         """The last pitch-sensor offset estimate (:class:`~auv_depth_lqr.attitude.PitchOffset`;
         its ``offset`` [rad] is subtracted from the measured pitch when ``pitch_offset``)."""
+        self.authority_monitor = AuthorityMonitor(
+            controller.limits.bar_max,
+            AUTHORITY_WINDOW if settings.authority_window is None else settings.authority_window,
+            controller.governor.trim_bar_share)
+
+    @property
+    def authority(self) -> Authority:
+        """How much of the plane holding depth took over the last window
+        (:class:`~auv_depth_lqr.authority.Authority`), from the commands of normal control."""
+        return self.authority_monitor.authority
 
     @property
     def state(self) -> PlaneState | None:
@@ -278,6 +299,8 @@ class DepthPilot:
             settings = dataclasses.replace(settings, safe_bar=tuning.safe_bar)
         if settings.pitch_offset_time is None:
             settings = dataclasses.replace(settings, pitch_offset_time=tuning.pitch_offset_time)
+        if settings.authority_window is None:
+            settings = dataclasses.replace(settings, authority_window=tuning.authority_window)
         lo = params.depth_min if depth_min is None else depth_min
         hi = params.depth_max if depth_max is None else depth_max
         for name, value in (('depth_min', lo), ('depth_max', hi)):
@@ -384,6 +407,7 @@ class DepthPilot:
             return self._recovery(), self.status
         if self._stale:
             self.controller.reset(bar_previous=self._last_bar)
+            self.authority_monitor.reset()  # its window is of normal control only
             self._stale = False
         assert self.z_ref is not None
         try:
@@ -394,6 +418,8 @@ class DepthPilot:
             return self._safe(), self.status
         self._last_bar = bar
         self.status = 'ok'
+        self.authority_monitor.update(
+            t, bar, self.controller.governed_reference == (self.z_ref, 0.0))
         return bar, self.status
 
     def _estimate_pitch_offset(self) -> None:

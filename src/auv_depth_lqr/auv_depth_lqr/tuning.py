@@ -65,6 +65,11 @@ DISTURBANCE_TIMES = 3.0 / _A18M_TIME    # disturbance estimate's time constant, 
 # average a 0.05 m depth noise to 3e-4 rad, short against a depth change of a few minutes.
 PITCH_OFFSET_TIMES = 20.0 / _A18M_TIME
 
+# Plane-authority measure (auv_depth_lqr.authority): trailing window, of sqrt(L/g): 20 s, five
+# landing time constants (4 s at 2 m/s) so that the hold's attitude motion averages out, short
+# against a mission leg.
+AUTHORITY_TIMES = 20.0 / _A18M_TIME
+
 # Safe plane without state: a gentle nose-up climb.
 SAFE_BAR_SHARE = 0.12 / _A18M_BAR_MAX   # of bar_max, nose up: 0.12 rad on the A18M
 
@@ -98,6 +103,9 @@ class Tuning(NamedTuple):
     pitch_offset_time: float = 20.0
     """Forgetting time of the pitch-sensor offset estimate [s]
     (:class:`auv_depth_lqr.attitude.PitchOffsetEstimator`)."""
+    authority_window: float = 20.0
+    """Trailing window of the plane-authority measure [s]
+    (:class:`auv_depth_lqr.authority.AuthorityMonitor`)."""
 
 
 def scales(params: VehicleParams, theta_max: float, bar_max: float | None = None) -> Scales:
@@ -137,6 +145,9 @@ def derive_tuning(params: VehicleParams, theta_max: float,
     Pitch-sensor offset estimate: ``pitch_offset_time = 29.20 sqrt(L/g)`` [s] (20 s)
     (:class:`auv_depth_lqr.attitude.PitchOffsetEstimator`).
 
+    Plane-authority measure (:class:`auv_depth_lqr.authority.AuthorityMonitor`):
+    ``authority_window = 29.20 sqrt(L/g)`` [s] (20 s).
+
     Safe BAR: ``0.275 bar_max`` [rad] (0.12 rad) to the side whose moment pitches the nose
     up (the sign of ``-CMbar``: a negative ``CMbar`` makes a negative BAR nose up).
     """
@@ -158,4 +169,4 @@ def derive_tuning(params: VehicleParams, theta_max: float,
         disturbance_time=DISTURBANCE_TIMES * s.time)
     nose_up = -1.0 if float(params.CMbar) <= 0.0 else 1.0
     return Tuning(weights, governor, nose_up * SAFE_BAR_SHARE * s.bar_max,
-                  PITCH_OFFSET_TIMES * s.time)
+                  PITCH_OFFSET_TIMES * s.time, AUTHORITY_TIMES * s.time)
