@@ -27,7 +27,9 @@ at its RK4 step, lockstep) on:
 Criteria (:class:`Criteria`): settled within 2x the time-optimal bound of the design model
 (:func:`auv_depth_lqr.bound.settling_bound`, same change and speed), ``|theta| < 35 deg``
 (no tumble), pitch limit exceeded by at most 2 deg, ``|mean depth error|`` over the last 10 s
-below 0.1 m. Runs in a process pool (``--workers``, default 2). Run:
+below 0.1 m. Each flight also records the pilot's plane-authority level at its end
+(:mod:`auv_depth_lqr.authority`); each share group counts the flights it called ``low``, among
+all and among the failed. Runs in a process pool (``--workers``, default 2). Run:
 ``. .venv/bin/auv-env && python bench/bench_robustness.py --plants 1000``
 (writes ``bench/results/robustness.json``).
 """
@@ -143,6 +145,10 @@ def _shares(rows: list[dict[str, Any]]) -> dict[str, Any]:
         'worst_pitch_excess_deg': max((r['pitch_excess_deg'] for r in flown), default=None),
         'worst_peak_pitch_deg': max((r['peak_pitch_deg'] for r in flown), default=None),
         'share_recovery_used': round(sum(1 for r in flown if r['recovery_time_s'] > 0) / n, 4),
+        'plane_authority_low': sum(1 for r in flown if r['authority'] == 'low'),
+        'plane_authority_low_among_failed': sum(1 for r in flown
+                                                if r['authority'] == 'low' and not r['pass']),
+        'failed': sum(1 for r in flown if not r['pass']),
     }
 
 

@@ -143,7 +143,10 @@ class Outcome:
     compared with, ``peak_pitch`` [rad] the largest true ``|theta|``, ``pitch_excess`` [rad]
     that beyond the pilot's limit (0 when within), ``steady_error`` [m] the mean true depth
     error over the last window, ``recovery_time`` [s] the time the envelope fallback flew,
-    ``error``: why the flight could not be flown (design failure, divergence), else ''.
+    ``error``: why the flight could not be flown (design failure, divergence), else '';
+    ``authority`` the pilot's plane-authority level at the end of the flight and
+    ``hold_share`` [-] the share of the plane's travel its hold took then
+    (:class:`~auv_depth_lqr.authority.Authority`; nan when not judged).
     """
 
     plant: str
@@ -158,6 +161,8 @@ class Outcome:
     recovery_time: float
     checks: dict[str, bool]
     error: str = ''
+    authority: str = ''
+    hold_share: float = math.nan
 
     @property
     def ratio(self) -> float:
@@ -180,7 +185,8 @@ class Outcome:
                 'pitch_excess_deg': num(math.degrees(self.pitch_excess), 2),
                 'steady_error_m': num(self.steady_error, 4),
                 'recovery_time_s': round(self.recovery_time, 1),
-                'checks': dict(self.checks), 'pass': self.passed, 'error': self.error}
+                'checks': dict(self.checks), 'pass': self.passed, 'error': self.error,
+                'authority': self.authority, 'hold_share': num(self.hold_share, 3)}
 
 
 def flight_duration(bound: float, criteria: Criteria) -> float:
@@ -217,7 +223,10 @@ def fly(design: VehicleParams, plant: Plant, manoeuvre: Manoeuvre, bound: float,
         return Outcome(plant.name, manoeuvre.z0, manoeuvre.z1, manoeuvre.u0, nan, bound, nan,
                        nan, nan, 0.0, {}, error=str(exc)), None
     recovery = pilot.statuses.count('recovery') * settings.Ts
-    return judge(plant.name, manoeuvre, run, bound, settings, criteria, recovery), run
+    outcome = judge(plant.name, manoeuvre, run, bound, settings, criteria, recovery)
+    authority = pilot.authority
+    return dataclasses.replace(outcome, authority=authority.level,
+                               hold_share=authority.share), run
 
 
 def judge(name: str, manoeuvre: Manoeuvre, run: ClosedLoopRun, bound: float,
