@@ -152,6 +152,37 @@ def _shares(rows: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
+def _features(design: VehicleParams, plant: Plant) -> dict[str, float]:
+    """The drawn errors of a Monte-Carlo plant as numbers: parameter factors [-], current
+    along the heading (north; the vehicle heads north) and across [m/s], buoyancy offset
+    [% of the weight], plane delay and lag [s], plane and pitch-sensor bias [deg], depth
+    noise [m], pilot told its water speed (1/0)."""
+    e = plant.effects
+    return {**plant.factors,
+            'current_following_m_s': e['current']['north'],
+            'current_cross_m_s': e['current']['east'],
+            'buoyancy_pct_of_weight': 100.0 * e['buoyancy_offset']['dB'] / design.W,
+            'plane_delay_s': e['actuator_delay']['bar'],
+            'plane_lag_s': e['actuator_lag']['bar_tau'],
+            'bar_bias_deg': math.degrees(e['bar_bias']['bias']),
+            'pitch_bias_deg': math.degrees(e['pitch_sensor_bias']['bias']),
+            'depth_noise_m': plant.depth_noise}
+
+
+def _drivers(features: list[dict[str, float]], failed: list[bool]) -> dict[str, Any]:
+    """For each drawn error: its tertile edges over the plants and the share of the plants
+    in each tertile (low, middle, high) that failed a criterion."""
+    out: dict[str, Any] = {}
+    fails = np.array(failed, dtype=float)
+    for key in features[0]:
+        v = np.array([f[key] for f in features])
+        lo, hi = np.quantile(v, [1.0 / 3.0, 2.0 / 3.0])
+        groups = (v <= lo, (v > lo) & (v <= hi), v > hi)
+        out[key] = {'tertile_edges': [round(float(lo), 4), round(float(hi), 4)],
+                    'failed_share': [round(float(fails[g].mean()), 3) for g in groups]}
+    return out
+
+
 def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
         table: bool = True, mc: bool = True) -> dict[str, Any]:
     """Per-effect table, identified-model case (``table``) and Monte Carlo (``mc``); returns
@@ -229,6 +260,9 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
                                                  if round(r['z1_m'] - r['z0_m'], 6) == dz])
                           for dz in MC_CHANGES},
             'failures': failures,
+            'failed_share_by_tertile': _drivers([_features(design, plant)
+                                                 for (_, plant, _m, _b) in jobs],
+                                                [not row['pass'] for row in rows]),
             'wall_s': round(mc_wall, 1),
             'wall_per_plant_s': round(mc_wall / max(plants, 1), 3),
         }
