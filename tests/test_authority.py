@@ -78,8 +78,12 @@ def test_bad_samples_are_ignored_and_bad_settings_refused() -> None:
     m = AuthorityMonitor(0.4, 10.0, 0.8)
     m.update(1.0, -0.2, True)
     before = m.update(2.0, -0.2, True)
-    assert m.update(2.0, -0.4, True) == before           # not after the last sample
+    assert m.update(2.0, -0.4, True) == before           # the last sample's time
     assert m.update(3.0, math.nan, True) == before       # not finite
+    a = m.update(0.5, -0.3, True)                        # the clock set back: a new window
+    assert a.hold_time == 0.0 and a.level == UNKNOWN
+    a = m.update(1.5, -0.3, True)
+    assert a.hold_time == pytest.approx(1.0) and a.hold_bar == pytest.approx(-0.3)
     m.reset()
     assert m.authority.level == UNKNOWN and m.authority.hold_time == 0.0
     for kwargs, name in (({'bar_max': 0.0}, 'bar_max'), ({'window': math.nan}, 'window'),

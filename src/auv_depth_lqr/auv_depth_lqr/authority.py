@@ -110,11 +110,14 @@ class AuthorityMonitor:
     def update(self, t: float, bar: float, holding: bool) -> Authority:
         """Add the plane command ``bar`` [rad] of normal control given at ``t`` [s];
         ``holding``: the pilot's reference was at rest at the commanded depth. Returns the
-        authority over the window ending at ``t``. Samples with a non-finite value or a time
-        not after the last one are ignored."""
+        authority over the window ending at ``t``. Samples with a non-finite value or the
+        time of the last one are ignored; a time before the last one (a clock set back: a
+        replay restarted) starts the window afresh."""
         if not (math.isfinite(t) and math.isfinite(bar)) \
-                or (self._samples and t <= self._samples[-1][0]):
+                or (self._samples and t == self._samples[-1][0]):
             return self.authority
+        if self._samples and t < self._samples[-1][0]:
+            self.reset()
         if self._samples:
             last = self._samples[-1]
             last[2] = min(t - last[0], self.window)
