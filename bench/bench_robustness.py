@@ -101,7 +101,7 @@ def identify_truth(truth: VehicleParams, base_path: pathlib.Path, workdir: pathl
     out = workdir / 'ident'
     parser = argparse.ArgumentParser()
     cli.add_arguments(parser)
-    args = parser.parse_args([*bags, '--base', str(base_path), '--out', str(out),
+    args = parser.parse_args([*bags, '--vehicle', str(base_path), '--out', str(out),
                               '--equations', 'surge', 'heave', 'pitch', '--no-nelder-mead'])
     if cli.run(args) != 0:
         raise RuntimeError('auv ident failed')
