@@ -153,3 +153,29 @@ def test_weak_fins_never_hold_depth_and_the_plane_is_said_at_its_stop() -> None:
     assert a.level == UNKNOWN and a.hold_time < 0.5 * pilot.authority_monitor.window, a
     assert a.at_stop > 0.5, a
     assert f'plane at its stop {100 * a.at_stop:.0f} % of the window' in a.message(0.8, 0.5)
+
+
+def test_running_sums_equal_a_direct_sum_over_the_window() -> None:
+    """Irregular samples, some at the stop, holding or not, over ten windows: the monitor's
+    running sums against the sums written out over the samples of each window."""
+    rng = np.random.default_rng(7)
+    m = AuthorityMonitor(0.4, 10.0, 0.8)
+    times = np.cumsum(rng.uniform(0.05, 0.5, 400))
+    bars = np.clip(rng.normal(-0.2, 0.2, times.size), -0.4, 0.4)
+    holds = rng.uniform(size=times.size) < 0.7
+    for k, (t, bar, hold) in enumerate(zip(times, bars, holds)):
+        a = m.update(float(t), float(bar), bool(hold))
+        inside = [i for i in range(k) if times[i] >= t - 10.0]
+        dur = {i: min(times[i + 1] - times[i], 10.0) for i in inside}
+        held = [i for i in inside if holds[i]]
+        hold_time = sum(dur[i] for i in held)
+        assert a.hold_time == pytest.approx(hold_time, abs=1e-9)
+        if hold_time > 0.0:
+            assert a.hold_bar == pytest.approx(sum(bars[i] * dur[i] for i in held) / hold_time,
+                                               abs=1e-9)
+            assert a.saturated == pytest.approx(
+                sum(dur[i] for i in held if abs(bars[i]) >= 0.4) / hold_time, abs=1e-9)
+        covered = sum(dur.values())
+        if covered > 0.0:
+            assert a.at_stop == pytest.approx(
+                sum(dur[i] for i in inside if abs(bars[i]) >= 0.4) / covered, abs=1e-9)

@@ -100,12 +100,24 @@ class AuthorityMonitor:
         self._samples: collections.deque[list[float]] = collections.deque()
         """[time [s], BAR [rad], duration [s], holding (1.0 or 0.0)] of each sample in the
         window; a sample lasts until the next one, at most the window."""
+        self._sums = [0.0] * 5
+        """Running sums over the window: covered time, time at the stop, hold time, hold
+        BAR x time [rad s], hold time at the stop [s]."""
         self.authority = Authority(UNKNOWN, math.nan, math.nan, math.nan, 0.0, math.nan)
 
     def reset(self) -> None:
         """Forget the window (after a time the pilot was not in normal control)."""
         self._samples.clear()
+        self._sums = [0.0] * 5
         self.authority = Authority(UNKNOWN, math.nan, math.nan, math.nan, 0.0, math.nan)
+
+    def _add(self, sample: list[float], sign: float) -> None:
+        """Add (``sign`` 1) or remove (-1) a sample's share of the running sums."""
+        _, bar, duration, holding = sample
+        stop = duration if abs(bar) >= self.bar_max * (1.0 - 1e-9) else 0.0
+        for k, value in enumerate((duration, stop, holding * duration,
+                                   holding * bar * duration, holding * stop)):
+            self._sums[k] += sign * value
 
     def update(self, t: float, bar: float, holding: bool) -> Authority:
         """Add the plane command ``bar`` [rad] of normal control given at ``t`` [s];
@@ -116,6 +128,32 @@ class AuthorityMonitor:
         if not (math.isfinite(t) and math.isfinite(bar)) \
                 or (self._samples and t == self._samples[-1][0]):
             return self.authority
+        if self._samples and t < self._samples[-1][0]:
+            self.reset()
+        if self._samples:
+            last = self._samples[-1]
+            last[2] = min(t - last[0], self.window)
+            self._add(last, 1.0)
+        self._samples.append([t, bar, 0.0, 1.0 if holding else 0.0])
+        while self._samples[0][0] < t - self.window:
+            self._add(self._samples.popleft(), -1.0)
+        covered, stop_time, hold_time, hold_sum, hold_stop = (max(x, 0.0) if k != 3 else x
+                                                              for k, x in enumerate(self._sums))
+        at_stop = stop_time / covered if covered > 0.0 else math.nan
+        if hold_time > 0.0:
+            mean, saturated = hold_sum / hold_time, hold_stop / hold_time
+        else:
+            mean = saturated = math.nan
+        share = abs(mean) / self.bar_max
+        if hold_time < 0.5 * self.window:
+            level = UNKNOWN
+        elif saturated > self.saturated_max or share > self.share_max:
+            level = LOW
+        else:
+            level = OK
+        self.authority = Authority(level, float(mean), float(share), float(saturated),
+                                   hold_time, float(at_stop))
+        return self.authority
         if self._samples and t < self._samples[-1][0]:
             self.reset()
         if self._samples:
