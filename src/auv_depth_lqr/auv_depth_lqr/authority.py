@@ -154,32 +154,3 @@ class AuthorityMonitor:
         self.authority = Authority(level, float(mean), float(share), float(saturated),
                                    hold_time, float(at_stop))
         return self.authority
-        if self._samples and t < self._samples[-1][0]:
-            self.reset()
-        if self._samples:
-            last = self._samples[-1]
-            last[2] = min(t - last[0], self.window)
-        self._samples.append([t, bar, 0.0, 1.0 if holding else 0.0])
-        while self._samples and self._samples[0][0] < t - self.window:
-            self._samples.popleft()
-        covered = sum(s[2] for s in self._samples)
-        stop = self.bar_max * (1.0 - 1e-9)
-        at_stop = (sum(s[2] for s in self._samples if abs(s[1]) >= stop) / covered
-                   if covered > 0.0 else math.nan)
-        hold_time = sum(s[2] for s in self._samples if s[3])
-        if hold_time > 0.0:
-            mean = sum(s[1] * s[2] for s in self._samples if s[3]) / hold_time
-            saturated = sum(s[2] for s in self._samples if s[3] and abs(s[1]) >= stop) \
-                / hold_time
-        else:
-            mean = saturated = math.nan
-        share = abs(mean) / self.bar_max
-        if hold_time < 0.5 * self.window:
-            level = UNKNOWN
-        elif saturated > self.saturated_max or share > self.share_max:
-            level = LOW
-        else:
-            level = OK
-        self.authority = Authority(level, float(mean), float(share), float(saturated),
-                                   hold_time, float(at_stop))
-        return self.authority
