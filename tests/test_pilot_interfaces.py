@@ -215,10 +215,13 @@ def test_depth_envelope_refuses_or_clamps_over_dds(ros_env, probe) -> None:
     def set_parameter(name: str, value: object) -> tuple[bool, str]:
         return set_remote_parameter(probe, client, name, value)
 
-    def diagnosed_command() -> str:
-        statuses.clear()
-        spin_until(probe, lambda: bool(statuses), DEADLINE_S, 'a diagnostics message')
-        return diagnostics_of(statuses)['depth_command_m']
+    def diagnosed(**expected: str) -> None:
+        """Spin until a diagnostics status carries ``expected`` (key: text in its value); one
+        published before the pilot handled the last command may still be on its way."""
+        def carries() -> bool:
+            values = diagnostics_of(statuses)
+            return all(text in values.get(key, '') for key, text in expected.items())
+        spin_until(probe, carries, DEADLINE_S, f'diagnostics carrying {expected}')
 
     try:
         spin_until(probe, lambda: commands.get_subscription_count() >= 1, DEADLINE_S, 'matching')
@@ -229,15 +232,16 @@ def test_depth_envelope_refuses_or_clamps_over_dds(ros_env, probe) -> None:
                             (math.nan, 'depth command nan is not finite'),
                             (-math.inf, 'depth command -inf is not finite')):
             command(bad, needle)
-        assert diagnosed_command() == '30.000'
-        assert 'depth command -inf is not finite; kept 30.0 m' in \
-            diagnostics_of(statuses)['last_rejected_command']
+        diagnosed(depth_command_m='30.000',
+                  last_rejected_command='depth command -inf is not finite; kept 30.0 m')
+        assert diagnostics_of(statuses)['depth_command_m'] == '30.000'
         ok, reason = set_parameter('depth_command_mode', 'clamp')
         assert ok, reason
         command(60.0, 'clamped to 50 m')
-        assert diagnosed_command() == '50.000'
+        diagnosed(depth_command_m='50.000')
         command(math.nan, 'depth command nan is not finite')  # never clamped
-        assert diagnosed_command() == '50.000'
+        diagnosed(last_rejected_command='depth command nan is not finite; kept 50.0 m')
+        assert diagnostics_of(statuses)['depth_command_m'] == '50.000'
         # the envelope may not exclude the command in force, nor exceed the vehicle's
         ok, reason = set_parameter('depth_max', 40.0)
         assert not ok and 'outside the depth envelope [5, 40]' in reason, reason
