@@ -156,7 +156,7 @@ def _features(design: VehicleParams, plant: Plant) -> dict[str, float]:
     """The drawn errors of a Monte-Carlo plant as numbers: parameter factors [-], current
     along the heading (north; the vehicle heads north) and across [m/s], buoyancy offset
     [% of the weight], plane delay and lag [s], plane and pitch-sensor bias [deg], depth
-    noise [m], pilot told its water speed (1/0)."""
+    noise [m]."""
     e = plant.effects
     return {**plant.factors,
             'current_following_m_s': e['current']['north'],

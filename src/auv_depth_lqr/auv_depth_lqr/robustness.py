@@ -146,7 +146,7 @@ class Outcome:
     ``error``: why the flight could not be flown (design failure, divergence), else '';
     ``authority`` the pilot's plane-authority level at the end of the flight and
     ``hold_share`` [-] the share of the plane's travel its hold took then
-    (:class:`~auv_depth_lqr.authority.Authority`; nan when not judged).
+    (:class:`~auv_depth_lqr.authority.Authority`; nan without hold samples).
     """
 
     plant: str
