@@ -250,18 +250,20 @@ def import_origins(imports: Sequence[Mapping[str, Any]]) -> dict[str, str]:
     return out
 
 
-#: Log period [s] above which commands logged only at the state rows are named as a limit.
+#: Log period [s] from which on commands logged only at the state rows are taken as linear
+#: between rows and named as a limit (a 10 Hz log is slow whatever the rounding of its
+#: stamps' difference: compared with a relative tolerance of 1e-6).
 SAMPLED_PERIOD = 0.1
 
 
 def sampled_commands(logs: Sequence[GapLog]) -> list[str]:
-    """Command channels that a slow log (period above :data:`SAMPLED_PERIOD`) records only
-    at its state rows (nearly every row carries one: a vendor log's command columns), not
-    when they changed."""
+    """Command channels that a slow log (period of :data:`SAMPLED_PERIOD` or more) records
+    only at its state rows (nearly every row carries one: a vendor log's command columns),
+    not when they changed."""
     out = []
     for ch in ('bar', 'thrust'):
         for lg in logs:
-            if ch in lg.measured_fins or lg.period <= SAMPLED_PERIOD:
+            if ch in lg.measured_fins or lg.period < SAMPLED_PERIOD * (1.0 - 1e-6):
                 continue
             st = np.asarray(lg.commands[ch][0])
             inside = st[(st >= lg.t[0] - 1e-9) & (st <= lg.t[-1] + 1e-9)]
