@@ -58,10 +58,12 @@ def test_derived_and_assumed_signals_leave_out_what_they_would_count_twice() -> 
 
 def test_a_10hz_log_is_slow_whatever_the_rounding_of_its_stamps() -> None:
     """Hand-worked: rows every 0.1 s from 0.7 s differ by 0.09999999999999998 s in binary,
-    from 1000 s by 0.10000000000002274 s; both logs, commands at every row, have them taken
-    as linear between rows; a 20 Hz log's are held."""
+    from 1000 s by 0.10000000000002274 s, from an epoch of 1.7e9 s by 0.09999990463256836 s;
+    all these logs, commands at every row, have them taken as linear between rows; a 20 Hz
+    log's are held."""
     from auv_ident.gap.logs import first_order_hold, sampled_commands
-    for t0, period, slow in ((0.7, 0.1, True), (1000.0, 0.1, True), (0.7, 0.05, False)):
+    for t0, period, slow in ((0.7, 0.1, True), (1000.0, 0.1, True), (1.7e9, 0.1, True),
+                             (0.7, 0.05, False)):
         t = t0 + np.arange(200) * period
         state = np.zeros((t.size, 12))
         cmds = {'bar': (t, np.sin(t)), 'thrust': (t, np.full(t.size, 50.0))}

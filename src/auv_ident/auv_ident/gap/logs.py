@@ -252,7 +252,7 @@ def import_origins(imports: Sequence[Mapping[str, Any]]) -> dict[str, str]:
 
 #: Log period [s] from which on commands logged only at the state rows are taken as linear
 #: between rows and named as a limit (a 10 Hz log is slow whatever the rounding of its
-#: stamps' difference: compared with a relative tolerance of 1e-6).
+#: stamps' difference: compared with a relative tolerance of 1e-3).
 SAMPLED_PERIOD = 0.1
 
 
@@ -263,15 +263,18 @@ def sampled_commands(logs: Sequence[GapLog]) -> list[str]:
     out = []
     for ch in ('bar', 'thrust'):
         for lg in logs:
-            if ch in lg.measured_fins or lg.period < SAMPLED_PERIOD * (1.0 - 1e-6):
+            if ch in lg.measured_fins or lg.period < SAMPLED_PERIOD * (1.0 - 1e-3):
                 continue
+            # at a row: within a thousandth of the period (epoch stamps of 1.7e9 s carry
+            # rounding errors of 2.4e-7 s)
+            tol = 1e-3 * lg.period
             st = np.asarray(lg.commands[ch][0])
-            inside = st[(st >= lg.t[0] - 1e-9) & (st <= lg.t[-1] + 1e-9)]
+            inside = st[(st >= lg.t[0] - tol) & (st <= lg.t[-1] + tol)]
             if inside.size < 0.9 * lg.t.size:
                 continue
             i = np.clip(np.searchsorted(lg.t, inside), 1, lg.t.size - 1)
             gap = np.minimum(np.abs(lg.t[i] - inside), np.abs(lg.t[i - 1] - inside))
-            if np.mean(gap < 1e-6) > 0.9:
+            if np.mean(gap < tol) > 0.9:
                 out.append(ch)
                 break
     return out
