@@ -20,6 +20,17 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 MAP = ROOT / 'config' / 'maps' / 'text_2hz_deg_cm.yaml'
 
 
+def dive():  # type: ignore[no-untyped-def]
+    """A 5-minute closed-loop flight: depth changes of 20 and 15 m, three thrust levels and
+    five BAR doublets."""
+    from auv_ident.gap import synth
+    return synth.Scenario(duration=300.0, z0=60.0, u0=2.0,
+                          depth=((0.0, 60.0), (60.0, 80.0), (200.0, 65.0)),
+                          thrust=((0.0, 55.0), (150.0, 100.0), (280.0, 40.0)),
+                          doublets=((30.0, 0.08, 3.0), (110.0, 0.1, 2.0), (170.0, 0.06, 5.0),
+                                    (240.0, 0.1, 3.0), (270.0, 0.08, 4.0)))
+
+
 def _piece(origins: dict[str, str], period: float = 0.5) -> list:  # type: ignore[type-arg]
     t = np.arange(0.0, 120.0, period)
     state = np.zeros((t.size, 12))
@@ -93,12 +104,7 @@ def test_2hz_text_log_with_a_buoyancy_offset(tmp_path: pathlib.Path) -> None:
     from auv_sim.params import load_vehicle
 
     vehicle = load_vehicle(ROOT / 'config' / 'a18m.yaml')
-    flight = synth.Scenario(duration=300.0, z0=60.0, u0=2.0,
-                            depth=((0.0, 60.0), (60.0, 80.0), (200.0, 65.0)),
-                            thrust=((0.0, 55.0), (150.0, 100.0), (280.0, 40.0)),
-                            doublets=((30.0, 0.08, 3.0), (110.0, 0.1, 2.0), (170.0, 0.06, 5.0),
-                                      (240.0, 0.1, 3.0), (270.0, 0.08, 4.0)))
-    log = synth.simulate(vehicle, {'effects': {'buoyancy_offset': {'dB': 20.0}}}, flight,
+    log = synth.simulate(vehicle, {'effects': {'buoyancy_offset': {'dB': 20.0}}}, dive(),
                          seed=41)
     path = tmp_path / 'dive.txt'
     realsynth.write_text(path, realsynth.record_of(log.t, log.state, log.commands), every=25)

@@ -40,7 +40,7 @@ import numpy as np
 from auv_ident.gap import analysis, residuals
 from auv_ident.gap.catalogue import CATALOGUE, Perturbation, get_effect, separating_manoeuvre
 from auv_ident.gap.fit import EquationFit, FitResult, FreeRunFit
-from auv_ident.gap.logs import GapLog, measurement_weighting
+from auv_ident.gap.logs import GapLog, measurement_weighting, other_hold
 from auv_ident.gap.problem import CH_INDEX, CH_NAMES, EQUATIONS, EffectSet, Problem
 from auv_ident.gap.wording import describe
 from auv_sim.params import VehicleParams
@@ -114,6 +114,9 @@ class _Scorer:
         self.pr, self.frf = pr, frf
         self.nominal_cost, self.floor_cost = nominal_cost, floor_cost
         self.rows = pr.window_rows(frf.held)
+        #: the logs with their commands logged at the rows reconstructed the other way
+        #: (:func:`other_hold`), or None
+        self.other_logs: list[GapLog] | None = None
         #: Newey-West lags of the predictive-gain test: half the shortest held-out window
         self.lags = max(1, min(r.stop - r.start for r in self.rows) // 2)
 
@@ -123,6 +126,25 @@ class _Scorer:
         t, p, _ = residuals.predictive_gain(base.loss, cand.loss, self.lags)
         return t, p
 
+    def _errors(self, out: np.ndarray, meas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Scaled held-out errors of one free run (S x channels, clipped at 1e3 and
+        non-finite as 1e3) and their cost per held-out window."""
+        err = (out[:, CH_INDEX] - meas[:, CH_INDEX]) / self.frf.scales
+        err = np.clip(np.where(np.isfinite(err), err, 1e3), -1e3, 1e3)
+        per_w = np.array([np.mean(np.sum(err[r][1:] ** 2, axis=1)) for r in self.rows])
+        return err, per_w
+
+    def window_cost_other(self, cand: Candidate) -> np.ndarray | None:
+        """The cost per held-out window of ``cand`` with the commands a log records only at
+        its rows reconstructed the other way (held or linear between rows), or None when
+        every command carries its own stamp."""
+        if self.other_logs is None:
+            return None
+        pert = cand.fit.effects.perturbation(cand.fit.values)
+        act = self.pr.actuators_of(self.other_logs, pert)
+        out, meas = self.pr.free_run([pert], self.frf.held, act_override=act)
+        return self._errors(out[0], meas)[1]
+
     def evaluate(self, fits: Sequence[FitResult]) -> list[Candidate]:
         """Score ``fits`` on the held-out windows."""
         if not fits:
@@ -131,9 +153,7 @@ class _Scorer:
         out, meas = self.pr.free_run(perts, self.frf.held)
         res = []
         for c, f in enumerate(fits):
-            err = (out[c][:, CH_INDEX] - meas[:, CH_INDEX]) / self.frf.scales
-            err = np.clip(np.where(np.isfinite(err), err, 1e3), -1e3, 1e3)
-            per_w = np.array([np.mean(np.sum(err[r][1:] ** 2, axis=1)) for r in self.rows])
+            err, per_w = self._errors(out[c], meas)
             cost = float(np.mean(np.sum(err[np.concatenate(
                 [np.arange(r.start + 1, r.stop) for r in self.rows])] ** 2, axis=1)))
             phys = out[c][:, CH_INDEX] - meas[:, CH_INDEX]
@@ -177,6 +197,9 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     # -- derived or assumed signals of imported logs: left out, never counted twice ----------
     weighting = measurement_weighting(pr.logs)
     pr.eq_sigma = np.where(weighting.equation_mask(EQUATIONS), np.inf, pr.eq_sigma)
+    # free runs start from initial rates fitted to the measured depth and pitch, not from
+    # the differenced rates
+    pr.estimate_initial([s for s in ('w', 'q') if s in weighting.channels])
     # ----------------------------------------------------------------------------------------
     nom = Perturbation.nominal(vehicle)
     all_w = pr.select(None)
@@ -184,9 +207,8 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
 
     # 1. nominal free run and its noise floor
     rng = np.random.default_rng(12345)
-    x0_sd = pr.noise * pr.initial_gain
     x0_noise = np.zeros((MC_RUNS + 1, len(all_w), 12))
-    x0_noise[1:] = rng.standard_normal((MC_RUNS, len(all_w), 12)) * x0_sd
+    x0_noise[1:] = pr.initial_noise(rng, MC_RUNS, all_w)
     out, meas = pr.free_run([nom] * (MC_RUNS + 1), all_w, x0_noise=x0_noise)
     err_nom = out[0] - meas
     finite = np.all(np.isfinite(err_nom[:, CH_INDEX]), axis=1)
@@ -197,8 +219,18 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     spread = np.sqrt(np.nanmean((out[1:] - out[0][None])[:, :, CH_INDEX] ** 2, axis=(0, 1)))
     out_b, _ = pr.free_run([nom], all_w, x0_bias=True)
     bias_spread = np.sqrt(np.nanmean((out_b[0] - out[0])[:, CH_INDEX] ** 2, axis=0))
+    # commands logged only at the state rows: held and linear between rows bracket what
+    # they did in between; the difference of the two free runs is in the floor
+    command_spread = np.zeros(len(CH_INDEX))
+    other = [other_hold(lg) for lg in pr.logs]
+    other_logs: list[GapLog] | None = None
+    if any(lg is not None for lg in other):
+        other_logs = [o or lg for o, lg in zip(other, pr.logs)]
+        act_other = pr.actuators_of(other_logs, nom)
+        out_c, _ = pr.free_run([nom], all_w, act_override=act_other)
+        command_spread = np.sqrt(np.nanmean((out_c[0] - out[0])[:, CH_INDEX] ** 2, axis=0))
     floor = np.sqrt((pr.noise[list(CH_INDEX)] * pr.smooth_gain) ** 2 + spread ** 2
-                    + bias_spread ** 2)
+                    + bias_spread ** 2 + command_spread ** 2)
     gap_channels = [CH_NAMES[i] for i in range(len(CH_INDEX))
                     if rms_nom[i] > GAP_FACTOR * floor[i]]
     scales = np.maximum(rms_nom, floor)
@@ -253,6 +285,7 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     floor_cost = float(np.sum(np.minimum((floor / scales) ** 2,
                                          np.mean(err_h[held_idx] ** 2, axis=0))))
     scorer = _Scorer(pr, frf, nominal_cost, floor_cost)
+    scorer.other_logs = other_logs
     nominal_cand = scorer.evaluate([FitResult(EffectSet([], vehicle), np.zeros(0),
                                               np.zeros(0, bool), np.zeros(0), np.zeros(0),
                                               'nominal')])[0]
@@ -279,7 +312,8 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     viable = [c for c in ranked_singles if c.plausible and c.identifies]
     best = _simplest(viable) if viable else nominal_cand
     pool = list(names)
-    while gap_channels and viable and best.score > 0 and len(best.names) < max_effects:
+    while gap_channels and viable and best.score > 0 and len(best.names) < max_effects \
+            and best.explained < 1.0:
         base_cost = eqf.cost(best.fit.effects, best.fit.values, held_out=True)
         ranked, joint = [], {}
         for n in pool:
@@ -349,7 +383,8 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
         if rival is not None:
             white = False
             left = [rival, *left]
-    verdict, ambiguous, suggestion = _verdict(gap_channels, tested, candidates, white)
+    verdict, ambiguous, suggestion = _verdict(gap_channels, tested, candidates, white,
+                                              scorer.window_cost_other)
     best_label = best.label if verdict not in ('no_gap', 'unexplained') else None
     after = best if best_label else nominal_cand
     z_i, th_i = CH_NAMES.index('z'), CH_NAMES.index('theta')
@@ -416,12 +451,17 @@ def _held_at(cmd: tuple[np.ndarray, np.ndarray], t: np.ndarray) -> np.ndarray:
 
 
 def _verdict(gap_channels: list[str], best: Candidate | None, candidates: list[Candidate],
-             white: bool) -> tuple[str, list[str], str | None]:
+             white: bool,
+             other: Callable[[Candidate], np.ndarray | None] = lambda _c: None
+             ) -> tuple[str, list[str], str | None]:
     """``(verdict, ambiguous_with, suggested_manoeuvre)``.
 
     ``explained`` needs all of: a plausible best that identifies every effect it names, an
     explained share of at least ``EXPLAINED`` and white, independent residuals; a plausible
     best short of one of the last two is ``partly_explained``; implausible fits never count.
+    A contender is ambiguous with the best when the held-out windows cannot tell them apart
+    with the commands as reconstructed, or, for commands logged only at the rows, with them
+    reconstructed the other way (``other``: cost per held-out window, or None).
     """
     if not gap_channels:
         return 'no_gap', [], None
@@ -439,9 +479,11 @@ def _verdict(gap_channels: list[str], best: Candidate | None, candidates: list[C
                 or c.cost > AMBIGUOUS_RATIO * best.cost \
                 or c.explained < best.explained / AMBIGUOUS_RATIO:
             continue
-        d = c.window_cost - best.window_cost
-        se = float(np.std(d, ddof=1) / np.sqrt(d.size)) if d.size > 1 else math.inf
-        t = float(np.mean(d) / se) if se > 0 else math.inf
+        t = _t_stat(c.window_cost - best.window_cost)
+        if t >= AMBIGUOUS_T:
+            alt_best, alt_c = other(best), other(c)
+            if alt_best is not None and alt_c is not None:
+                t = min(t, _t_stat(alt_c - alt_best))
         if t < AMBIGUOUS_T:
             for n in c.names:
                 if n not in mine and n not in ambiguous:
@@ -449,6 +491,12 @@ def _verdict(gap_channels: list[str], best: Candidate | None, candidates: list[C
     if ambiguous:
         return 'ambiguous', ambiguous, separating_manoeuvre(best.names[0], ambiguous[0])
     return verdict, [], None
+
+
+def _t_stat(d: np.ndarray) -> float:
+    """t statistic of the mean of the per-window cost differences ``d`` (inf for one)."""
+    se = float(np.std(d, ddof=1) / np.sqrt(d.size)) if d.size > 1 else math.inf
+    return float(np.mean(d) / se) if se > 0 else math.inf
 
 
 def _better_implausible(scorer: _Scorer, best: Candidate, candidates: Sequence[Candidate]

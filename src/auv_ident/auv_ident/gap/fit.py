@@ -273,7 +273,9 @@ class FreeRunFit:
             cover: np.ndarray | None = None) -> FitResult:
         """Refine an equation-error fit by free-run error over the training windows; with
         ``prune``, of several parameters those whose interval covers their "absent" value are
-        then dropped and the rest refitted (once). The interval is widened to cover ``cover``
+        then dropped and the rest refitted (once); when every interval covers it, the least
+        significant parameter (smallest distance from "absent" over its interval's width) is
+        dropped and the rest fitted and pruned again. The interval is widened to cover ``cover``
         (default: the equation-error estimate of ``start``)."""
         es, active = start.effects, start.active.copy()
         if not active.any():
@@ -319,12 +321,21 @@ class FreeRunFit:
         cov, df = cluster_covariance(sol.jac, sol.fun, np.repeat(self.clusters, nch))
         lo, hi = _intervals(es, values, active, cov, df)
         covers = active & (lo <= es.absent) & (hi >= es.absent)
-        if prune and active.sum() >= 2 and covers.any() and not covers[active].all():
-            # drop what the free run cannot tell from "absent", refit the rest
-            active = active & ~covers
+        if prune and active.sum() >= 2 and covers.any():
+            if covers[active].all():
+                # none told from "absent" (one poorly seen parameter can widen the others'
+                # intervals): drop the least significant and try the rest again
+                t = np.where(active, np.abs(values - es.absent) / np.maximum(hi - lo, 1e-300),
+                             np.inf)
+                drop = np.arange(active.size) == int(np.argmin(t))
+            else:
+                # drop what the free run cannot tell from "absent", refit the rest once
+                drop = covers
+            active = active & ~drop
             kept = dataclasses.replace(start, active=active,
                                        values=np.where(active, values, es.absent))
-            return self.fit(kept, max_nfev=max(2, max_nfev // 2), prune=False,
+            return self.fit(kept, max_nfev=max(2, max_nfev // 2),
+                            prune=bool(covers[start.active].all()),
                             cover=np.where(active, start.values, es.absent))
         significant = active & ((lo > es.absent) | (hi < es.absent))
         # the two fits are different estimators of the same parameters: widen the interval

@@ -204,16 +204,41 @@ def first_order_hold(log: GapLog) -> GapLog:
         return log
     cmds = dict(log.commands)
     for ch in chans:
-        st, va = cmds[ch]
-        frac = np.arange(FOH_STEPS) / FOH_STEPS
-        t_new = (st[:-1, None] + np.diff(st)[:, None] * frac[None, :]).ravel()
-        v_new = (va[:-1, None] + np.diff(va)[:, None] * frac[None, :]).ravel()
-        cmds[ch] = (np.r_[t_new, st[-1]], np.r_[v_new, va[-1]])
+        cmds[ch] = _linear(*cmds[ch])
     note = (f'{", ".join(chans)} commands logged only at the rows (every {log.period:.3g} s): '
             'taken as varying linearly between rows (first-order hold) rather than held, '
             'which would delay them by half a row on average')
     return dataclasses.replace(log, commands=cmds, notes=(*log.notes, note),
                                linear_between_rows=tuple(chans))
+
+
+def _linear(st: np.ndarray, va: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Commands held at stamps ``st`` [s] with values ``va`` as :data:`FOH_STEPS` held steps
+    per interval, varying linearly from each value to the next."""
+    frac = np.arange(FOH_STEPS) / FOH_STEPS
+    t_new = (st[:-1, None] + np.diff(st)[:, None] * frac[None, :]).ravel()
+    v_new = (va[:-1, None] + np.diff(va)[:, None] * frac[None, :]).ravel()
+    return np.r_[t_new, st[-1]], np.r_[v_new, va[-1]]
+
+
+def other_hold(log: GapLog) -> GapLog | None:
+    """The same log with the commands it records only at its state rows (at any period,
+    ``sampled_commands(..., min_period=0)``, or already taken as linear between rows)
+    reconstructed the other way: held at each row's value where :func:`first_order_hold`
+    made them linear, linear where they are held. What the commands did between rows is
+    not in the log; the two reconstructions bracket it, and the diagnosis counts their
+    difference in the noise floor. None when the log's commands carry their own stamps."""
+    cmds = dict(log.commands)
+    for ch in log.linear_between_rows:
+        st, va = cmds[ch]
+        cmds[ch] = (st[::FOH_STEPS], va[::FOH_STEPS])
+    held = [ch for ch in sampled_commands([log], min_period=0.0)
+            if ch not in log.linear_between_rows]
+    for ch in held:
+        cmds[ch] = _linear(*cmds[ch])
+    if not (held or log.linear_between_rows):
+        return None
+    return dataclasses.replace(log, commands=cmds)
 
 
 def measured_fins_vehicle(vehicle: VehicleParams, logs: Sequence[GapLog]) -> VehicleParams:
@@ -256,14 +281,15 @@ def import_origins(imports: Sequence[Mapping[str, Any]]) -> dict[str, str]:
 SAMPLED_PERIOD = 0.1
 
 
-def sampled_commands(logs: Sequence[GapLog]) -> list[str]:
-    """Command channels that a slow log (period of :data:`SAMPLED_PERIOD` or more) records
+def sampled_commands(logs: Sequence[GapLog], min_period: float = SAMPLED_PERIOD
+                     ) -> list[str]:
+    """Command channels that a slow log (period of ``min_period`` [s] or more) records
     only at its state rows (nearly every row carries one: a vendor log's command columns),
     not when they changed."""
     out = []
     for ch in ('bar', 'thrust'):
         for lg in logs:
-            if ch in lg.measured_fins or lg.period < SAMPLED_PERIOD * (1.0 - 1e-3):
+            if ch in lg.measured_fins or lg.period < min_period * (1.0 - 1e-3):
                 continue
             # at a row: within a thousandth of the period (epoch stamps of 1.7e9 s carry
             # rounding errors of 2.4e-7 s)
@@ -354,9 +380,9 @@ def measurement_weighting(logs: Sequence[GapLog]) -> Weighting:
                       f'at the {period:.3g} s sample period: the vertical plane is seen only '
                       'through depth and pitch, and an actuator delay or lag shorter than '
                       'about one sample period cannot be identified; the free runs start from '
-                      'these differenced rates, which raises the noise floor, so an effect of '
-                      'a few tenths of a second on the plane can stay under it (no_gap) even '
-                      'in a fast log: log the pitch rate (gyro) and the heave velocity (DVL)')
+                      'a heave velocity and pitch rate fitted by each model to the first '
+                      'seconds of depth and pitch, whose uncertainty is in the noise floor: '
+                      'log the pitch rate (gyro) and the heave velocity (DVL)')
     if kind.get('phi') == 'assumed':
         limits.append('roll was not logged (assumed 0): a roll offset or banking in turns is '
                       'not seen, and its share of the restoring moment would appear as a '

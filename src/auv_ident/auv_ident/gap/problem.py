@@ -27,7 +27,7 @@ from auv_ident.gap.catalogue import (
     get_effect,
 )
 from auv_ident.gap.kernel import actuator_series, equation_terms, free_run_batch
-from auv_ident.gap.logs import CHANNELS, GapLog, Smoothed, smooth
+from auv_ident.gap.logs import CHANNELS, DERIVED_FROM, STATE_FIELDS, GapLog, Smoothed, smooth
 from auv_sim.model import ENV_SIZE
 from auv_sim.params import VehicleParams, mass_matrix
 
@@ -42,6 +42,10 @@ CH_NAMES = ('z', 'theta', 'u', 'w', 'q', 'v', 'r')
 #: Seconds at the start of each log piece for the actuator models to forget their unknown
 #: initial position (5 time constants of a 1-s lag).
 ACT_SETTLE = 5.0
+#: Seconds at the start of each window over which derived initial states are fitted to the
+#: measured outputs (:meth:`Problem.estimate_initial`), and the fewest output samples used.
+INITIAL_FIT = 3.0
+INITIAL_FIT_MIN = 6
 
 
 @dataclasses.dataclass(frozen=True)
@@ -148,6 +152,12 @@ class Problem:
         self.initial_gain = float(np.linalg.norm(2.0 * h1 - savgol_filter(h1, n, 3,
                                                                           mode='interp')))
         self.smooth_window = smooth_window
+        #: states whose initial values are fitted (:meth:`estimate_initial`), and per window
+        #: (all windows) the nominal model's fit covariance (None: not fitted)
+        self.x0_cov: list[np.ndarray | None] = []
+        self.x0_states: tuple[int, ...] = ()
+        self._x0_outs: list[int] = []
+        self._x0_nfit = 0
         self.noise = np.median(np.array([s.noise for s in self.smoothed]), axis=0)
         self.deriv_gain = float(np.median([s.deriv_gain for s in self.smoothed]))
         self.smooth_gain = float(np.median([s.smooth_gain for s in self.smoothed]))
@@ -155,6 +165,7 @@ class Problem:
         self.fine_n = [((lg.t.size - 1) // self.m) * self.sub * 2 + 1 for lg in self.logs]
         self.fine_off = np.r_[0, np.cumsum(self.fine_n)[:-1]].astype(np.int64)
         self.windows = self._windows(window, held_out_logs)
+        self.x0_cov = [None] * len(self.windows)
         if not any(w.held_out for w in self.windows) or all(w.held_out for w in self.windows):
             raise GapError('the logs are too short to hold out whole windows: need at least '
                            f'two windows of {window:g} s')
@@ -197,11 +208,20 @@ class Problem:
         hit = self._act_cache.get(key)
         if hit is not None:
             return hit
+        out = self.actuators_of(self.logs, pert)
+        if len(self._act_cache) > 8:
+            self._act_cache.clear()
+        self._act_cache[key] = out
+        return out
+
+    def actuators_of(self, logs: Sequence[GapLog], pert: Perturbation) -> np.ndarray:
+        """Actuator positions (F x 3) driven by the commands of ``logs`` (the problem's logs
+        or the same logs with their commands reconstructed otherwise) for ``pert``."""
         out = np.empty((int(sum(self.fine_n)), 3))
         v = self.vehicle
         lims = ((-v.bar_max, v.bar_max), (-v.helm_max, v.helm_max),
                 (v.thrust_min, v.thrust_max))
-        for li, lg in enumerate(self.logs):
+        for li, lg in enumerate(logs):
             a, n = int(self.fine_off[li]), self.fine_n[li]
             for c, ch in enumerate(CHANNELS):
                 st, va = lg.commands[ch]
@@ -210,14 +230,13 @@ class Problem:
                 out[a:a + n, c] = actuator_series(
                     float(lg.t[0]), self.h, n, st, va, float(pert.delay[c]), float(pert.tau[c]),
                     float(pert.rate[c]), lo, hi, a0)
-        if len(self._act_cache) > 8:
-            self._act_cache.clear()
-        self._act_cache[key] = out
         return out
 
     # -- free runs ---------------------------------------------------------------------------
     def free_run(self, perts: Sequence[Perturbation], windows: Sequence[int],
-                 x0_noise: np.ndarray | None = None, x0_bias: bool = False
+                 x0_noise: np.ndarray | None = None, x0_bias: bool = False,
+                 act_override: np.ndarray | None = None,
+                 x0_cov: list[np.ndarray | None] | None = None
                  ) -> tuple[np.ndarray, np.ndarray]:
         """Predicted measurements (nc x S x 12) of each model over ``windows``, and the
         log (S x 12) smoothed over ``smooth_window`` (white sensor noise removed, which no
@@ -225,7 +244,10 @@ class Problem:
 
         ``x0_noise`` (nc x nw x 12) is added to the initial states (Monte Carlo of the
         initial-state uncertainty); ``x0_bias`` starts from the plain smoother instead of
-        its twiced estimate (to size the initial-state bias).
+        its twiced estimate (to size the initial-state bias); ``act_override`` (F x 3)
+        replaces every model's actuator positions (:meth:`actuators_of`). After
+        :meth:`estimate_initial` the derived rates' initial states are fitted for each model
+        (``x0_cov`` receives the first model's fit covariances).
         """
         nc, nw = len(perts), len(windows)
         wins = [self.windows[i] for i in windows]
@@ -233,14 +255,14 @@ class Problem:
         out_base = np.r_[0, np.cumsum(nsamp)[:-1]].astype(np.int64)
         fine_base = np.array([self.fine_off[w.log] + (w.i0 // self.m) * self.sub * 2
                               for w in wins], dtype=np.int64)
-        act = np.empty((nc, int(sum(self.fine_n)), 3))
         X0 = np.zeros((nc, nw, 15))
         env = np.empty((nc, ENV_SIZE))
         C = np.empty((nc, *perts[0].C.shape))
         P = np.empty((nc, self.P.size))
         t0 = np.array([float(self.logs[w.log].t[w.i0]) - self.t_ref for w in wins])
+        act = np.empty((nc, int(sum(self.fine_n)), 3))
         for c, pert in enumerate(perts):
-            act[c] = self.actuators(pert)
+            act[c] = self.actuators(pert) if act_override is None else act_override
             env[c] = pert.env_vector()
             C[c] = pert.C
             P[c] = self.model_arrays(pert)[0]
@@ -250,6 +272,8 @@ class Problem:
                     src = src + self.initial_bias[w.log]
                 X0[c, k, :12] = self.true_state(src, np.array([float(w.i0)]), pert)[0]
                 X0[c, k, 12:] = act[c, fine_base[k]]
+        if self.x0_states:
+            self._fit_initial(perts, wins, X0, P, act, fine_base, t0, env, C, x0_cov)
         if x0_noise is not None:
             X0[:, :, :12] += x0_noise
         out = np.empty((nc, int(nsamp.sum()), 12))
@@ -274,6 +298,89 @@ class Problem:
                         (meas[r0:r0 + n, k] - pert.bias[k]) / pert.scale[k])
             out[c] = out[c] * pert.scale + pert.bias
         return out, meas
+
+    # -- initial states of derived rates -----------------------------------------------------
+    def estimate_initial(self, derived: Sequence[str], seconds: float = INITIAL_FIT) -> None:
+        """Fit, from now on, the initial values of the ``derived`` rates (``w``, ``q``: not
+        measured, differenced from depth and pitch) and of their sources (``z``, ``theta``)
+        at every window's start, for each model a free run is asked of, to the measured
+        sources over the window's first ``seconds`` (at least ``INITIAL_FIT_MIN`` outputs):
+        the initial-state estimate of output-error methods (:meth:`_fit_initial`). A
+        differenced rate's noise would otherwise start every free run off.
+
+        Sets :attr:`x0_cov` (the nominal model's fit covariance per window, which
+        :meth:`initial_noise` draws from). The smoother's bias no longer applies to the
+        estimated states."""
+        if not derived:
+            return
+        self.x0_states = tuple(sorted({STATE_FIELDS.index(s) for s in derived}
+                                      | {STATE_FIELDS.index(DERIVED_FROM[s]) for s in derived}))
+        self._x0_outs = sorted({STATE_FIELDS.index(DERIVED_FROM[s]) for s in derived})
+        self._x0_nfit = max(INITIAL_FIT_MIN, int(round(seconds / (self.m * self.period))) + 1)
+        for li in range(len(self.logs)):
+            self.initial_bias[li][:, list(self.x0_states)] = 0.0
+        wins = self.select(None)
+        cov: list[np.ndarray | None] = [None] * len(wins)
+        self.free_run([Perturbation.nominal(self.vehicle)], wins, x0_cov=cov)
+        for i, c in zip(wins, cov):
+            self.x0_cov[i] = c
+
+    def _fit_initial(self, perts: Sequence[Perturbation], wins: Sequence[Window],
+                     X0: np.ndarray, P: np.ndarray, act: np.ndarray, fine_base: np.ndarray,
+                     t0: np.ndarray, env: np.ndarray, C: np.ndarray,
+                     cov: list[np.ndarray | None] | None = None) -> None:
+        """Fit ``X0[c, k, x0_states]`` (nc x nw x 15, modified) of each model ``c`` and window
+        ``k`` to the measured sources (``z``, ``theta``) over the window's first outputs:
+        weighted least squares (weights: their white noise), two Gauss-Newton steps on
+        finite-difference sensitivities of short free runs of that model, its sensors'
+        scale and bias applied. A window whose run is not finite keeps its start. ``cov``
+        (nw), if given, receives the last fit's covariance of the first model."""
+        unknown, outs = list(self.x0_states), self._x0_outs
+        nu, nc, nw = len(unknown), X0.shape[0], X0.shape[1]
+        nfit = np.array([min(self.outputs(w), self._x0_nfit) for w in wins], dtype=np.int64)
+        base = np.r_[0, np.cumsum(nfit)[:-1]].astype(np.int64)
+        raw = [self.logs[w.log].state[w.i0:w.i0 + int(n) * self.m:self.m][:, outs]
+               for w, n in zip(wins, nfit)]
+        sigma = np.maximum(self.noise[outs], 1e-9)
+        scale = np.array([p.scale[outs] for p in perts])
+        bias = np.array([p.bias[outs] for p in perts])
+        eps = 1e-4
+        runs = np.empty((1 + nu, nc, int(nfit.sum()), 12))
+        for _ in range(2):
+            for j in range(1 + nu):
+                Xj = X0.copy()
+                if j:
+                    Xj[:, :, unknown[j - 1]] += eps
+                free_run_batch(P, Xj, act, fine_base, nfit, base, t0, env, C, self.dt,
+                               self.sub, runs[j])
+            y = runs[:, :, :, outs] * scale[None, :, None, :] + bias[None, :, None, :]
+            for c in range(nc):
+                for k in range(nw):
+                    sl = slice(int(base[k]), int(base[k] + nfit[k]))
+                    y0 = y[0, c, sl]
+                    J = ((y[1:, c, sl] - y0[None]) / eps / sigma).reshape(nu, -1).T
+                    res = ((raw[k] - y0) / sigma).ravel()
+                    if not (np.all(np.isfinite(J)) and np.all(np.isfinite(res))):
+                        continue
+                    step, *_ = np.linalg.lstsq(J, res, rcond=None)
+                    X0[c, k, unknown] += step
+                    if cov is not None and c == 0:
+                        cov[k] = np.linalg.pinv(J.T @ J)
+
+    def initial_noise(self, rng: np.random.Generator, runs: int, windows: Sequence[int]
+                      ) -> np.ndarray:
+        """Draws (runs x nw x 12) of the initial-state error of ``windows``: the smoothed
+        state's noise (``noise x initial_gain``), and for the states :meth:`estimate_initial`
+        estimated, its covariance."""
+        draw: np.ndarray = rng.standard_normal((runs, len(windows), 12)) * (
+            self.noise * self.initial_gain)
+        unknown = list(self.x0_states)
+        for k, i in enumerate(windows):
+            cov = self.x0_cov[i]
+            if cov is not None:
+                L = np.linalg.cholesky(cov + 1e-18 * np.eye(len(unknown)))
+                draw[:, k, unknown] = rng.standard_normal((runs, len(unknown))) @ L.T
+        return draw
 
     def model_arrays(self, pert: Perturbation) -> tuple[np.ndarray, np.ndarray]:
         """The model's parameter vector and mass matrix with the factors of ``pert`` (cached:
