@@ -109,14 +109,14 @@ class Diagnosis:
 class _Scorer:
     """Held-out free-run scoring against the nominal model."""
 
-    def __init__(self, pr: Problem, frf: FreeRunFit, nominal_cost: float, floor_cost: float
-                 ) -> None:
+    def __init__(self, pr: Problem, frf: FreeRunFit, nominal_cost: float, floor_cost: float,
+                 other_logs: list[GapLog] | None = None) -> None:
         self.pr, self.frf = pr, frf
         self.nominal_cost, self.floor_cost = nominal_cost, floor_cost
         self.rows = pr.window_rows(frf.held)
         #: the logs with their commands logged at the rows reconstructed the other way
         #: (:func:`other_hold`), or None
-        self.other_logs: list[GapLog] | None = None
+        self.other_logs = other_logs
         #: Newey-West lags of the predictive-gain test: half the shortest held-out window
         self.lags = max(1, min(r.stop - r.start for r in self.rows) // 2)
 
@@ -284,8 +284,7 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     # the held-out windows (a channel without a gap can shrink by nothing)
     floor_cost = float(np.sum(np.minimum((floor / scales) ** 2,
                                          np.mean(err_h[held_idx] ** 2, axis=0))))
-    scorer = _Scorer(pr, frf, nominal_cost, floor_cost)
-    scorer.other_logs = other_logs
+    scorer = _Scorer(pr, frf, nominal_cost, floor_cost, other_logs)
     nominal_cand = scorer.evaluate([FitResult(EffectSet([], vehicle), np.zeros(0),
                                               np.zeros(0, bool), np.zeros(0), np.zeros(0),
                                               'nominal')])[0]
