@@ -128,3 +128,63 @@ def test_registry_declares_every_simulated_effect_and_plug_ins() -> None:
         undeclare_effect('test_plugin')
     assert 'test_plugin' not in EFFECT_FIELDS
     assert Environment().sensors().measure(0.0, np.arange(12.0))[2] == 2.0
+
+
+def _wrench(effects: dict[str, dict[str, float]], x: np.ndarray, t: float = 0.0) -> np.ndarray:
+    vehicle = load_vehicle(A18M)
+    env = parse_environment({'effects': effects})
+    out = np.empty((4, 6))
+    wrenches(t, x, vehicle.as_array(), env.env_vector(), env.profile(), out)
+    return out
+
+
+def test_thrust_line_below_the_origin_pitches_the_nose_up_by_z_times_thrust() -> None:
+    # force (T, 0, 0) at r = (0, 0, zt) body FRD: moment r x F = (0, zt T, 0)
+    x = np.zeros(15)
+    x[6], x[14] = 2.0, 80.0
+    base = _wrench({}, x)
+    out = _wrench({'thrust_moment': {'zt': 0.03}}, x)
+    assert out[3, 4] - base[3, 4] == pytest.approx(0.03 * 80.0, abs=1e-12)   # 2.4 N m
+    assert out[3, 0] == base[3, 0] == 80.0
+    # with a thrust error the moment follows the force actually delivered
+    out = _wrench({'thrust_moment': {'zt': -0.02}, 'thrust_error': {'gain': 1.25}}, x)
+    assert out[3, 4] - base[3, 4] == pytest.approx(-0.02 * 100.0, abs=1e-12)
+
+
+def test_plane_stall_saturates_the_lift_angle_as_a_tanh() -> None:
+    vehicle = load_vehicle(A18M)
+    x = np.zeros(15)
+    x[6] = 2.0
+    x[12] = np.radians(20.0)
+    a = np.radians(10.0)
+    free = _wrench({}, x)
+    stalled = _wrench({'plane_stall': {'angle': a}}, x)
+    # lift 1/2 rho S u^2 CZbar bar with bar -> a tanh(bar / a) = 0.1745 tanh(2) = 0.1683 rad
+    q = 0.5 * vehicle.rho * vehicle.S_ref * 2.0 * 2.0
+    assert stalled[3, 2] == pytest.approx(q * vehicle.CZbar * a * np.tanh(2.0), rel=1e-12)
+    assert stalled[3, 2] / free[3, 2] == pytest.approx(0.1683 / 0.3491, abs=2e-4)
+    x[12] = np.radians(0.5)   # small angles: within 0.1 % of the linear lift
+    assert _wrench({'plane_stall': {'angle': a}}, x)[3, 4] == pytest.approx(
+        _wrench({}, x)[3, 4], rel=1e-3)
+    with pytest.raises(ParameterError, match='plane_stall.angle must be >= 0'):
+        parse_environment({'effects': {'plane_stall': {'angle': -0.1}}})
+
+
+def test_buoyancy_drift_adds_rate_times_time_to_the_buoyancy() -> None:
+    x = np.zeros(15)
+    x[2] = 30.0
+    at0 = _wrench({'buoyancy_drift': {'rate': -0.01}}, x, t=0.0)
+    at600 = _wrench({'buoyancy_drift': {'rate': -0.01}}, x, t=600.0)
+    # level: heave restoring force W - B; 600 s at -0.01 N/s loses 6 N of buoyancy
+    assert at600[2, 2] - at0[2, 2] == pytest.approx(6.0, abs=1e-9)
+    assert at0[2, 2] == pytest.approx(_wrench({}, x)[2, 2], abs=1e-12)
+
+
+def test_depth_sensor_drift_adds_a_bias_growing_from_zero() -> None:
+    sensors = parse_environment({'effects': {'depth_sensor_drift': {'rate': 1e-4}}}).sensors()
+    x = np.zeros(15)
+    x[2], x[4] = 40.0, 0.05
+    for t in (0.0, 100.0, 3600.0):
+        y = sensors.measure(t, x)
+        assert y[2] == pytest.approx(40.0 + 1e-4 * t, abs=1e-12)   # 0.36 m after an hour
+        assert y[4] == 0.05

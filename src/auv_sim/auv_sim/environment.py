@@ -5,7 +5,10 @@ An :class:`Environment` is what the simulator adds to the vehicle file: ocean cu
 in time) and any effect of the sim-to-real catalogue (buoyancy error, buoyancy changing with
 depth, actuator delay, lag, rate limit, plane bias, cross-flow drag, centre-of-gravity offset,
 added-mass error, the model's own coefficients off, plane effectiveness, thrust error, depth
-and pitch sensor bias, scale and latency). It is loaded from a YAML file (``effects:``
+and pitch sensor bias, scale and latency) and forms outside that catalogue, for testing how
+honest the diagnosis is about what it cannot name (the oscillating current, a thrust line off
+the body origin, a plane whose lift saturates, buoyancy changing in time, a depth sensor's
+zero drifting in time). It is loaded from a YAML file (``effects:``
 mapping, see ``config/effects/*.yaml``) so that "real" logs can be made whose effect a
 diagnosis is not told. Units: SI, radians; currents in NED [m/s].
 
@@ -30,11 +33,14 @@ from auv_sim.errors import ParameterError
 from auv_sim.model import (
     E_BARBIAS,
     E_BCOMP,
+    E_BDRIFT,
     E_DRIFT,
     E_MQQ,
     E_NRR,
     E_SHEAR,
+    E_STALL,
     E_TGAIN,
+    E_TZ,
     E_VAMP,
     E_VC,
     E_VPER,
@@ -74,6 +80,11 @@ EFFECT_FIELDS: dict[str, dict[str, tuple[str, float]]] = {
     'pitch_sensor_bias': {'bias': ('rad', 0.0)},
     'pitch_sensor_scale': {'scale': ('-', 1.0)},
     'pitch_sensor_latency': {'latency': ('s', 0.0)},
+    # simulated, outside the gap catalogue (forms a real vehicle shows that it cannot name)
+    'thrust_moment': {'zt': ('m', 0.0)},
+    'plane_stall': {'angle': ('rad', 0.0)},
+    'buoyancy_drift': {'rate': ('N/s', 0.0)},
+    'depth_sensor_drift': {'rate': ('m/s', 0.0)},
 }
 #: Effects the simulator implements (an effect declared later with :func:`declare_effect`
 #: is known to the registry but not simulated).
@@ -158,6 +169,9 @@ class Environment:
         env[E_SHEAR:E_SHEAR + 2] = [self.field('current_shear', k) for k in ('north', 'east')]
         env[E_DRIFT:E_DRIFT + 2] = [self.field('current_drift', k) for k in ('north', 'east')]
         env[E_TGAIN] = self.field('thrust_error', 'gain') - 1.0
+        env[E_TZ] = self.field('thrust_moment', 'zt')
+        env[E_STALL] = self.field('plane_stall', 'angle')
+        env[E_BDRIFT] = self.field('buoyancy_drift', 'rate')
         return env
 
     def profile(self) -> np.ndarray:
@@ -180,7 +194,8 @@ class Environment:
                    self.field('pitch_sensor_scale', 'scale')),
             latency=(self.field('depth_sensor_latency', 'latency'),
                      self.field('pitch_sensor_latency', 'latency')),
-            bias=self.sensor_bias())
+            bias=self.sensor_bias(),
+            drift=(self.field('depth_sensor_drift', 'rate'), 0.0))
 
 
 #: State indices the sensor model changes: depth z [m] and pitch theta [rad].
@@ -190,9 +205,11 @@ SENSED = (2, 4)
 class Sensors:
     """The depth sensor and the attitude sensor's pitch, as the vehicle reads them::
 
-        reading(t) = scale * true(t - latency) + bias
+        reading(t) = scale * true(t - latency) + bias + drift * t
 
-    for depth z [m] and pitch theta [rad] (the other states are read exactly). A latency is
+    for depth z [m] and pitch theta [rad] (the other states are read exactly); ``drift``
+    [m/s, rad/s] is a bias growing from t = 0 s (a pressure sensor's zero following the
+    tide or the weather). A latency is
     served from the history of the states this model was asked to measure, linearly
     interpolated between them (exact for a state that varies linearly between two
     measurements); before the first measurement the state is taken as it was then. Call
@@ -201,12 +218,14 @@ class Sensors:
 
     def __init__(self, scale: tuple[float, float] = (1.0, 1.0),
                  latency: tuple[float, float] = (0.0, 0.0),
-                 bias: tuple[float, float] = (0.0, 0.0)) -> None:
+                 bias: tuple[float, float] = (0.0, 0.0),
+                 drift: tuple[float, float] = (0.0, 0.0)) -> None:
         if any(v < 0.0 or not math.isfinite(v) for v in latency):
             raise ParameterError(f'sensor latencies must be finite and >= 0, got {latency}')
         self.scale = np.array(scale, dtype=np.float64)
         self.latency = np.array(latency, dtype=np.float64)
         self.bias = np.array(bias, dtype=np.float64)
+        self.drift = np.array(drift, dtype=np.float64)
         self._keep = float(self.latency.max())
         self._t: list[float] = []
         self._v: list[np.ndarray] = []
@@ -232,7 +251,7 @@ class Sensors:
             for k in range(len(SENSED)):
                 if self.latency[k] > 0.0:
                     true[k] = np.interp(t - self.latency[k], times, values[:, k])
-        out[list(SENSED)] = self.scale * true + self.bias
+        out[list(SENSED)] = self.scale * true + self.bias + self.drift * t
         return out
 
 
@@ -270,6 +289,8 @@ def parse_environment(doc: Any, where: str = '<memory>') -> Environment:
             raise ParameterError(f'{where}: {name} values must be >= 0')
         if name == 'current_oscillation' and parsed.get('period', 0.0) < 0:
             raise ParameterError(f'{where}: current_oscillation.period must be >= 0')
+        if name == 'plane_stall' and parsed.get('angle', 0.0) < 0:
+            raise ParameterError(f'{where}: plane_stall.angle must be >= 0 (0: no stall)')
         effects[name] = parsed
     rows = doc.get('current_profile') or []
     table = []

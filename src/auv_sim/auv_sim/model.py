@@ -60,7 +60,10 @@ E_ZWW, E_MQQ, E_YVV, E_NRR = 9, 10, 11, 12  # cross-flow drag [kg/m], [kg m^2]
 E_SHEAR = 13        # 13..14 linear current shear: d(v_n, v_e)/dz [1/s], zero at the surface
 E_DRIFT = 15        # 15..16 linear current drift in time: d(v_n, v_e)/dt [m/s^2] from t = 0
 E_TGAIN = 17        # propeller thrust error: force = (1 + e) x thrust position [-]
-ENV_SIZE = 18
+E_TZ = 18           # thrust line below the body origin (body FRD z) [m]: pitch moment z T
+E_STALL = 19        # plane lift saturation angle a [rad]: lift angle a tanh(bar / a) (0: none)
+E_BDRIFT = 20       # buoyancy change in time: B(t) = B + rate t [N/s] from t = 0
+ENV_SIZE = 21
 
 NX = 15
 STATE_NAMES = ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r',
@@ -233,7 +236,10 @@ def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
     coefficients, the environment's cross-flow drag added to ``Yvv``, ``Zww``, ``Mqq``,
     ``Nrr``), Coriolis (rigid-body with
     ``nu``, added-mass with ``nu_r``, plus ``M_A nu_c_dot`` of a varying current), restoring
-    (weight and buoyancy), actuators (BAR, helm, propeller; the thrust times ``1 + env[E_TGAIN]``).
+    (weight and buoyancy, the buoyancy changed with depth by ``env[E_BCOMP]`` and in time by
+    ``env[E_BDRIFT]``), actuators (BAR, helm, propeller; the thrust times ``1 + env[E_TGAIN]``,
+    acting on a line ``env[E_TZ]`` below the body origin; the BAR's lift angle saturating as
+    ``a tanh(bar / a)`` with ``a = env[E_STALL]`` when it is positive).
     Their sum is ``M nu_dot``.
     Returns the attitude's (cos phi, sin phi, cos theta, sin theta, cos psi, sin psi).
     """
@@ -353,7 +359,7 @@ def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
 
     # --- restoring: -g(eta), Fossen 2011 eq. 4.6, buoyancy varying with depth ---
     wgt = m * P[I_G]
-    buoy = P[I_B] * (1.0 + env[E_BCOMP] * x[2])
+    buoy = P[I_B] * (1.0 + env[E_BCOMP] * x[2]) + env[E_BDRIFT] * t
     wb = wgt - buoy
     zgw = zg * wgt - P[I_ZB] * buoy
     ygw = yg * wgt - P[I_YB] * buoy
@@ -367,13 +373,17 @@ def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
 
     # --- actuators: dive plane (BAR), helm, propeller ---
     bar = x[12] + env[E_BARBIAS]
+    stall = env[E_STALL]
+    if stall > 0.0:
+        bar = stall * np.tanh(bar / stall)
     helm = x[13]
     dyn = qs * ur * aur
-    out[3, 0] = x[14] * (1.0 + env[E_TGAIN])
+    thrust = x[14] * (1.0 + env[E_TGAIN])
+    out[3, 0] = thrust
     out[3, 1] = dyn * P[I_CYHELM] * helm
     out[3, 2] = dyn * P[I_CZBAR] * bar
     out[3, 3] = 0.0 * dyn
-    out[3, 4] = dyn * L * P[I_CMBAR] * bar
+    out[3, 4] = dyn * L * P[I_CMBAR] * bar + env[E_TZ] * thrust
     out[3, 5] = dyn * L * P[I_CNHELM] * helm
     return cph, sph, cth, sth, cps, sps
 
