@@ -18,7 +18,8 @@ with realistic sensor noise, each of a plant the diagnosis is not told:
   and on top of a buoyancy error, a vertical current changing with depth, internal waves,
   tidal oscillations along and across the track shorter than or about the log, a surface
   current decaying exponentially with depth, a cross-flow drag beyond what the hull can
-  have): wrong when ``explained``;
+  have, a thrust line off the body origin, a plane whose lift saturates, buoyancy changing in
+  time, a depth sensor's zero drifting): wrong when ``explained``;
 * ``clean``: no effect, several seeds: a false alarm is any verdict but ``no_gap``.
 
 Figures: right effect named, clean false alarms, outside cases wrongly explained (goal 0),
@@ -168,6 +169,21 @@ CASES: dict[str, Case] = {
     'surface_current_decaying': ('outside', {}, {'effects': {}, 'current_profile': [
         [z, 0.8 * math.exp(-z / 25.0), 0.3 * math.exp(-z / 25.0), 0.0]
         for z in range(0, 161, 10)]}, {}, 'closed'),
+    # the propeller's thrust line 4 cm below the body origin: a pitch moment z T that follows
+    # the thrust (in steady flight like a zero-lift moment, apart from it when the speed
+    # changes)
+    'thrust_line_4cm': ('outside', {}, _fx(thrust_moment={'zt': 0.04}), {}, 'closed'),
+    'thrust_line_-3cm_open': ('outside', {}, _fx(thrust_moment={'zt': -0.03}), {}, 'open'),
+    # the plane's lift saturating (a tanh of the angle over 8 / 12 deg): a gain near 1 at small
+    # angles and less at large ones, which no single plane effectiveness reproduces
+    'plane_stall_8deg': ('outside', {}, _fx(plane_stall={'angle': 0.14}), {}, 'closed'),
+    'plane_stall_12deg_open': ('outside', {}, _fx(plane_stall={'angle': 0.21}), {}, 'open'),
+    # buoyancy changing in time: a slow leak (-0.02 N/s, -12 N over the log) and a variable
+    # ballast pump (+0.012 N/s)
+    'flooding_open': ('outside', {}, _fx(buoyancy_drift={'rate': -0.02}), {}, 'open'),
+    'ballast_pump': ('outside', {}, _fx(buoyancy_drift={'rate': 0.012}), {}, 'closed'),
+    # the depth sensor's zero drifting (tide, weather on a vented sensor): 0.45 m over the log
+    'depth_zero_drift': ('outside', {}, _fx(depth_sensor_drift={'rate': 5e-4}), {}, 'closed'),
 }
 
 

@@ -406,7 +406,8 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
         'ambiguous_with': ambiguous,
         'suggested_manoeuvre': suggestion,
         'held_out': held,
-        'statement': _statement(verdict, best if best_label else None, implausible, left),
+        'statement': _statement(verdict, best if best_label else None, implausible, left,
+                                ambiguous),
         'residual_tests': {'white': white, 'left_over': left,
                            'alpha': residuals.ALPHA, 'n_tests': len(findings),
                            'residual': 'held-out equation error, one sample per smoothing '
@@ -460,7 +461,9 @@ def _verdict(gap_channels: list[str], best: Candidate | None, candidates: list[C
     best short of one of the last two is ``partly_explained``; implausible fits never count.
     A contender is ambiguous with the best when the held-out windows cannot tell them apart
     with the commands as reconstructed, or, for commands logged only at the rows, with them
-    reconstructed the other way (``other``: cost per held-out window, or None).
+    reconstructed the other way (``other``: cost per held-out window, or None). Contenders
+    make the verdict ``ambiguous`` only when the best would be ``explained``: rivals of an
+    answer that falls short leave it ``partly_explained``, with the rivals listed.
     """
     if not gap_channels:
         return 'no_gap', [], None
@@ -488,7 +491,8 @@ def _verdict(gap_channels: list[str], best: Candidate | None, candidates: list[C
                 if n not in mine and n not in ambiguous:
                     ambiguous.append(n)
     if ambiguous:
-        return 'ambiguous', ambiguous, separating_manoeuvre(best.names[0], ambiguous[0])
+        return ('ambiguous' if verdict == 'explained' else verdict), ambiguous, \
+            separating_manoeuvre(best.names[0], ambiguous[0])
     return verdict, [], None
 
 
@@ -601,8 +605,9 @@ def _entry_params(c: Candidate) -> dict[str, float]:
 
 
 def _statement(verdict: str, best: Candidate | None, implausible: list[dict[str, Any]],
-               left: list[str]) -> str:
-    """One paragraph for the user: what the diagnosis found, in words and units."""
+               left: list[str], ambiguous: Sequence[str] = ()) -> str:
+    """One paragraph for the user: what the diagnosis found, in words and units (with the
+    rivals the held-out data cannot tell from the best, ``ambiguous``)."""
     parts = []
     if verdict == 'no_gap':
         parts.append('The model matches the logs to within the noise floor.')
@@ -612,6 +617,9 @@ def _statement(verdict: str, best: Candidate | None, implausible: list[dict[str,
         parts.append(f'{verdict.replace("_", " ").capitalize()}: '
                      + describe(best.fit) + f' ({best.explained:.0%} of the held-out gap '
                      'above the noise floor).')
+        if ambiguous:
+            parts.append('The held-out data cannot tell it from '
+                         + ', '.join(ambiguous) + '.')
     for item in implausible[:3]:
         ks = ', '.join(f'{k} = {v[0]:.4g} (plausible {v[1]:.4g} to {v[2]:.4g})'
                        for k, v in item['beyond'].items())
