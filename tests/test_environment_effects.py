@@ -166,7 +166,7 @@ def test_plane_stall_saturates_the_lift_angle_as_a_tanh() -> None:
     x[12] = np.radians(0.5)   # small angles: within 0.1 % of the linear lift
     assert _wrench({'plane_stall': {'angle': a}}, x)[3, 4] == pytest.approx(
         _wrench({}, x)[3, 4], rel=1e-3)
-    with pytest.raises(ParameterError, match='plane_stall.angle must be >= 0'):
+    with pytest.raises(ParameterError, match=r'plane_stall\.angle must be >= 0'):
         parse_environment({'effects': {'plane_stall': {'angle': -0.1}}})
 
 
