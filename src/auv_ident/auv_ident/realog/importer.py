@@ -62,6 +62,10 @@ COMMAND_TOPICS = {'bar': '/auv/bar_command', 'helm': '/auv/helm_command',
 MEASURED_TOPICS = {'bar_measured': '/auv/bar_measured', 'helm_measured': '/auv/helm_measured'}
 NS = 1_000_000_000
 Series = tuple[np.ndarray, np.ndarray]
+#: Stamps closer than this [s] are one instant: float64 seconds at epoch times (~1.7e9 s)
+#: resolve 0.24 us, so a header stamp plus a clock offset can land an ulp after a stamp it
+#: equals in nanoseconds.
+SAME_INSTANT = 1e-6
 
 
 @dataclasses.dataclass(frozen=True)
@@ -85,14 +89,15 @@ class ContractLog:
 def _hold(src_t: np.ndarray, src_v: np.ndarray, at: np.ndarray,
           max_age: float | None) -> np.ndarray:
     """Zero-order hold: the latest sample at or before each of ``at`` (NaN where there is none
-    or, with ``max_age`` [s], where it is older than that)."""
-    i = np.searchsorted(src_t, at, side='right') - 1
+    or, with ``max_age`` [s], where it is older than that); stamps within
+    :data:`SAME_INSTANT` count as the same instant."""
+    i = np.searchsorted(src_t, at + SAME_INSTANT, side='right') - 1
     ok = i >= 0
     out = np.full(at.shape, np.nan)
     out[ok] = src_v[i[ok]]
     if max_age is not None:
         age = np.where(ok, at - src_t[np.maximum(i, 0)], np.inf)
-        out[age > max_age + 1e-9] = np.nan
+        out[age > max_age + SAME_INSTANT] = np.nan
     return out
 
 
@@ -132,11 +137,37 @@ def _orientation_ned(q: np.ndarray, world: str, body: str) -> np.ndarray:
     return q
 
 
-def _vector_series(vec: Vector, tables: Mapping[str | None, Table]) -> dict[str, Series]:
-    """The state signals of a vector at its source stamps, NED/FRD, SI."""
+def _age(src_t: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """Age [s] of the sample :func:`_hold` takes at each of ``at`` (inf where none)."""
+    i = np.searchsorted(src_t, at + SAME_INSTANT, side='right') - 1
+    return np.where(i >= 0, np.maximum(at - src_t[np.maximum(i, 0)], 0.0), np.inf)
+
+
+def _period(t: np.ndarray) -> float:
+    """Median step [s] of stamps ``t`` (0 with fewer than two)."""
+    steps = np.diff(t)
+    steps = steps[steps > 0]
+    return float(np.median(steps)) if len(steps) else 0.0
+
+
+def _vector_series(vec: Vector, tables: Mapping[str | None, Table],
+                   notes: list[str]) -> dict[str, Series]:
+    """The state signals of a vector at its source stamps, NED/FRD, SI (NaN where the
+    message says it carries no estimate: ``vec.unset`` is -1)."""
     tab = tables[vec.topic]
     raw = np.column_stack([tab.columns[f] for f in vec.fields]) * vec.factor
     t = tab.stamps
+    unset = np.zeros(len(t), bool)
+    if vec.unset is not None:
+        unset = tab.columns[vec.unset] == -1.0
+        if np.all(unset):
+            raise LogReadError(f'{vec.topic}: {vec.unset} is -1 in all {len(t)} messages: they '
+                               f'carry no {vec.kind} ({tab.msgtype} convention); leave it out '
+                               f'(use:) or map it from another source; {vec.where}')
+        if np.any(unset):
+            notes.append(f'{vec.topic}: {int(np.count_nonzero(unset))} message(s) with '
+                         f'{vec.unset} -1 carry no {vec.kind}: not usable')
+            raw[unset] = [0.0, 0.0, 0.0, 1.0] if vec.kind == 'orientation' else 0.0
     if vec.kind == 'position':
         out = position_enu_to_ned(raw) if vec.world == 'ENU' else raw
     elif vec.kind in ('orientation', 'euler'):
@@ -153,6 +184,7 @@ def _vector_series(vec: Vector, tables: Mapping[str | None, Table]) -> dict[str,
         out = body_flu_to_frd(raw) if vec.body == 'FLU' else raw
         if vec.mounting is not None:    # sensor axes -> body axes
             out = rotate(euler_to_quaternion(*vec.mounting), out)
+    out[unset] = np.nan
     return {name: (t, out[:, k]) for k, name in enumerate(vec.components) if name in vec.gives}
 
 
@@ -168,14 +200,22 @@ def _requests(logmap: LogMap) -> dict[str | None, list[str]]:
                 req[term.topic].append(term.path)
     for vec in logmap.vectors:
         req.setdefault(vec.topic, [])
-        for f in vec.fields:
+        for f in (*vec.fields, *([vec.unset] if vec.unset else [])):
             if f not in req[vec.topic]:
                 req[vec.topic].append(f)
     return req
 
 
+#: A stamp going back further than this [s] and than :data:`BACK_PERIODS` median periods is
+#: no reordered message but a clock reset or a restart of the logger: sorting would interleave
+#: two stretches of the log, so it is refused.
+BACK_LIMIT = 1.0
+BACK_PERIODS = 10.0
+
+
 def _tidy(tab: Table, offset: float, stamp: str, notes: list[str]) -> Table:
-    """Clock offset, zero stamps refused, stamps going back sorted (counted)."""
+    """Clock offset, zero stamps refused, stamps going back a little sorted (counted), a
+    jump back (clock reset, logger restart; see :data:`BACK_LIMIT`) refused."""
     t = tab.stamps + offset
     if stamp == 'header':
         zero = np.count_nonzero(tab.stamps == 0.0)
@@ -184,9 +224,16 @@ def _tidy(tab: Table, offset: float, stamp: str, notes: list[str]) -> Table:
                                '(the publisher does not stamp): use time: {stamp: log}')
     if offset:
         notes.append(f'{tab.source}: clock offset {offset:+.6g} s added to its stamps')
-    back = int(np.count_nonzero(np.diff(t) < 0))
+    steps = np.diff(t)
+    back = int(np.count_nonzero(steps < 0))
     cols = dict(tab.columns)
     if back:
+        k = int(np.argmin(steps))
+        if -steps[k] > max(BACK_LIMIT, BACK_PERIODS * _period(t)):
+            what = 'row' if stamp == 'column' else 'message'
+            raise LogReadError(f'{tab.source}: time goes back by {-steps[k]:.6g} s at {what} '
+                               f'{k + 2} ({t[k]:.6f} s, then {t[k + 1]:.6f} s): a clock reset '
+                               'or a restart of the logger? split the log there')
         order = np.argsort(t, kind='stable')
         t = t[order]
         cols = {k: v[order] for k, v in cols.items()}
@@ -280,7 +327,7 @@ def import_log(logmap: LogMap, path: str | os.PathLike[str],
     tables = read_tables(logmap, p, notes)
     series: dict[str, Series] = {}
     for vec in logmap.vectors:
-        for sig, ser in _vector_series(vec, tables).items():
+        for sig, ser in _vector_series(vec, tables, notes).items():
             if sig not in logmap.scalars:
                 series[sig] = ser
     for sig, sc in logmap.scalars.items():
@@ -309,6 +356,7 @@ def import_log(logmap: LogMap, path: str | os.PathLike[str],
                      'stamp(s): the first sample of each kept')
     t = t[keep]
     holds: list[str] = []
+    stale: dict[str, tuple[float, float]] = {}     # topic -> (median age, period) [s]
     state: dict[str, np.ndarray] = {}
     for sig in STATE:
         if sig not in series:
@@ -319,9 +367,20 @@ def import_log(logmap: LogMap, path: str | os.PathLike[str],
         else:
             state[sig] = _hold(st, sv, t, logmap.time.max_age)
             lost = int(np.count_nonzero(~np.isfinite(state[sig])))
+            age = _age(st, t)[np.isfinite(state[sig])]
             holds.append(f'{sig} from {source_topic[sig]}: zero-order hold onto the '
                          f'{base} stamps, max age {logmap.time.max_age:g} s ({lost} samples '
-                         'with no recent enough value: not usable)')
+                         'with no recent enough value: not usable)'
+                         + (f'; held {np.median(age):.3g} s old on median' if len(age) else ''))
+            stale[str(source_topic[sig])] = (float(np.median(age)) if len(age) else 0.0,
+                                             _period(st))
+    base_period = _period(t)
+    for tp, (age, period) in stale.items():
+        if age > 0.5 * base_period and period > 1.5 * base_period:
+            notes.append(f'{tp} ({period:.3g} s period) is held onto the {base} stamps '
+                         f'({base_period:.3g} s) {age:.3g} s old on median: a lag its '
+                         'signals carry into the dynamics; with the slower topic as time.base '
+                         'they are read at their own stamps')
     given = set(state)
     missing = set(STATE) - given
     usable = np.ones(len(t), bool)
@@ -348,6 +407,18 @@ def import_log(logmap: LogMap, path: str | os.PathLike[str],
         if k:
             seg_notes.append(f'{k} sample(s) left out: {why}')
     if not slices:
+        # a topic on another clock holds onto no base stamp: name it and both time spans
+        dead: dict[str, list[str]] = {}
+        for sig in (s for s in STATE if s in given):
+            tp = source_topic[sig]
+            if not np.any(np.isfinite(state[sig])) and tp in tables and tp != base:
+                dead.setdefault(str(tp), []).append(sig)
+        for tp, sigs in dead.items():
+            st = tables[tp].stamps
+            seg_notes.append(f'{" ".join(sigs)} from {tp}: no sample within max_age '
+                             f'{logmap.time.max_age:g} s of any {base} stamp ({tp} stamps '
+                             f'{st[0]:.3f} to {st[-1]:.3f} s, {base} {t[0]:.3f} to {t[-1]:.3f} '
+                             's: another clock? see time.offsets)')
         raise RealLogError(f'{name}: no usable segment of {rules["min_duration"]:g} s or more '
                            f'({"; ".join(seg_notes) or "no usable samples"})')
     pieces_t, pieces_s, segs = [], [], []

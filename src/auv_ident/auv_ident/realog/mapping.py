@@ -27,9 +27,11 @@ Conversion of a scalar signal (``unit`` factor ``k_u``, map ``scale``, ``sign``,
 
 ``frame`` is the identity for NED/FRD and, for a number logged in the ENU/FLU convention
 (REP-103), the change to NED/FRD: ``z, theta, v, w, q, r`` change sign, ``psi -> pi/2 - psi``,
-``phi, u, p`` are unchanged. ``x``/``y`` in ENU are not single numbers of the same axis (east
-is ENU x, NED y): map them through a position vector. Vectors (presets, ``vectors:``) are
-converted whole with :mod:`auv_sim.frames`.
+``phi, u, p`` are unchanged. ``z`` follows the world frame, ``u v w p q r`` the body frame
+(``w`` in ``ENU/FRD`` is unchanged); Euler angles need both in one convention (a mixed pair
+is refused). ``x``/``y`` in ENU are not single numbers of the same axis (east is ENU x, NED
+y): map them through a position vector. Vectors (presets, ``vectors:``) are converted whole
+with :mod:`auv_sim.frames`.
 
 Every error names the map key and its line (:class:`MapError`).
 """
@@ -153,6 +155,11 @@ class Vector:
     #: linear velocity of a sensor away from the body origin: its position [m], body FRD;
     #: the origin's velocity is ``v_sensor - omega x lever_arm``
     lever_arm: tuple[float, float, float] | None = None
+    #: field path of the covariance element set to -1 where a message carries no estimate of
+    #: this vector (sensor_msgs/Imu: ``orientation_covariance[0]``,
+    #: ``angular_velocity_covariance[0]``); such samples are not usable, and a topic with no
+    #: estimate in any message is an error
+    unset: str | None = None
 
     @property
     def gives(self) -> tuple[str, ...]:
@@ -440,7 +447,18 @@ def _scalar(name: str, node: _Node, kind: str, origin: str = 'signals') -> Scala
     enu = False
     if name in STATE:
         world, body = _frame(node)
-        enu = world == 'ENU' or body == 'FLU'
+        # a world-frame number changes with the world frame, a body-frame number with the
+        # body frame; an Euler angle with both (a mixed pair is no single-axis change)
+        if name in ('x', 'y', 'z'):
+            enu = world == 'ENU'
+        elif name in ('phi', 'theta', 'psi'):
+            if (world == 'ENU') != (body == 'FLU'):
+                raise MapError(f'{node.where("frame")}: {name} in the mixed frame {world}/{body}'
+                               ' is not a change of one axis: map the attitude as a vector '
+                               '(kind euler or orientation) or give it in NED/FRD or ENU/FLU')
+            enu = world == 'ENU'
+        else:
+            enu = body == 'FLU'
         if enu and name in ('x', 'y'):
             raise MapError(f'{node.where("frame")}: {name} in ENU is another axis than NED '
                            f'{name}: map the position as a vector (vectors: or a preset) or '
@@ -556,6 +574,8 @@ def _preset(node: _Node, kind: str) -> tuple[list[Vector], list[Scalar]]:
         vec = _vector(k, node, topic, fields[k], origin, default_unit)
         if k == 'linear_velocity':
             vec = dataclasses.replace(vec, mounting=mounting, lever_arm=lever)
+        if preset == 'imu':     # covariance element 0 of -1: no estimate (sensor_msgs/Imu)
+            vec = dataclasses.replace(vec, unset=f'{k}_covariance[0]')
         vectors.append(dataclasses.replace(vec, skip=tuple(str(n) for n in skip)))
     return vectors, []
 
@@ -677,6 +697,12 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
         if not topics:
             raise MapError(f'{root.where()}: no state signal mapped')
         time_spec = dataclasses.replace(time_spec, base=topics[0])
+    read = {v.topic for v in vectors} | {t.topic for s in scalars.values() for t in s.terms}
+    for name in time_spec.offsets:      # a misspelt topic would leave its clock uncorrected
+        if name not in read:
+            known = ', '.join(sorted(str(t) for t in read if t)) or 'a text log has no topics'
+            raise MapError(f'{tm.where("offsets")}: {name} is not a topic the map reads '
+                           f'({known})')
     if 'thrust' not in scalars:
         raise MapError(f'{root.where("signals")}: thrust is not mapped (a thrust, or a '
                        'propeller speed with law:)')

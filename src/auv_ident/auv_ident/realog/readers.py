@@ -11,17 +11,22 @@ one by one by rosbags and only the mapped fields are kept.
 MCAP storage (a rosbag2 directory or a bare ``.mcap`` file) is first tried through this
 project's columnar decoder (:func:`auv_bag.read_arrays`: vectorised CDR decoding on top
 of the ``mcap`` container; a damaged file is reported as one line naming the byte offset);
-fields it does not give as plain columns fall back to the per-message path above.
+fields it does not give as plain columns fall back to the per-message path above. A rosbag2
+directory compressed by the recorder (``compression_format`` in ``metadata.yaml``: a
+``.mcap.zstd`` file or compressed messages) is read by rosbags, which decompresses it.
 
 Text logs: CSV, semicolon, tab or whitespace separated, with or without a header line; every
 row must have the same number of fields (a ragged row is an error naming the file and line);
-lines starting with the comment character are skipped.
+lines starting with the comment character are skipped; a UTF-8 byte-order mark at the
+start of the file is dropped; LF or CRLF line ends; double-quoted fields (``"Depth (cm)"``)
+are unquoted.
 
 Stamps: ``header`` (the message's ``header.stamp``, s) or ``log`` (the recorder's receive
 time, s); a text log's time column in its unit. Nothing is resampled here.
 """
 from __future__ import annotations
 
+import csv
 import dataclasses
 import os
 import pathlib
@@ -141,8 +146,10 @@ def _check_path(msg: Any, path: str, topic: str, msgtype: str) -> None:
     try:
         float(obj)
     except (TypeError, ValueError):
+        has = _fields_of(obj)
         raise LogReadError(f'topic {topic} ({msgtype}): field {path!r} is not a number '
-                           f'({type(obj).__name__}; it has: {_fields_of(obj)})') from None
+                           f'({getattr(obj, "__msgtype__", type(obj).__name__)}'
+                           f'{"; it has: " + has if has else ""})') from None
 
 
 # --------------------------------------------------------------------------------------------
@@ -160,6 +167,13 @@ def _stamp_of(msg: Any) -> float:
     return float(st.sec) + 1e-9 * float(st.nanosec)
 
 
+def _has_header(msg: Any) -> bool:
+    """Whether ``msg`` has a ``std_msgs/Header`` ``header`` (a stamp of sec and nanosec; a
+    vendor's own ``header`` type does not count)."""
+    st = getattr(getattr(msg, 'header', None), 'stamp', None)
+    return hasattr(st, 'sec') and hasattr(st, 'nanosec')
+
+
 def _collect(messages: Iterable[tuple[str, str, int, Any]], requests: Mapping[str, Sequence[str]],
              stamp: str) -> dict[str, Table]:
     """Gather (topic, msgtype, log time ns, message) into tables of the requested fields."""
@@ -174,7 +188,7 @@ def _collect(messages: Iterable[tuple[str, str, int, Any]], requests: Mapping[st
             types[topic] = msgtype
             for p in requests[topic]:
                 _check_path(msg, p, topic, msgtype)
-            kinds[topic] = 'header' if stamp == 'header' and hasattr(msg, 'header') else 'log'
+            kinds[topic] = 'header' if stamp == 'header' and _has_header(msg) else 'log'
         stamps[topic].append(_stamp_of(msg) if kinds[topic] == 'header' else _seconds(log_ns))
         c = cols[topic]
         for p, get in getters[topic]:
@@ -282,7 +296,8 @@ def _read_mcap_file(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
 
             return _collect(messages(), requests, stamp)
     except McapError as exc:
-        raise LogReadError(f'cannot read MCAP file {path}: {exc}') from None
+        raise LogReadError(f'cannot read MCAP file {path}: {str(exc) or type(exc).__name__}') \
+            from None
 
 
 def read_bag(path: str | os.PathLike[str], requests: Mapping[str, Sequence[str]],
@@ -307,7 +322,9 @@ def read_bag(path: str | os.PathLike[str], requests: Mapping[str, Sequence[str]]
         raise LogReadError(f'{p} is a text log but the map is for bags (kind: bag)')
     if kind == 'rosbag2' and p.is_file():
         p = p.parent
-    if fast and (kind == 'mcap' or _storage(p) == 'mcap'):
+    # a compressed rosbag2 (``--compression-mode file`` or ``message``) is read by rosbags
+    if fast and (kind == 'mcap' or (_storage(p) == 'mcap'
+                                    and not _storage(p, 'compression_format'))):
         tables = _read_columnar(p, requests, stamp)
         if tables is not None:
             return tables
@@ -316,14 +333,15 @@ def read_bag(path: str | os.PathLike[str], requests: Mapping[str, Sequence[str]]
     return _read_anyreader(p, requests, stamp)
 
 
-def _storage(bag_dir: pathlib.Path) -> str:
-    """The storage identifier of a rosbag2 directory (``mcap``, ``sqlite3``)."""
+def _storage(bag_dir: pathlib.Path, key: str = 'storage_identifier') -> str:
+    """The storage identifier of a rosbag2 directory (``mcap``, ``sqlite3``), or another
+    entry of its ``metadata.yaml`` (``compression_format``: ``zstd``, or '')."""
     import yaml
 
     try:
         info = yaml.safe_load((bag_dir / 'metadata.yaml').read_text())
-        return str(info['rosbag2_bagfile_information']['storage_identifier'])
-    except (OSError, KeyError, TypeError, yaml.YAMLError):
+        return str(info['rosbag2_bagfile_information'].get(key) or '')
+    except (OSError, KeyError, TypeError, AttributeError, yaml.YAMLError):
         return ''
 
 
@@ -333,7 +351,9 @@ def _column_name(path: str) -> str:
 
 
 def _header_topics(files: Sequence[pathlib.Path], topics: Iterable[str]) -> dict[str, bool]:
-    """Whether each topic's message type has a ``header`` (from the MCAP schemas)."""
+    """Whether each topic's message type has a ``header`` (from the MCAP schemas; a topic
+    whose file has no readable summary or whose schema does not parse is left out)."""
+    from mcap.exceptions import McapError
     from mcap.reader import make_reader
 
     from auv_bag.typestore import types_from_schema
@@ -341,15 +361,22 @@ def _header_topics(files: Sequence[pathlib.Path], topics: Iterable[str]) -> dict
     out: dict[str, bool] = {}
     wanted = set(topics)
     for f in files:
-        with open(f, 'rb') as fh:
-            summary = make_reader(fh).get_summary()
+        try:
+            with open(f, 'rb') as fh:
+                summary = make_reader(fh).get_summary()
+        except McapError:
+            continue
         if summary is None:
             continue
         for ch in summary.channels.values():
             if ch.topic in wanted and ch.topic not in out:
                 sc = summary.schemas[ch.schema_id]
-                defs = types_from_schema(sc.name, sc.data.decode()).get(sc.name)
-                out[ch.topic] = defs is not None and any(f[0] == 'header' for f in defs[1])
+                try:
+                    defs = types_from_schema(sc.name, sc.data.decode()).get(sc.name)
+                except Exception:  # rosbags raises assorted errors on a bad definition
+                    continue
+                out[ch.topic] = defs is not None and any(
+                    f[0] == 'header' and f[1][1] == 'std_msgs/msg/Header' for f in defs[1])
     return out
 
 
@@ -366,8 +393,8 @@ def _read_columnar(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
         present = bag_topics(path)
         if any(t not in present for t in requests):
             return None
+        arrays = read_arrays(path, list(requests), check_order=False)   # damage: one line
         headers = _header_topics(bag_files(path), requests)
-        arrays = read_arrays(path, list(requests), check_order=False)
     except BagError as exc:
         raise LogReadError(str(exc)) from None
     tables = {}
@@ -409,7 +436,9 @@ def read_text(path: str | os.PathLike[str], columns: Sequence[str], time_column:
     """
     p = pathlib.Path(path)
     try:
-        lines = p.read_text(errors='replace').splitlines()
+        # utf-8-sig: a byte-order mark (Windows tools write one) is not part of the first
+        # column's name or value
+        lines = p.read_text(encoding='utf-8-sig', errors='replace').splitlines()
     except OSError as exc:
         raise LogReadError(f'cannot read log {p}: {exc.strerror}') from None
     rows: list[list[str]] = []
@@ -419,7 +448,12 @@ def read_text(path: str | os.PathLike[str], columns: Sequence[str], time_column:
         s = line.strip()
         if not s or (comment and s.startswith(comment)):
             continue
-        fields = s.split(delimiter) if delimiter is not None else s.split()
+        if delimiter is None:
+            fields = s.split()
+        elif '"' in s:      # quoted fields (RFC 4180), as spreadsheets and pandas write them
+            fields = next(csv.reader([s], delimiter=delimiter, skipinitialspace=True))
+        else:
+            fields = s.split(delimiter)
         fields = [f.strip() for f in fields]
         if header and head is None:
             head = fields
