@@ -34,6 +34,8 @@ import argparse
 import json
 import math
 import pathlib
+import subprocess
+import sys
 from typing import Any
 
 import numpy as np
@@ -316,6 +318,47 @@ def test_depth_change_settles(remus: VehicleParams, z0: float, z1: float) -> Non
     assert abs(x[-1, 2] - z1) < 0.1 and m.overshoot < 0.5, m
     bound = settling_bound(remus, z0, z1, 1.5, THETA_MAX).settling_time
     assert m.settling_time <= 1.5 * bound, (m, bound)
+
+
+def _auv_run(tmp: pathlib.Path, *extra: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, '-m', 'auv_bringup.cli', 'run', '--vehicle',
+                           str(REMUS), '--depth', '30',
+                           '--initial-depth', '10', '--speed', '1.5', '--duration', '150',
+                           '--out', str(tmp / 'run'), *extra],
+                          capture_output=True, text=True, timeout=300, check=False)
+
+
+def test_auv_run_with_the_vehicle_speed_loop_flies_the_dive(remus: VehicleParams,
+                                                            tmp_path: pathlib.Path) -> None:
+    """`auv run --speed-hold 2` is the flight of the test above as a user runs it."""
+    proc = _auv_run(tmp_path, '--speed-hold', '2')
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    assert out['speed_hold_s'] == 2.0
+    bound = settling_bound(remus, 10.0, 30.0, 1.5, THETA_MAX).settling_time
+    assert out['metrics']['settling_time'] <= 1.5 * bound, (out['metrics'], bound)
+    assert out['metrics']['peak_pitch_deg'] <= math.degrees(THETA_MAX) + 1e-6
+    bad = _auv_run(tmp_path, '--speed-hold', '-1')
+    assert bad.returncode != 0
+    assert bad.stderr.strip().splitlines()[-1] == \
+        'error: --speed-hold -1.0 must be a time constant > 0 s'
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    'measured: with the thrust held at its 1.5 m/s trim value (no speed loop), the 7 N '
+    'positively buoyant REMUS slows to 0.86 m/s in the 24 deg dive, below the speed at which '
+    'its fins can hold it level (no trim at 1 m/s within 13.6 deg): 10 -> 30 m settles after '
+    '107 s (2.8x the 38.6 s bound), peaking at 31 deg; 5 -> 40 m does not settle in 150 s. '
+    'The pilot does not yet limit a dive to what a held thrust sustains'))
+def test_the_dive_with_the_thrust_held(remus: VehicleParams) -> None:
+    run = run_closed_loop(remus, [(0.0, 30.0)], 150.0, z0=10.0, u0=1.5,
+                          settings=PilotSettings())
+    rec = run.record
+    m = step_metrics(rec.t, rec.x[:, 2], rec.x[:, 4], rec.x[:, 10], rec.x[:, 12], 30.0,
+                     bar_max=remus.bar_max, u0=1.5, theta_max=THETA_MAX)
+    assert np.max(np.abs(rec.x[:, 4])) <= THETA_MAX + math.radians(2.0), m
+    assert m.settling_time <= 1.5 * settling_bound(remus, 10.0, 30.0, 1.5,
+                                                   THETA_MAX).settling_time, m
 
 
 # ----- identification from the simulator's force topic -------------------------------------

@@ -1,7 +1,9 @@
 """``auv run``: offline batch run (no ROS graph) written as a bag.
 
 Either a scripted open-loop mission (``--mission surge|pitch|yaw|FILE``) or the closed loop of
-the depth pilot (``--depth Z``: from a trim at ``--initial-depth``, fly to Z metres). The bag
+the depth pilot (``--depth Z``: from a trim at ``--initial-depth``, fly to Z metres; the
+thrust held at its trim value, or with ``--speed-hold TAU`` [s] the vehicle's own speed loop
+holding ``--speed``). The bag
 has the topics the graph records (``/auv/state`` measured, ``/auv/hydrodynamic_forces``, the
 actuator and depth commands) stamped on simulated time; with ``--effects`` the simulated
 vehicle differs from its model as the effects file says. Prints a JSON summary.
@@ -41,6 +43,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--water-speed', type=float, default=None,
                         help='[m/s] speed through the water the pilot is told (closed loop; '
                              'default: it schedules on the measured surge over ground)')
+    parser.add_argument('--speed-hold', type=float, default=None, metavar='TAU',
+                        help='[s] the vehicle\'s own speed loop holds --speed with this time '
+                             'constant (closed loop; default: thrust held at its trim value, '
+                             'so a buoyant vehicle slows down in a dive)')
     parser.add_argument('--noise', action='store_true',
                         help='add realistic sensor noise to the logged state')
     parser.add_argument('--seed', type=int, default=0,
@@ -65,17 +71,21 @@ def run(args: argparse.Namespace) -> int:
         if not params.depth_min <= args.depth <= params.depth_max:
             raise RunError(f'--depth {args.depth} m is outside the vehicle envelope '
                            f'[{params.depth_min}, {params.depth_max}] m')
+        hold = args.speed_hold
+        if hold is not None and not (math.isfinite(hold) and hold > 0.0):
+            raise RunError(f'--speed-hold {hold} must be a time constant > 0 s')
         settings = PilotSettings(weights=args.weights, water_speed=args.water_speed)
         cl = run_closed_loop(params, [(0.0, args.depth)], args.duration,
                              z0=args.initial_depth, u0=args.speed, environment=env,
-                             settings=settings)
+                             settings=settings, speed_time_constant=hold)
         rec = cl.record
         n = write_record(args.out, rec, forces=not args.no_forces, noise=noise, seed=args.seed,
                          depth_commands=[(0.0, args.depth)], bar_commands=(cl.bar_t, cl.bar))
         m = step_metrics(rec.t, rec.x[:, 2], rec.x[:, 4], rec.x[:, 10], rec.x[:, 12],
                          args.depth, bar_max=params.bar_max, u0=args.speed,
                          theta_max=settings.theta_max)
-        summary = {'bag': args.out, 'messages': n, 'metrics': m.as_dict()}
+        summary = {'bag': args.out, 'messages': n, 'speed_hold_s': hold,
+                   'metrics': m.as_dict()}
     json.dump(summary, sys.stdout, indent=2)
     print()
     return 0
