@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from auv_ident.gap.diagnose import _t_stat, _verdict
+from auv_ident.gap.diagnose import decide_verdict, window_t_stat
 
 BEST_WINDOWS = np.array([1.0, 1.0, 1.0, 1.0])
 
@@ -27,9 +27,9 @@ def _cand(names: tuple[str, ...], explained: float, windows: np.ndarray) -> Any:
 
 
 def test_the_hand_worked_t_statistics() -> None:
-    assert _t_stat(np.array([0.1, 0.3, 0.2, 0.2])) == pytest.approx(0.2 / (0.08165 / 2),
+    assert window_t_stat(np.array([0.1, 0.3, 0.2, 0.2])) == pytest.approx(0.2 / (0.08165 / 2),
                                                                     rel=1e-4)
-    assert _t_stat(np.array([0.3, -0.1, 0.2, -0.2])) == pytest.approx(
+    assert window_t_stat(np.array([0.3, -0.1, 0.2, -0.2])) == pytest.approx(
         0.05 / (np.std([0.3, -0.1, 0.2, -0.2], ddof=1) / 2), rel=1e-12)
 
 
@@ -43,15 +43,15 @@ def test_rivals_make_an_answer_ambiguous_only_when_it_would_be_explained(
     best = _cand(('cg_offset',), explained, BEST_WINDOWS)
     rival = _cand(('bar_bias',), explained * 0.98,
                   BEST_WINDOWS + np.array([0.3, -0.1, 0.2, -0.2]))
-    got, rivals, manoeuvre = _verdict(['z', 'theta'], best, [best, rival], white)
+    got, rivals, manoeuvre = decide_verdict(['z', 'theta'], best, [best, rival], white)
     assert got == verdict
     assert rivals == ['bar_bias']
     assert manoeuvre
 
 
-def test_a_rival_the_windows_tell_apart_leaves_the_verdict_alone() -> None:
+def test_a_rival_the_windows_tell_apart_leaves_thedecide_verdict_alone() -> None:
     best = _cand(('cg_offset',), 0.95, BEST_WINDOWS)
     rival = _cand(('bar_bias',), 0.93, BEST_WINDOWS + np.array([0.1, 0.3, 0.2, 0.2]))
-    assert _verdict(['z'], best, [best, rival], True) == ('explained', [], None)
+    assert decide_verdict(['z'], best, [best, rival], True) == ('explained', [], None)
     short = _cand(('cg_offset',), 0.8, BEST_WINDOWS)
-    assert _verdict(['z'], short, [short, rival], True) == ('partly_explained', [], None)
+    assert decide_verdict(['z'], short, [short, rival], True) == ('partly_explained', [], None)

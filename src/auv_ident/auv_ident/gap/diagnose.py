@@ -13,7 +13,7 @@ Steps (see :func:`diagnose`):
 4. Combinations, greedily: the best plausible set plus each other effect, refitted jointly,
    kept while the held-out score improves, every parameter stays plausible and the added
    effect identifies something (an interval that excludes its "absent" value).
-5. Verdict (:func:`_verdict`): plausibility, the held-out share of the gap explained, the
+5. Verdict (:func:`decide_verdict`): plausibility, the held-out share of the gap explained, the
    residual tests of :mod:`auv_ident.gap.residuals`, and the candidates the held-out windows
    cannot tell from the best (within ``AMBIGUOUS_RATIO`` of its held-out cost and of its
    explained share, and not worse by ``AMBIGUOUS_T`` standard errors over the windows).
@@ -382,8 +382,8 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
         if rival is not None:
             white = False
             left = [rival, *left]
-    verdict, ambiguous, suggestion = _verdict(gap_channels, tested, candidates, white,
-                                              scorer.window_cost_other)
+    verdict, ambiguous, suggestion = decide_verdict(gap_channels, tested, candidates, white,
+                                                    scorer.window_cost_other)
     best_label = best.label if verdict not in ('no_gap', 'unexplained') else None
     after = best if best_label else nominal_cand
     z_i, th_i = CH_NAMES.index('z'), CH_NAMES.index('theta')
@@ -450,10 +450,10 @@ def _held_at(cmd: tuple[np.ndarray, np.ndarray], t: np.ndarray) -> np.ndarray:
     return va[np.clip(i, 0, va.size - 1)]
 
 
-def _verdict(gap_channels: list[str], best: Candidate | None, candidates: list[Candidate],
-             white: bool,
-             other: Callable[[Candidate], np.ndarray | None] = lambda _c: None
-             ) -> tuple[str, list[str], str | None]:
+def decide_verdict(gap_channels: list[str], best: Candidate | None,
+                   candidates: list[Candidate], white: bool,
+                   other: Callable[[Candidate], np.ndarray | None] = lambda _c: None
+                   ) -> tuple[str, list[str], str | None]:
     """``(verdict, ambiguous_with, suggested_manoeuvre)``.
 
     ``explained`` needs all of: a plausible best that identifies every effect it names, an
@@ -481,11 +481,11 @@ def _verdict(gap_channels: list[str], best: Candidate | None, candidates: list[C
                 or c.cost > AMBIGUOUS_RATIO * best.cost \
                 or c.explained < best.explained / AMBIGUOUS_RATIO:
             continue
-        t = _t_stat(c.window_cost - best.window_cost)
+        t = window_t_stat(c.window_cost - best.window_cost)
         if t >= AMBIGUOUS_T:
             alt_best, alt_c = other(best), other(c)
             if alt_best is not None and alt_c is not None:
-                t = min(t, _t_stat(alt_c - alt_best))
+                t = min(t, window_t_stat(alt_c - alt_best))
         if t < AMBIGUOUS_T:
             for n in c.names:
                 if n not in mine and n not in ambiguous:
@@ -496,7 +496,7 @@ def _verdict(gap_channels: list[str], best: Candidate | None, candidates: list[C
     return verdict, [], None
 
 
-def _t_stat(d: np.ndarray) -> float:
+def window_t_stat(d: np.ndarray) -> float:
     """t statistic of the mean of the per-window cost differences ``d`` (inf for one)."""
     se = float(np.std(d, ddof=1) / np.sqrt(d.size)) if d.size > 1 else math.inf
     return float(np.mean(d) / se) if se > 0 else math.inf

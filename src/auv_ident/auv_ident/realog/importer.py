@@ -375,9 +375,9 @@ def import_log(logmap: LogMap, path: str | os.PathLike[str],
             stale[str(source_topic[sig])] = (float(np.median(age)) if len(age) else 0.0,
                                              _period(st))
     base_period = _period(t)
-    for tp, (age, period) in stale.items():
+    for topic, (age, period) in stale.items():
         if age > 0.5 * base_period and period > 1.5 * base_period:
-            notes.append(f'{tp} ({period:.3g} s period) is held onto the {base} stamps '
+            notes.append(f'{topic} ({period:.3g} s period) is held onto the {base} stamps '
                          f'({base_period:.3g} s) {age:.3g} s old on median: a lag its '
                          'signals carry into the dynamics; with the slower topic as time.base '
                          'they are read at their own stamps')
