@@ -55,3 +55,29 @@ def test_a_rival_the_windows_tell_apart_leaves_thedecide_verdict_alone() -> None
     assert decide_verdict(['z'], best, [best, rival], True) == ('explained', [], None)
     short = _cand(('cg_offset',), 0.8, BEST_WINDOWS)
     assert decide_verdict(['z'], short, [short, rival], True) == ('partly_explained', [], None)
+
+
+def test_residuals_that_cannot_be_tested_are_not_called_white() -> None:
+    from auv_ident.gap.residuals import Group, residual_tests
+
+    white, findings, left = residual_tests([Group({'heave': [np.zeros(3), np.zeros(3)]}, {},
+                                                  1.0, white=True)])
+    assert (white, findings) == (False, [])
+    assert left == ['the residuals could not be tested (held-out windows too short)']
+
+
+def test_short_held_out_windows_are_tested_over_fewer_lags() -> None:
+    """Ten-sample pieces (the 10-s windows of a vehicle unstable without feedback): three
+    lags. An alternating residual (+1, -1, ...) has autocorrelations -0.9, +0.8, -0.7 at lags
+    1-3 over a 10-sample piece, so Ljung-Box flags it; white noise passes."""
+    from auv_ident.gap.residuals import Group, residual_tests
+
+    alt = [np.array([(-1.0) ** k for k in range(10)]) for _ in range(6)]
+    white, findings, left = residual_tests([Group({'pitch': alt}, {}, 1.0, white=True)])
+    assert not white
+    assert left[0].startswith('pitch: autocorrelated (Ljung-Box Q = ')
+    assert left[0].endswith(' over 3 lags)')
+    rng = np.random.default_rng(3)
+    noise = [rng.standard_normal(10) for _ in range(6)]
+    white, findings, _ = residual_tests([Group({'pitch': noise}, {}, 1.0, white=True)])
+    assert white and len(findings) == 2

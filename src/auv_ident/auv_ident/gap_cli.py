@@ -30,8 +30,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--holdout', nargs='+', default=[], metavar='BAG',
                         help='bags (among BAG...) held out whole to score the effects; '
                              'default: every third window of every bag')
-    parser.add_argument('--window', type=float, default=60.0, metavar='S',
-                        help='free-run window [s]; runs restart from the log (default 60)')
+    parser.add_argument('--window', type=float, default=None, metavar='S',
+                        help='free-run window [s]; runs restart from the log (default: 60, '
+                             'shorter for a vehicle unstable without feedback: 4 e-folding '
+                             'times of its fastest vertical-plane mode, at least 10)')
     parser.add_argument('--effects', nargs='+', default=None, metavar='NAME',
                         help='catalogue effects to try (default: all)')
     parser.add_argument('--top', type=int, default=3,
@@ -56,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
             print(f'[{time.monotonic() - start:6.1f} s] {msg}', file=sys.stderr, flush=True)
 
     try:
-        if args.window <= 0:
+        if args.window is not None and not args.window > 0:
             raise ValueError(f'--window must be > 0 s, got {args.window}')
         vehicle = load_vehicle(args.vehicle)
         bags = [str(b) for b in args.bags]

@@ -196,11 +196,13 @@ def gap_logs(bag: str, map_path: str | None) -> tuple[list[Any], list[dict[str, 
             [dict(imported.report)])
 
 
-def joint_fit(vehicle: Any, logs: Sequence[Any], window: float, effect_names: Sequence[str]
+def joint_fit(vehicle: Any, logs: Sequence[Any], window: float | None,
+              effect_names: Sequence[str]
               ) -> tuple[str, dict[str, dict[str, Any]]]:
     """Fit the effects ``effect_names`` jointly to ``logs`` with the diagnosis' own
     equation-error fit (:class:`auv_ident.gap.fit.EquationFit`: its training windows of
-    ``window`` [s], its 95 % cluster-robust intervals). Returns the set's label and
+    ``window`` [s], None: the vehicle's, see :func:`auv_ident.gap.problem.free_run_window`;
+    its 95 % cluster-robust intervals). Returns the set's label and
     ``effect.param`` -> value, interval (None where not identified), unit, identified.
 
     The only place the campaign calls into the diagnosis' fitting code."""

@@ -173,7 +173,7 @@ class _Scorer:
         return float(math.log(self.nominal_cost / max(cost, 1e-12)) - PARAM_PRICE * k)
 
 
-def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 60.0,
+def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | None = None,
              held_out_logs: Sequence[int] = (), effects: Sequence[str] | None = None,
              top: int = 3, max_effects: int = 3, progress: Progress | None = None
              ) -> Diagnosis:
@@ -182,7 +182,9 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     Args:
         vehicle: nominal vehicle parameters.
         logs: log pieces (:func:`auv_ident.gap.logs.load_bag`).
-        window: free-run window [s]; windows restart from the logged state.
+        window: free-run window [s]; windows restart from the logged state. None: from the
+            vehicle (:func:`auv_ident.gap.problem.free_run_window`: 60 s, shorter for a
+            vehicle unstable without feedback).
         held_out_logs: indices of logs held out whole; default every third window.
         effects: catalogue effects to try (default: all registered).
         top: effects refined by free-run error and tried in combinations.
@@ -194,6 +196,9 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
     for n in names:
         get_effect(n)
     pr = Problem(vehicle, logs, window=window, held_out_logs=held_out_logs)
+    window = pr.window
+    if pr.window_why != 'given':
+        say(f'free-run window: {pr.window_why}')
     # -- derived or assumed signals of imported logs: left out, never counted twice ----------
     weighting = measurement_weighting(pr.logs)
     pr.eq_sigma = np.where(weighting.equation_mask(EQUATIONS), np.inf, pr.eq_sigma)
@@ -437,6 +442,7 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float = 
         'candidates': [_candidate_details(c) for c in candidates],
         'integration_step_s': pr.dt,
         'window_s': window,
+        'window_why': pr.window_why,
     }
     plots = {'problem': pr, 'best': best if best_label else None, 'nominal': nom,
              'e_nom': e_nom, 'corr': corr, 'band': band_info, 'band_hz': band_hz,

@@ -42,6 +42,47 @@ CH_NAMES = ('z', 'theta', 'u', 'w', 'q', 'v', 'r')
 #: Seconds at the start of each log piece for the actuator models to forget their unknown
 #: initial position (5 time constants of a 1-s lag).
 ACT_SETTLE = 5.0
+#: Free-run window [s] of a vehicle whose vertical-plane motion is stable without feedback.
+STABLE_WINDOW = 60.0
+#: e-folding times of the fastest unstable vertical-plane mode that a window spans (a free
+#: run from a state a little off grows about e^4 = 55-fold), and the shortest window [s].
+UNSTABLE_FOLDS = 4.0
+MIN_WINDOW = 10.0
+
+
+def free_run_window(vehicle: VehicleParams, logs: Sequence[GapLog]) -> tuple[float, str]:
+    """The free-run window [s] for ``vehicle`` on ``logs``, and why.
+
+    A free run restarts from the log at every window; on a vehicle that is unstable without
+    feedback (the REMUS 100: a vertical-plane pair at +0.39 +- 0.38j 1/s at 1.5 m/s) a run of
+    :data:`STABLE_WINDOW` seconds diverges from any start, and every effect looks alike. The
+    window spans :data:`UNSTABLE_FOLDS` e-folding times ``1/lambda`` of the fastest unstable
+    mode of the nominal vertical plane (``w, q, theta``; linearised at the logs' median surge
+    speed and depth), within [:data:`MIN_WINDOW`, :data:`STABLE_WINDOW`];
+    :data:`STABLE_WINDOW` when no mode is unstable or no trim exists there.
+    """
+    from auv_sim.errors import TrimError
+    from auv_sim.trim import VerticalPlane
+
+    u = np.concatenate([lg.state[:, 6] for lg in logs])
+    z = np.concatenate([lg.state[:, 2] for lg in logs])
+    u0, z0 = float(np.nanmedian(u)), float(np.nanmedian(z))
+    if not (np.isfinite(u0) and u0 > 0.0):
+        return STABLE_WINDOW, f'no forward speed in the logs: {STABLE_WINDOW:g} s'
+    plane = VerticalPlane(vehicle)
+    try:
+        A, _ = plane.linearize(plane.trim(u0, z=z0 if np.isfinite(z0) else 0.0))
+    except TrimError:
+        return STABLE_WINDOW, f'no level trim at {u0:.3g} m/s: {STABLE_WINDOW:g} s'
+    lam = float(np.max(np.linalg.eigvals(A[np.ix_([0, 1, 3], [0, 1, 3])]).real))
+    if lam <= 0.0:
+        return STABLE_WINDOW, (f'vertical plane stable without feedback at {u0:.3g} m/s: '
+                               f'{STABLE_WINDOW:g} s')
+    window = float(np.clip(UNSTABLE_FOLDS / lam, MIN_WINDOW, STABLE_WINDOW))
+    return window, (f'vertical plane unstable without feedback at {u0:.3g} m/s (mode '
+                    f'+{lam:.3g} 1/s): {UNSTABLE_FOLDS:g} e-folding times, {window:.3g} s')
+
+
 #: Seconds at the start of each window over which derived initial states are fitted to the
 #: measured outputs (:meth:`Problem.estimate_initial`), and the fewest output samples used.
 INITIAL_FIT = 3.0
@@ -98,7 +139,8 @@ class Problem:
     Args:
         vehicle: the nominal model.
         logs: log pieces (see :mod:`auv_ident.gap.logs`).
-        window: free-run window length [s].
+        window: free-run window length [s]; None: :func:`free_run_window` (kept with its
+            reason in ``window`` and ``window_why``).
         held_out_logs: indices of logs held out entirely; if empty, every third window
             (the 2nd, 5th, ...) is held out.
         eq_period: spacing of equation-error samples [s].
@@ -108,12 +150,17 @@ class Problem:
             apart on a finer grid, so the step only has to resolve the vehicle's own motion.
     """
 
-    def __init__(self, vehicle: VehicleParams, logs: Sequence[GapLog], window: float = 60.0,
+    def __init__(self, vehicle: VehicleParams, logs: Sequence[GapLog],
+                 window: float | None = None,
                  held_out_logs: Sequence[int] = (), eq_period: float = 0.5,
                  smooth_window: float = 1.0, cost_period: float = 0.2,
                  max_step: float = 0.05) -> None:
         if not logs:
             raise GapError('no logs to diagnose')
+        self.window_why = 'given'
+        if window is None:
+            window, self.window_why = free_run_window(vehicle, logs)
+        self.window = window
         if not window > 0:
             raise GapError(f'window must be > 0 s, got {window}')
         self.vehicle = vehicle

@@ -84,7 +84,9 @@ def _markdown(diag: Diagnosis, figures: list[tuple[str, str]]) -> str:
               f'states; depth alone {held["shrink_depth"]:.1%}, its floor '
               f'{_fmt(held["floor"]["z"], "m")}) on windows not '
               'used to fit the effects. Free runs restart from the logged state at each '
-              f'{d["window_s"]:g}-s window; the log is compared smoothed over 1 s.']
+              f'{d["window_s"]:.3g}-s window'
+              + (f' ({d["window_why"]})' if d.get('window_why', 'given') != 'given' else '')
+              + '; the log is compared smoothed over 1 s.']
     gap = r['gap']
     lines += ['', '## Where the gap lies', '',
               '| state | nominal free-run RMS | noise floor |', '| --- | --- | --- |']

@@ -154,16 +154,20 @@ class Group:
 def _group_findings(g: Group) -> list[Finding]:
     findings: list[Finding] = []
     for eq, raw in g.residuals.items():
-        keep = [k for k, p in enumerate(raw) if p.size > LB_LAGS + 2]
+        # pieces (held-out windows) shorter than LB_LAGS + 3 samples, as the short windows of
+        # a vehicle unstable without feedback give: fewer lags, a third of the longest piece
+        longest = max((p.size for p in raw), default=0)
+        lags = LB_LAGS if longest > LB_LAGS + 2 else max(2, longest // 3)
+        keep = [k for k, p in enumerate(raw) if p.size > lags + 2]
         pieces = [raw[k] for k in keep]
-        if sum(p.size for p in pieces) < 4 * LB_LAGS:
+        if sum(p.size for p in pieces) < 4 * lags:
             continue
         if g.white:
-            q, p = ljung_box(pieces)
+            q, p = ljung_box(pieces, lags)
             findings.append(Finding(eq, 'ljung_box', q, p, float(sum(x.size for x in pieces)),
                                     f'{eq}: autocorrelated (Ljung-Box Q = {q:.1f} over '
-                                    f'{LB_LAGS} lags)'))
-            t, p, n_eff = mean_test(pieces)
+                                    f'{lags} lags)'))
+            t, p, n_eff = mean_test(pieces, lags)
             findings.append(Finding(eq, 'mean', t, p, n_eff,
                                     f'{eq}: a constant part is left ({t:+.1f} standard '
                                     'errors)'))
@@ -188,8 +192,12 @@ def residual_tests(groups: Sequence[Group], alpha: float = ALPHA
         ``(white, findings, left_over)``: whether every test passes at the family-wise level
         ``alpha`` (Bonferroni over all tests), every test's finding, and the texts of the
         significant ones, most significant first ("heave: grows with depth (r = +0.41)").
+        With no test possible (every piece too short) ``white`` is False and ``left_over``
+        says so.
     """
     findings = [f for g in groups for f in _group_findings(g)]
+    if not findings:    # nothing could be tested: not evidence of white residuals
+        return False, [], ['the residuals could not be tested (held-out windows too short)']
     level = alpha / max(1, len(findings))
     left = [f.text for f in sorted(findings, key=lambda f: f.p_value) if f.p_value < level]
     return not left, findings, left
