@@ -8,9 +8,15 @@ and the reported (free-run) intervals with its binomial 95 % range (Wilson), the
 width, and the mean and spread of the estimate's error (bias against spread tells a biased
 estimate from an interval too narrow).
 
+A parameter whose interval is its whole plausible range was left out of the fit (it changes
+no residual of that log, or was pruned as insignificant) and covers by construction: the
+share of seeds that identified it is reported, and its coverage among those seeds. The
+summary gives the lowest and median coverage over the parameters identified in at least half
+the seeds and names those whose coverage is significantly below 0.95.
+
 Run: ``. .venv/bin/auv-env && python bench/bench_gap_coverage.py [--seeds N] [--effects ...]``
-(updates bench/results/gap_coverage.json, keeping the effects not run; about 3 s per seed
-and effect on an idle core).
+(updates bench/results/gap_coverage.json, keeping the effects not run; ``--seeds 0``
+recomputes the summary only; about 1-4 s per seed and effect on an idle core).
 """
 from __future__ import annotations
 
@@ -39,6 +45,18 @@ TRUTH: dict[str, dict[str, float]] = {
     'depth_sensor_latency': {'latency': 0.5},
     'pitch_sensor_scale': {'scale': 1.05},
     'pitch_sensor_latency': {'latency': 0.2},
+    'current': {'north': 0.3, 'east': 0.15, 'down': 0.02},
+    'buoyancy_depth': {'k': -2e-5},
+    'actuator_rate_limit': {'bar_rate': 0.05},
+    'bar_bias': {'bias': 0.02},
+    'crossflow_drag': {'Zww': -2000.0, 'Mqq': -10000.0, 'Yvv': 0.0, 'Nrr': 0.0},
+    'cg_offset': {'dxg': 0.005, 'dzg': 0.002},
+    'depth_sensor_bias': {'bias': 0.3},
+    'pitch_sensor_bias': {'bias': 0.01745},
+    'plane_effectiveness': {'gain': 0.8},
+    'thrust_error': {'gain': 0.9},
+    'coefficients': {'CZuw': 1.3, 'CMuw': 1.0, 'CZuq': 1.0, 'CMuq': 0.8, 'CZbar': 1.0,
+                     'CMbar': 1.0, 'Ksh': 1.0, 'CZ0': 1.0, 'CM0': 1.0},
 }
 
 
@@ -71,7 +89,11 @@ def run(effect: str, seeds: int, first_seed: int = 1000) -> dict[str, Any]:
     es = EffectSet([effect], vehicle)
     names = [p.name for _, p in es.params]
     rec: dict[str, dict[str, list[float]]] = {
-        k: {'ee_hit': [], 'fr_hit': [], 'width': [], 'error': []} for k in truth}
+        k: {'ee_hit': [], 'fr_hit': [], 'width': [], 'error': [], 'identified': []}
+        for k in truth}
+    # a parameter whose interval is its whole plausible range was left out of the fit (it
+    # changes no residual, or was pruned as insignificant): it covers by construction
+    full = {p.name: p.hi - p.lo for _, p in es.params}
     t0 = time.perf_counter()
     for seed in range(first_seed, first_seed + seeds):
         log = synth.simulate(vehicle, {'effects': {effect: truth}}, short, seed=seed)
@@ -86,16 +108,24 @@ def run(effect: str, seeds: int, first_seed: int = 1000) -> dict[str, Any]:
             rec[key]['fr_hit'].append(float(fr.lo95[i] <= value <= fr.hi95[i]))
             rec[key]['width'].append(float(fr.hi95[i] - fr.lo95[i]))
             rec[key]['error'].append(float(fr.values[i] - value))
+            rec[key]['identified'].append(
+                float(fr.hi95[i] - fr.lo95[i] < 0.999 * full[key]))
     out: dict[str, Any] = {'seeds': seeds, 'first_seed': first_seed,
                            'seconds': time.perf_counter() - t0, 'parameters': {}}
     for key, r in rec.items():
         hits = int(sum(r['fr_hit']))
+        ident = np.array(r['identified'], bool)
+        ident_hits = int(np.sum(np.array(r['fr_hit'])[ident]))
         err = np.array(r['error'])
         half = np.array(r['width']) / 2.0
         out['parameters'][key] = {
             'true': truth[key],
             'coverage_free_run': hits / seeds,
             'coverage_free_run_wilson95': wilson(hits, seeds),
+            'identified_share': float(ident.mean()),
+            'coverage_when_identified': (ident_hits / int(ident.sum())
+                                         if ident.any() else None),
+            'coverage_when_identified_wilson95': wilson(ident_hits, int(ident.sum())),
             'coverage_equation_error': sum(r['ee_hit']) / seeds,
             'median_width': statistics.median(r['width']),
             'mean_error': float(err.mean()),
@@ -106,17 +136,47 @@ def run(effect: str, seeds: int, first_seed: int = 1000) -> dict[str, Any]:
     return out
 
 
+def summary(effects: dict[str, Any]) -> dict[str, Any]:
+    """Figures over every effect and parameter run: the seed counts, the lowest and the
+    median coverage of the parameters identified in at least half the seeds (coverage among
+    the seeds that identified them), and the parameters whose coverage is significantly
+    below 0.95 (the upper end of the Wilson range under 0.95)."""
+    rows = [(f'{e}.{k}', r['seeds'], v) for e, r in effects.items()
+            for k, v in r['parameters'].items()]
+    ident = [(name, v['coverage_when_identified']) for name, _, v in rows
+             if v.get('identified_share', 1.0) >= 0.5
+             and v.get('coverage_when_identified', v['coverage_free_run']) is not None]
+    ident = [(n, c if c is not None else math.nan) for n, c in ident]
+    low = [name for name, _, v in rows
+           if v.get('coverage_when_identified_wilson95', v['coverage_free_run_wilson95'])[1]
+           < 0.95]
+    cov = sorted(c for _, c in ident)
+    return {'effects': len(effects), 'parameters': len(rows),
+            'parameters_identified': len(ident),
+            'min_seeds': min(n for _, n, _ in rows), 'max_seeds': max(n for _, n, _ in rows),
+            'lowest_coverage': cov[0] if cov else None,
+            'lowest_parameter': min(ident, key=lambda x: x[1])[0] if ident else None,
+            'median_coverage': statistics.median(cov) if cov else None,
+            'significantly_low': low, 'significantly_low_count': len(low)}
+
+
 if __name__ == '__main__':
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--seeds', type=int, default=100, help='seeds per effect')
     ap.add_argument('--effects', nargs='*', default=list(TRUTH), choices=list(TRUTH))
     args = ap.parse_args()
     saved = ROOT / 'bench' / 'results' / 'gap_coverage.json'
-    for name in args.effects:
+    for name in args.effects if args.seeds > 0 else ():
         result = run(name, args.seeds)
         print(name, json.dumps(result['parameters']), flush=True)
         # read again before writing: several runs may share the file (one effect each)
         figures: dict[str, Any] = json.loads(saved.read_text()) if saved.exists() else {}
         figures['benchmark'] = 'gap diagnosis interval coverage'
         figures.setdefault('effects', {})[name] = result
+        figures['summary'] = summary(figures['effects'])
         save_figures('gap_coverage', figures)
+    if args.seeds <= 0:   # --seeds 0: the summary of the saved runs only
+        figures = json.loads(saved.read_text())
+        figures['summary'] = summary(figures['effects'])
+        save_figures('gap_coverage', figures)
+        print(json.dumps(figures['summary'], indent=2))
