@@ -22,7 +22,9 @@ at its RK4 step, lockstep) on:
   with probability 1/2; buoyancy U(-1, +1) % of the weight; plane delay U(0, 0.3) s; plane
   lag U(0.1, 0.5) s; plane bias U(-1, 1) deg; pitch-sensor bias U(-0.5, 0.5) deg; depth
   noise sigma U(0, 0.05) m), each flying a depth change drawn from -30, -10, +10, +30 m
-  (equal odds) from a start depth U(40, 60) m (climbs) or U(10, 30) m (dives) at 2 m/s.
+  (equal odds) from a start depth U(40, 60) m (climbs) or U(10, 30) m (dives) at 2 m/s;
+  with ``--own-bound N`` the first N flights are also judged against the time-optimal bound
+  of their plant's own model (:func:`plant_bound`).
 
 Criteria (:class:`Criteria`): settled within 2x the time-optimal bound of the design model
 (:func:`auv_depth_lqr.bound.settling_bound`, same change and speed), ``|theta| < 35 deg``
@@ -81,6 +83,45 @@ def time_optimal_bound(change: tuple[float, float]) -> float:
     params = load_vehicle(VEHICLE)
     z0 = 40.0 if dz < 0 else 10.0
     return settling_bound(params, z0, z0 + dz, u0, THETA_MAX).settling_time
+
+
+def plant_bound(job: tuple[VehicleParams, Plant, Manoeuvre]) -> float | None:
+    """Time-optimal settling bound [s] of ``manoeuvre`` on the plant's own vertical-plane
+    model: its coefficient factors and the environment's parameter changes (buoyancy offset,
+    plane lag) applied; the plane delay and bias, the current and the sensor errors cannot be
+    given to the bound, so it is optimistic for the plant. None when no BAR sequence settles
+    the plant within the bound's horizon."""
+    from auv_depth_lqr.errors import DesignError
+
+    design, plant, m = job
+    vehicle = plant.environment().apply_to(plant.vehicle(design))
+    try:
+        return settling_bound(vehicle, m.z0, m.z1, m.u0, THETA_MAX).settling_time
+    except DesignError:
+        return None
+
+
+def own_bound_figures(rows: list[dict[str, Any]], bounds: list[float | None]
+                      ) -> dict[str, Any]:
+    """The flights ``rows`` judged against their plants' own bounds ``bounds`` beside the
+    design model's: shares settled within 2x each (all other criteria as flown)."""
+    n = len(rows)
+    within_design = within_own = no_bound = 0
+    ratios = []
+    for row, own in zip(rows, bounds):
+        t = row['settling_time_s']
+        within_design += bool(row['checks'].get('settled'))
+        if own is None:
+            no_bound += 1
+            continue
+        ratios.append(own / row['bound_s'])
+        within_own += t is not None and t <= 2.0 * own
+    return {'plants': n, 'settled_within_2x_design_bound': round(within_design / n, 4),
+            'settled_within_2x_own_bound': round(within_own / n, 4),
+            'no_own_bound': no_bound,
+            'own_over_design_bound': {'min': round(min(ratios), 3),
+                                      'median': round(float(np.median(ratios)), 3),
+                                      'max': round(max(ratios), 3)} if ratios else None}
 
 
 def identify_truth(truth: VehicleParams, base_path: pathlib.Path, workdir: pathlib.Path,
@@ -184,9 +225,10 @@ def _drivers(features: list[dict[str, float]], failed: list[bool]) -> dict[str, 
 
 
 def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
-        table: bool = True, mc: bool = True) -> dict[str, Any]:
-    """Per-effect table, identified-model case (``table``) and Monte Carlo (``mc``); returns
-    the figures."""
+        table: bool = True, mc: bool = True, own_bound: int = 0) -> dict[str, Any]:
+    """Per-effect table, identified-model case (``table``) and Monte Carlo (``mc``; its
+    first ``own_bound`` flights also judged against their plants' own bounds); returns the
+    figures."""
     design = load_vehicle(VEHICLE)
     changes = sorted({(m.z1 - m.z0, m.u0) for m in TABLE_MANOEUVRES.values()}
                      | {(dz, U0) for dz in MC_CHANGES})
@@ -242,6 +284,10 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
             jobs.append((design, plant, manoeuvre, bound_of(manoeuvre)))
         rows = pool.map(_fly, jobs, chunksize=4)
         mc_wall = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        own = pool.map(plant_bound, [(design, plant, m) for _, plant, m, _b in
+                                     jobs[:own_bound]])
+        own_wall = time.perf_counter() - t0
     monte_carlo: dict[str, Any] | None = None
     if mc:
         for (_, plant, _m, _b), row in zip(jobs, rows):
@@ -266,6 +312,9 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
             'wall_s': round(mc_wall, 1),
             'wall_per_plant_s': round(mc_wall / max(plants, 1), 3),
         }
+        if own_bound:
+            monte_carlo['own_bound'] = dict(own_bound_figures(rows[:own_bound], own),
+                                            wall_s=round(own_wall, 1))
     return {
         'vehicle': VEHICLE.name, 'u0_m_s': U0, 'theta_max_deg': math.degrees(THETA_MAX),
         'criteria': {'settle_within_bound_x': 2.0, 'tumble_deg': 35.0,
@@ -290,6 +339,9 @@ def main() -> None:
     parser.add_argument('--no-table', action='store_true',
                         help='Monte Carlo only; the per-effect table and identified-model '
                              'figures already in the results file are kept')
+    parser.add_argument('--own-bound', type=int, default=0, metavar='N',
+                        help='judge the first N Monte-Carlo flights also against their '
+                             'plants\' own time-optimal bounds (one optimisation each)')
     parser.add_argument('--no-mc', action='store_true',
                         help='per-effect table and identified model only; the Monte-Carlo '
                              'figures already in the results file are kept')
@@ -297,7 +349,7 @@ def main() -> None:
     if args.no_table and args.no_mc:
         parser.error('--no-table and --no-mc leave nothing to run')
     figures = run(args.plants, args.workers, args.seed, table=not args.no_table,
-                  mc=not args.no_mc)
+                  mc=not args.no_mc, own_bound=args.own_bound)
     previous = pathlib.Path(__file__).resolve().parent / 'results' / 'robustness.json'
     kept = json.loads(previous.read_text()) if previous.exists() else {}
     keys = (('per_effect', 'per_effect_all_pass', 'per_effect_wall_s', 'identified_model')

@@ -142,6 +142,16 @@ ROWS: list[tuple[str, str, str]] = [
      '{robustness:monte_carlo.all.share_pitch_limit_exceeded_by_more_than_2deg:.2%}; '
      '{robustness:monte_carlo.all.worst_steady_error_m:.1f} m',
      '1000; >= 99 %; 0; 0; < 0.1 m'),
+    ('the same, first plants also against their own time-optimal bound (their coefficients, '
+     'buoyancy and lag; no delay, bias or current: optimistic): plants; settled within 2x the '
+     'design bound / 2x their own; own bound over the design\'s, median (range)',
+     '{robustness:monte_carlo.own_bound.plants}; '
+     '{robustness:monte_carlo.own_bound.settled_within_2x_design_bound:.1%} / '
+     '{robustness:monte_carlo.own_bound.settled_within_2x_own_bound:.1%}; '
+     '{robustness:monte_carlo.own_bound.own_over_design_bound.median:.2f} '
+     '({robustness:monte_carlo.own_bound.own_over_design_bound.min:.2f}-'
+     '{robustness:monte_carlo.own_bound.own_over_design_bound.max:.2f})',
+     '>= 99 %'),
     ('Foxglove live view, 50 Hz state: delivered share; latency p95; bridge CPU',
      '{foxglove:summary./auv/state.delivered.median:.3f}; '
      '{foxglove:summary./auv/state.latency_ms_p95.median:.1f} ms; '
