@@ -350,19 +350,22 @@ segments: {{min_duration: 5}}
 """
 
 
-def _clock_bag(path: pathlib.Path, ahead_ns: int) -> None:
-    """/odom at 10 Hz; /pressure at the same instants on a clock ``ahead_ns`` ahead, depth
-    20 + 0.01 k m at the k-th instant (a sample early or late is 0.01 m off)."""
+def _clock_bag(path: pathlib.Path, ahead_ns: int, every: int = 1,
+               compression: str | None = None) -> None:
+    """/odom at 10 Hz; /pressure at every ``every``-th of the same instants on a clock
+    ``ahead_ns`` ahead, depth 20 + 0.01 k m at the k-th instant (a sample early or late is
+    0.01 m off); ``compression``: the recorder's mode (FILE, MESSAGE)."""
     store = _store()
     ev: list[Event] = []
     for k in range(300):
         ns = T0 * 10**9 + k * 100_000_000
         ev.append((ns + 3_000_000, '/odom', 'nav_msgs/msg/Odometry', _odom(store, ns)))
-        ev.append((ns + 1_000_000, '/pressure', 'sensor_msgs/msg/FluidPressure',
-                   _pressure(store, ns + ahead_ns, 20.0 + 0.01 * k)))
+        if k % every == 0:
+            ev.append((ns + 1_000_000, '/pressure', 'sensor_msgs/msg/FluidPressure',
+                       _pressure(store, ns + ahead_ns, 20.0 + 0.01 * k)))
     ev.append((T0 * 10**9, '/bar', 'std_msgs/msg/Float64', _float64(store, 0.05)))
     ev.append((T0 * 10**9, '/thrust', 'std_msgs/msg/Float64', _float64(store, 30.0)))
-    _write(path, store, ev)
+    _write(path, store, ev, compression=compression)
 
 
 def test_clock_offset_onto_coincident_stamps_and_hand_worked_odometry(
@@ -399,17 +402,7 @@ def test_a_slow_depth_held_onto_a_fast_base_says_how_old_it_is(tmp_path: pathlib
     """/odom at 10 Hz, /pressure at 2.5 Hz on the same clock (every 4th instant): held onto
     the odometry stamps the depth is 0, 0.1, 0.2, 0.3 s old in turn, 0.15 s on median; with
     /pressure as the base it is read at its own stamps."""
-    store = _store()
-    ev: list[Event] = []
-    for k in range(300):
-        ns = T0 * 10**9 + k * 100_000_000
-        ev.append((ns + 3_000_000, '/odom', 'nav_msgs/msg/Odometry', _odom(store, ns)))
-        if k % 4 == 0:
-            ev.append((ns + 1_000_000, '/pressure', 'sensor_msgs/msg/FluidPressure',
-                       _pressure(store, ns, 20.0 + 0.01 * k)))
-    ev.append((T0 * 10**9, '/bar', 'std_msgs/msg/Float64', _float64(store, 0.05)))
-    ev.append((T0 * 10**9, '/thrust', 'std_msgs/msg/Float64', _float64(store, 30.0)))
-    _write(tmp_path / 'bag', store, ev)
+    _clock_bag(tmp_path / 'bag', 0, every=4)
     fast = CLOCK_MAP.format(offsets='').replace('max_age: 0.15', 'max_age: 0.35')
     log = import_log(_map(tmp_path, fast), tmp_path / 'bag')
     assert len(log.t) == 300
@@ -430,17 +423,8 @@ def test_a_slow_depth_held_onto_a_fast_base_says_how_old_it_is(tmp_path: pathlib
 @pytest.mark.parametrize('mode', ['FILE', 'MESSAGE'])
 def test_compressed_rosbag2_reads_as_the_uncompressed(tmp_path: pathlib.Path,
                                                       mode: str) -> None:
-    store = _store()
-    ev: list[Event] = []
-    for k in range(300):
-        ns = T0 * 10**9 + k * 100_000_000
-        ev.append((ns + 3_000_000, '/odom', 'nav_msgs/msg/Odometry', _odom(store, ns)))
-        ev.append((ns + 1_000_000, '/pressure', 'sensor_msgs/msg/FluidPressure',
-                   _pressure(store, ns, 20.0 + 0.01 * k)))
-    ev.append((T0 * 10**9, '/bar', 'std_msgs/msg/Float64', _float64(store, 0.05)))
-    ev.append((T0 * 10**9, '/thrust', 'std_msgs/msg/Float64', _float64(store, 30.0)))
-    _write(tmp_path / 'plain', store, ev)
-    _write(tmp_path / 'zstd', store, ev, compression=mode)
+    _clock_bag(tmp_path / 'plain', 0)
+    _clock_bag(tmp_path / 'zstd', 0, compression=mode)
     m = _map(tmp_path, CLOCK_MAP.format(offsets=''))
     a, b = import_log(m, tmp_path / 'plain'), import_log(m, tmp_path / 'zstd')
     assert np.array_equal(a.t, b.t) and np.array_equal(a.state, b.state)
