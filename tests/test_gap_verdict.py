@@ -81,3 +81,30 @@ def test_short_held_out_windows_are_tested_over_fewer_lags() -> None:
     noise = [rng.standard_normal(10) for _ in range(6)]
     white, findings, _ = residual_tests([Group({'pitch': noise}, {}, 1.0, white=True)])
     assert white and len(findings) == 2
+
+
+def test_the_campaign_joint_fit_gives_no_values_for_velocities_the_import_derived() -> None:
+    """A 5-minute log of a 0.3 m/s north current: with every signal measured the campaign's
+    joint fit finds the current (north within 0.03 m/s of 0.3); with the heave velocity marked
+    derived by the import (as from a text log without a DVL) it gives no value and says why."""
+    import dataclasses
+
+    from conftest import A18M
+    from test_gap_units import SHORT
+
+    from auv_ident.campaign.tasks import joint_fit
+    from auv_ident.gap.synth import simulate
+    from auv_sim.params import load_vehicle
+
+    vehicle = load_vehicle(A18M)
+    logs = simulate(vehicle, {'effects': {'current': {'north': 0.3}}}, SHORT,
+                    seed=4).gap_logs()
+    _, measured = joint_fit(vehicle, logs, 30.0, ['current'])
+    assert abs(measured['current.north']['value'] - 0.3) < 0.03, measured
+    derived = [dataclasses.replace(lg, origins={'w': 'derived: from depth, pitch and u'})
+               for lg in logs]
+    label, q = joint_fit(vehicle, derived, 30.0, ['current'])
+    assert label == 'current'
+    assert all(v['value'] is None and v['ci95'] is None and not v['identified']
+               for v in q.values()), q
+    assert q['current.north']['why'].startswith('not fitted: w derived or assumed')

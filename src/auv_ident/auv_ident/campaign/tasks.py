@@ -205,12 +205,28 @@ def joint_fit(vehicle: Any, logs: Sequence[Any], window: float | None,
     its 95 % cluster-robust intervals). Returns the set's label and
     ``effect.param`` -> value, interval (None where not identified), unit, identified.
 
+    Logs whose velocities or rates were derived or assumed by the import (a vendor text log
+    without a DVL or gyro) get no values (None, with ``why``): the equation error reads those
+    signals, and the diagnosis itself finds such effects only through its free runs (on clean
+    5 Hz text logs the equation-error fit gave a current of 0.48 [0.40, 0.55] m/s that was not
+    there).
+
     The only place the campaign calls into the diagnosis' fitting code."""
     from auv_ident.gap.fit import EquationFit
+    from auv_ident.gap.logs import measurement_weighting
     from auv_ident.gap.problem import EffectSet, Problem
 
     problem = Problem(vehicle, list(logs), window=window)
     effects = EffectSet(list(effect_names), vehicle)
+    unmeasured = [c for c in measurement_weighting(problem.logs).channels
+                  if c in ('u', 'v', 'w', 'q', 'r')]
+    if unmeasured:
+        why = (f'not fitted: {", ".join(unmeasured)} derived or assumed by the import, which '
+               'the equation error would read as measured; see the mission\'s diagnosis')
+        return str(effects.label), {
+            f'{effect}.{p.name}': {'value': None, 'ci95': None, 'unit': p.unit,
+                                   'identified': False, 'why': why}
+            for effect, p in effects.params}
     fit = EquationFit(problem).fit(effects)
     quantities = {}
     for (effect, p), v, lo, hi, active in zip(effects.params, fit.values, fit.lo95, fit.hi95,

@@ -59,6 +59,13 @@ class GapLog:
     #: channels logged only at the rows of a slow log, taken as linear between rows
     #: (:func:`first_order_hold`)
     linear_between_rows: tuple[str, ...] = ()
+    #: the stamps the state was interpolated from onto ``t`` (the log's own rows: jittered
+    #: or with dropped rows they are not ``t``); None: ``t`` itself
+    rows: np.ndarray | None = None
+    #: the rows themselves were resampled onto a grid by the import (``time.grid``): the
+    #: logged rows are lost, commands logged at them are recognised by their spacing
+    #: (:func:`sampled_commands`)
+    irregular_rows: bool = False
 
     @property
     def period(self) -> float:
@@ -74,14 +81,16 @@ class GapLog:
 def from_arrays(name: str, t: np.ndarray, state: np.ndarray,
                 commands: Mapping[str, tuple[np.ndarray, np.ndarray]],
                 notes: Sequence[str] = (), origins: Mapping[str, str] | None = None,
-                measured_fins: Sequence[str] = ()) -> list[GapLog]:
+                measured_fins: Sequence[str] = (), irregular: bool = False) -> list[GapLog]:
     """Check and regularise a log: split at pauses, resample onto a uniform grid.
 
     ``t`` (N) [s] must be non-decreasing and finite; ``state`` (N x 12) finite. Yaw is
     unwrapped before resampling. Channels missing from ``commands`` other than the helm are
     an error; a missing helm is held at 0 rad (and said so in ``notes``). ``origins``: the
     state signals that were derived or assumed (see :attr:`GapLog.origins`);
-    ``measured_fins``: channels of ``commands`` that hold measured fin positions.
+    ``measured_fins``: channels of ``commands`` that hold measured fin positions;
+    ``irregular``: the stamps ``t`` were themselves resampled from the log's rows by the
+    import (see :attr:`GapLog.irregular_rows`).
     """
     origins = dict(origins or {})
     unknown = sorted(set(origins) - set(STATE_FIELDS))
@@ -137,7 +146,7 @@ def from_arrays(name: str, t: np.ndarray, state: np.ndarray,
             xs[:, i] = np.interp(grid, tp, state[a:b, i])
         label = name if len(cuts) == 0 else f'{name}#{k}'
         pieces.append(GapLog(label, grid, xs, cmds, tuple(notes), origins,
-                             tuple(measured_fins)))
+                             tuple(measured_fins), rows=tp, irregular_rows=irregular))
     if not pieces:
         raise GapError(f'{name}: no continuous stretch of 20 samples or more')
     return pieces
@@ -182,8 +191,10 @@ def from_contract_arrays(name: str, arrays: Mapping[str, np.ndarray],
     notes = [f'{ch}: measured fin positions ({MEASURED_TOPICS[ch]}) used in place of the '
              'commands; the actuator model passes them through (lag of one simulation step, '
              'no rate limit)' for ch in fins]
+    resampled = any(not str(rep.get('resampled', 'no')).startswith('no') for rep in imports)
     pieces = from_arrays(name, st['t'], state, commands, notes,
-                         origins=import_origins(imports), measured_fins=fins)
+                         origins=import_origins(imports), measured_fins=fins,
+                         irregular=resampled)
     return [first_order_hold(lg) for lg in pieces]
 
 
@@ -285,7 +296,11 @@ def sampled_commands(logs: Sequence[GapLog], min_period: float = SAMPLED_PERIOD
                      ) -> list[str]:
     """Command channels that a slow log (period of ``min_period`` [s] or more) records
     only at its state rows (nearly every row carries one: a vendor log's command columns),
-    not when they changed."""
+    not when they changed. The rows are the stamps the state was logged at
+    (:attr:`GapLog.rows`: jittered rows or dropped rows are not on the uniform ``t``). Where
+    the import resampled the rows onto a grid (:attr:`GapLog.irregular_rows`) they are lost:
+    there a channel whose stamps inside the piece are as many as its rows (within 10 %) with a
+    median spacing within 25 % of the period counts as logged at the rows."""
     out = []
     for ch in ('bar', 'thrust'):
         for lg in logs:
@@ -294,13 +309,17 @@ def sampled_commands(logs: Sequence[GapLog], min_period: float = SAMPLED_PERIOD
             # at a row: within a thousandth of the period (epoch stamps of 1.7e9 s carry
             # rounding errors of 2.4e-7 s)
             tol = 1e-3 * lg.period
+            rows = lg.t if lg.rows is None else np.asarray(lg.rows)
             st = np.asarray(lg.commands[ch][0])
-            inside = st[(st >= lg.t[0] - tol) & (st <= lg.t[-1] + tol)]
-            if inside.size < 0.9 * lg.t.size:
+            inside = st[(st >= rows[0] - tol) & (st <= rows[-1] + tol)]
+            if inside.size < 0.9 * rows.size:
                 continue
-            i = np.clip(np.searchsorted(lg.t, inside), 1, lg.t.size - 1)
-            gap = np.minimum(np.abs(lg.t[i] - inside), np.abs(lg.t[i - 1] - inside))
-            if np.mean(gap < tol) > 0.9:
+            i = np.clip(np.searchsorted(rows, inside), 1, rows.size - 1)
+            gap = np.minimum(np.abs(rows[i] - inside), np.abs(rows[i - 1] - inside))
+            at_rows = bool(np.mean(gap < tol) > 0.9)
+            if not at_rows and lg.irregular_rows and inside.size <= 1.1 * rows.size:
+                at_rows = abs(float(np.median(np.diff(inside))) / lg.period - 1.0) < 0.25
+            if at_rows:
                 out.append(ch)
                 break
     return out
@@ -376,13 +395,22 @@ def measurement_weighting(logs: Sequence[GapLog]) -> Weighting:
                       'along the track still shows in u)')
     if kind.get('w') == 'derived' or kind.get('q') == 'derived':
         period = max((lg.period for lg in logs), default=math.nan)
-        limits.append('heave velocity and pitch rate come from depth and pitch differenced '
-                      f'at the {period:.3g} s sample period: the vertical plane is seen only '
-                      'through depth and pitch, and an actuator delay or lag shorter than '
-                      'about one sample period cannot be identified; the free runs start from '
-                      'a heave velocity and pitch rate fitted by each model to the first '
-                      'seconds of depth and pitch, whose uncertainty is in the noise floor: '
-                      'log the pitch rate (gyro) and the heave velocity (DVL)')
+        both = kind.get('w') == 'derived' and kind.get('q') == 'derived'
+        rates = ('heave velocity and pitch rate' if both else
+                 'heave velocity' if kind.get('w') == 'derived' else 'pitch rate')
+        angles = ('depth and pitch' if both else
+                  'depth' if kind.get('w') == 'derived' else 'pitch')
+        fix = ('the pitch rate (gyro) and the heave velocity (DVL)' if both else
+               'the heave velocity (DVL)' if kind.get('w') == 'derived' else
+               'the pitch rate (gyro)')
+        limits.append(f'{rates} {"come" if both else "comes"} from {angles} differenced '
+                      f'at the {period:.3g} s sample period: '
+                      + ('the vertical plane is seen only through depth and pitch, and an '
+                         if both else 'an ')
+                      + 'actuator delay or lag shorter than about one sample period cannot be '
+                      f'identified; the free runs start from a {rates} fitted by each model '
+                      f'to the first seconds of {angles}, whose uncertainty is in the noise '
+                      f'floor: log {fix}')
     if kind.get('phi') == 'assumed':
         limits.append('roll was not logged (assumed 0): a roll offset or banking in turns is '
                       'not seen, and its share of the restoring moment would appear as a '
