@@ -42,10 +42,14 @@ def test_two_namespaced_vehicles_fly_to_different_depths(tmp_path: pathlib.Path,
         # only this vehicle's topics (and its own clock) are in its bag
         assert f'/{ns}/state' in topics and f'/{ns}/clock' in topics, topics
         assert all(t.startswith(f'/{ns}/') for t in topics), topics
-        arrays = read_arrays(bag, [f'/{ns}/state', f'/{ns}/bar_command'])
+        arrays = read_arrays(bag, [f'/{ns}/state', f'/{ns}/bar_command', f'/{ns}/odom',
+                                   f'/{ns}/hydrodynamic_forces'])
         state, bar = arrays[f'/{ns}/state'], arrays[f'/{ns}/bar_command']
-        # lockstep on its own clock: every state and every control instant exactly once
+        # lockstep on its own clock: every state and every control instant exactly once, and
+        # every sample of the other streams the recorder paces the simulator on
         assert len(state) == int(STOP) * 50 + 1 and len(bar) == int(STOP) * 10 + 1
+        assert len(arrays[f'/{ns}/odom']) == len(arrays[f'/{ns}/hydrodynamic_forces']) \
+            == int(STOP) * 50 + 1
         np.testing.assert_allclose(np.diff(state['t']), 0.02, atol=1e-9)
         assert abs(state['z'][-1] - depth) < 0.1, (ns, state['z'][-1])
         pilot_log = (tmp_path / f'{ns}_logs' / 'pilot.log').read_text()

@@ -14,10 +14,13 @@ Namespace: the recorder node runs in ``/auv`` (``-r __ns:=/auv1`` moves it with 
 graph); relative topic names resolve in it, absolute ones are taken as they are.
 
 Progress: every ``PROGRESS_EVERY`` ``state`` messages written, and ``PROGRESS_PERIOD``
-wall seconds after the last report when states were written since, the recorder publishes the
-header stamp of the last one written on ``recorder/progress`` (``builtin_interfaces/Time``); a
-simulator running as fast as possible paces itself on it (see :mod:`auv_sim.node`), so a
-recorder short of CPU slows the run instead of losing samples.
+wall seconds after the last report when states were written since, the recorder publishes on
+``recorder/progress`` (``builtin_interfaces/Time``) the stamp up to which it has written the
+stamped streams of the graph (:data:`PACED_TOPICS`: the simulator's ``state``, ``odom``,
+``hydrodynamic_forces`` and ``/clock``, the pilot's ``bar_command``): the oldest of their last
+written stamps, over those that have delivered a message. A simulator running as fast as
+possible paces itself on it (see :mod:`auv_sim.node`), and at its ``stop_time`` waits for it,
+so a recorder short of CPU slows the run instead of losing samples of any of them.
 """
 from __future__ import annotations
 
@@ -50,6 +53,9 @@ KNOWN_TOPICS: dict[str, str] = {
     '/clock': 'rosgraph_msgs/msg/Clock',
 }
 NAMESPACE = '/auv'  # the recorder node's default namespace
+#: Streams stamped alike on every sample or control instant, whose progress the recorder
+#: reports (each message opens with its stamp: a ``std_msgs/Header`` or the clock's time).
+PACED_TOPICS = ('state', 'odom', 'hydrodynamic_forces', 'bar_command', '/clock')
 DEFAULT_TOPICS = list(KNOWN_TOPICS)
 
 
@@ -137,7 +143,9 @@ class Recorder:
         self._state_topic = node.resolve_topic_name('state')
         known = known_types(node)
         self._unreported = 0  # /auv/state messages written since the last progress report
-        self._last_state = b''  # the last of them (CDR)
+        self._paced = {node.resolve_topic_name(t) for t in PACED_TOPICS}
+        self._last_paced: dict[str, bytes] = {}  # paced topic -> its last message written
+        self._dirty = False  # a paced message written since the last progress report
         self._reported_at = 0.0  # time.monotonic() of the last report
         self.writer = writer
         self.count = 0
@@ -207,18 +215,21 @@ class Recorder:
             self._write(topic, taken[0], taken[1])
 
     def report_progress(self) -> None:
-        """Report the states written since the last report if that is ``PROGRESS_PERIOD`` ago
-        (called from the spin loop)."""
-        if self._unreported and time.monotonic() - self._reported_at >= PROGRESS_PERIOD:
+        """Report the paced messages written since the last report if that is
+        ``PROGRESS_PERIOD`` ago (called from the spin loop)."""
+        if self._dirty and time.monotonic() - self._reported_at >= PROGRESS_PERIOD:
             self._report()
 
     def _report(self) -> None:
-        """Publish the header stamp of the last state written (see the module docstring)."""
+        """Publish the oldest of the paced topics' last written stamps (see the module
+        docstring)."""
         self._unreported = 0
+        self._dirty = False
         self._reported_at = time.monotonic()
-        stamp = header_stamp(self._last_state)
-        if stamp is not None:
-            self._progress.publish(self._time(sec=stamp[0], nanosec=stamp[1]))
+        stamps = [st for st in map(header_stamp, self._last_paced.values()) if st is not None]
+        if stamps:
+            sec, nanosec = min(stamps)
+            self._progress.publish(self._time(sec=sec, nanosec=nanosec))
 
     def _write(self, topic: str, data: bytes, info: dict[str, int]) -> None:
         """Write one message; its log time is its DDS receive time (ns, system clock), held
@@ -235,8 +246,10 @@ class Recorder:
         self._last_ns[topic] = received
         self.writer.write(topic, data, received, info.get('source_timestamp') or received)
         self.count += 1
+        if topic in self._paced:
+            self._last_paced[topic] = data
+            self._dirty = True
         if topic == self._state_topic:
-            self._last_state = data
             self._unreported += 1
             if self._unreported >= PROGRESS_EVERY:
                 self._report()

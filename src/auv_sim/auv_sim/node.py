@@ -60,14 +60,15 @@ allow:
    matched before answering the first state).
 
 Recorder pacing (as fast as possible, ``real_time_factor`` 0, simulated time): a recorder
-reports the stamp of the last ``state`` it wrote on ``recorder/progress`` (namespaced)
-(``builtin_interfaces/Time``, see :mod:`auv_bringup.record_node`). While such a publisher is
-matched, the simulator does not run more than half its output history (``STREAM_QOS`` depth
-/ 2 publish periods, 10 s at 50 Hz) ahead of that stamp, so a recorder starved of CPU slows
-the run instead of losing samples; at ``stop_time`` it also waits until the recorder has
-written the last state, since samples still on their way die with the simulator's process.
-It waits at most ``_RECORDER_TIMEOUT`` wall seconds, then says so and stops waiting for that
-run. Pacing changes wall time only, never the numbers.
+reports on ``recorder/progress`` (namespaced) the stamp up to which it has written the
+graph's stamped streams (``state``, ``odom``, forces, ``/clock`` and the pilot's
+``bar_command``; ``builtin_interfaces/Time``, see :mod:`auv_bringup.record_node`). While
+such a publisher is matched, the simulator does not run more than half its output history
+(``STREAM_QOS`` depth / 2 publish periods, 10 s at 50 Hz) ahead of that stamp, so a recorder
+starved of CPU slows the run instead of losing samples; at ``stop_time`` it also waits until
+the recorder has written the last instant of every stream, since samples still on their way
+die with their publishers' processes. It waits at most ``_RECORDER_TIMEOUT`` wall seconds,
+then says so and stops waiting for that run. Pacing changes wall time only, never the numbers.
 
 Same inputs, same numbers: given the initial state and the command sequence with the instants
 it acts at, :meth:`SimSetup.simulator` stepped offline gives the node's states bit for bit.
@@ -135,8 +136,8 @@ _MAX_LAG = 0.25  # wall s behind schedule after which pacing re-anchors instead 
 _SPIN_SLICE = 0.05  # wall s: longest single wait, so a stop request is seen promptly
 _FAST_SPIN_PERIOD = 0.002  # wall s between callback polls when running as fast as possible
 _RECORDER_TIMEOUT = 5.0  # wall s the simulator waits for a recorder's progress (pacing)
-#: Recorder progress (stamp of the last state written; see auv_bringup.record_node) and its QoS:
-#: reliable, keep the last 10.
+#: Recorder progress (the stamp up to which it has written; see auv_bringup.record_node) and
+#: its QoS: reliable, keep the last 10.
 PROGRESS_TOPIC = 'recorder/progress'  # relative: /auv/recorder/progress by default
 PROGRESS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                           reliability=ReliabilityPolicy.RELIABLE,
