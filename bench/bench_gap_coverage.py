@@ -144,12 +144,8 @@ def summary(effects: dict[str, Any]) -> dict[str, Any]:
     rows = [(f'{e}.{k}', r['seeds'], v) for e, r in effects.items()
             for k, v in r['parameters'].items()]
     ident = [(name, v['coverage_when_identified']) for name, _, v in rows
-             if v.get('identified_share', 1.0) >= 0.5
-             and v.get('coverage_when_identified', v['coverage_free_run']) is not None]
-    ident = [(n, c if c is not None else math.nan) for n, c in ident]
-    low = [name for name, _, v in rows
-           if v.get('coverage_when_identified_wilson95', v['coverage_free_run_wilson95'])[1]
-           < 0.95]
+             if v['identified_share'] >= 0.5]
+    low = [name for name, _, v in rows if v['coverage_when_identified_wilson95'][1] < 0.95]
     cov = sorted(c for _, c in ident)
     return {'effects': len(effects), 'parameters': len(rows),
             'parameters_identified': len(ident),

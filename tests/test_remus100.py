@@ -364,7 +364,7 @@ def test_the_dive_with_the_thrust_held(remus: VehicleParams) -> None:
 # ----- the gap diagnosis on a vehicle unstable without feedback -----------------------------
 
 def test_free_run_window_spans_four_e_folding_times_of_the_unstable_pair(
-        remus: VehicleParams, tmp_path: pathlib.Path) -> None:
+        remus: VehicleParams) -> None:
     """Oracle: the eigenvalues of the full 6-DOF model's complex-step Jacobian (actuators
     held) restricted to w, q, theta, against the window chosen from the
     vertical plane's own linearisation; the A18M (stable) keeps 60 s."""

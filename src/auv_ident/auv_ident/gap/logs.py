@@ -350,6 +350,12 @@ class Weighting:
         return np.array([n in self.equations for n in names])
 
 
+#: A rate a slow log may lack -> (its name, the logged signal it is differenced from, the
+#: sensor that measures it).
+RATE_SOURCES = {'w': ('heave velocity', 'depth', 'the heave velocity (DVL)'),
+                'q': ('pitch rate', 'pitch', 'the pitch rate (gyro)')}
+
+
 def measurement_weighting(logs: Sequence[GapLog]) -> Weighting:
     """Free-run channels and equations to leave out for the derived and assumed signals of
     ``logs`` (pooled: a signal derived in one log is treated as derived in all).
@@ -395,14 +401,12 @@ def measurement_weighting(logs: Sequence[GapLog]) -> Weighting:
                       'along the track still shows in u)')
     if kind.get('w') == 'derived' or kind.get('q') == 'derived':
         period = max((lg.period for lg in logs), default=math.nan)
-        both = kind.get('w') == 'derived' and kind.get('q') == 'derived'
-        rates = ('heave velocity and pitch rate' if both else
-                 'heave velocity' if kind.get('w') == 'derived' else 'pitch rate')
-        angles = ('depth and pitch' if both else
-                  'depth' if kind.get('w') == 'derived' else 'pitch')
-        fix = ('the pitch rate (gyro) and the heave velocity (DVL)' if both else
-               'the heave velocity (DVL)' if kind.get('w') == 'derived' else
-               'the pitch rate (gyro)')
+        # what was differenced from what, and the sensor that would measure it
+        which = [s for s in ('w', 'q') if kind.get(s) == 'derived']
+        both = len(which) == 2
+        rates = ' and '.join(RATE_SOURCES[s][0] for s in which)
+        angles = ' and '.join(RATE_SOURCES[s][1] for s in which)
+        fix = ' and '.join(RATE_SOURCES[s][2] for s in reversed(which))
         limits.append(f'{rates} {"come" if both else "comes"} from {angles} differenced '
                       f'at the {period:.3g} s sample period: '
                       + ('the vertical plane is seen only through depth and pitch, and an '

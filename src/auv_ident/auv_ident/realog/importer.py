@@ -91,14 +91,19 @@ def _hold(src_t: np.ndarray, src_v: np.ndarray, at: np.ndarray,
     """Zero-order hold: the latest sample at or before each of ``at`` (NaN where there is none
     or, with ``max_age`` [s], where it is older than that); stamps within
     :data:`SAME_INSTANT` count as the same instant."""
-    i = np.searchsorted(src_t, at + SAME_INSTANT, side='right') - 1
+    i = _latest(src_t, at)
     ok = i >= 0
     out = np.full(at.shape, np.nan)
     out[ok] = src_v[i[ok]]
     if max_age is not None:
-        age = np.where(ok, at - src_t[np.maximum(i, 0)], np.inf)
-        out[age > max_age + SAME_INSTANT] = np.nan
+        out[_age(src_t, at) > max_age + SAME_INSTANT] = np.nan
     return out
+
+
+def _latest(src_t: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """Index of the latest of ``src_t`` at or before each of ``at`` (within
+    :data:`SAME_INSTANT`; -1 where there is none)."""
+    return np.searchsorted(src_t, at + SAME_INSTANT, side='right') - 1
 
 
 def _scalar_series(sc: Scalar, tables: Mapping[str | None, Table]) -> Series:
@@ -139,7 +144,7 @@ def _orientation_ned(q: np.ndarray, world: str, body: str) -> np.ndarray:
 
 def _age(src_t: np.ndarray, at: np.ndarray) -> np.ndarray:
     """Age [s] of the sample :func:`_hold` takes at each of ``at`` (inf where none)."""
-    i = np.searchsorted(src_t, at + SAME_INSTANT, side='right') - 1
+    i = _latest(src_t, at)
     return np.where(i >= 0, np.maximum(at - src_t[np.maximum(i, 0)], 0.0), np.inf)
 
 
