@@ -21,6 +21,7 @@ import pytest
 from auv_bag import read_arrays, read_messages
 
 N = 500
+NS_PER_S = 1_000_000_000
 RATE_HZ = 200.0
 STATE = '/auv/state'
 #: deadlines (wall s) for a listener to be ready and to hear its stream, with room for a busy
@@ -321,3 +322,68 @@ def test_depth_command_is_delivered(ros_env: dict[str, str]) -> None:
             listener.kill()
             listener.communicate()
     assert json.loads(out.strip().splitlines()[-1]) == [12.5]
+
+
+def test_recorder_progress_waits_for_every_stream_with_a_publisher(
+        ros_env: dict[str, str], tmp_path: pathlib.Path) -> None:
+    """``recorder/progress`` is the oldest of the paced streams' last written stamps, and it
+    is not reported while a paced stream with a matched publisher has delivered nothing (its
+    first sample may be on its way again): 60 states (more than the 50 after which the
+    recorder reports) with a silent ``bar_command`` publisher give no report; one command
+    stamped 10.2 s then gives 10.2 s, the older of the two last stamps."""
+    import rclpy
+    from builtin_interfaces.msg import Time
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.signals import SignalHandlerOptions
+
+    from auv_msgs.msg import ActuatorSetpoint, VehicleState
+    from auv_sim.node import PROGRESS_QOS, stamp_from_ns, stamp_to_ns
+
+    context = Context()
+    rclpy.init(context=context, domain_id=int(ros_env['ROS_DOMAIN_ID']),
+               signal_handler_options=SignalHandlerOptions.NO)
+    bag = tmp_path / 'bag'
+    proc = subprocess.Popen(_auv('record', '--out', str(bag), '--topics', 'state', 'bar_command',
+                                 '--await-publishers', 'bar_command'),
+                            env=ros_env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            text=True)
+    reports: list[int] = []
+    try:
+        node = rclpy.create_node('progress_probe', context=context)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+        bar = node.create_publisher(ActuatorSetpoint, '/auv/bar_command', qos)
+        state = node.create_publisher(VehicleState, '/auv/state', qos)
+        progress = node.create_subscription(Time, '/auv/recorder/progress',
+                                            lambda m: reports.append(stamp_to_ns(m)),
+                                            PROGRESS_QOS)
+
+        def spin_until(done: object, seconds: float) -> None:
+            end = time.monotonic() + seconds
+            while not done() and time.monotonic() < end:  # type: ignore[operator]
+                assert proc.poll() is None, proc.stderr.read() if proc.stderr else ''
+                executor.spin_once(timeout_sec=0.02)
+
+        spin_until(lambda: (state.get_subscription_count() > 0 and bar.get_subscription_count()
+                            > 0 and progress.get_publisher_count() > 0), READY_S)
+        assert state.get_subscription_count() > 0 and progress.get_publisher_count() > 0
+        for i in range(60):
+            msg = VehicleState()
+            msg.header.stamp = stamp_from_ns(10 * NS_PER_S + i * 10_000_000)
+            state.publish(msg)
+        spin_until(lambda: False, 1.5)
+        assert reports == []
+        cmd = ActuatorSetpoint()
+        cmd.header.stamp = stamp_from_ns(10 * NS_PER_S + 200_000_000)
+        bar.publish(cmd)
+        spin_until(lambda: bool(reports), LISTEN_S)
+        assert reports == [10 * NS_PER_S + 200_000_000]
+    finally:
+        context.try_shutdown()
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(30)
+    counts = {t: len(a) for t, a in read_arrays(bag, ['/auv/state', '/auv/bar_command']).items()}
+    assert counts == {'/auv/state': 60, '/auv/bar_command': 1}

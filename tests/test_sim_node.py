@@ -328,3 +328,64 @@ def test_as_fast_as_possible_the_simulator_keeps_pace_with_a_recorder(
     text = log.read_text()
     assert 'recorder pacing: no progress within 5.0 s at t = 35.00 s' in text
     assert 'stopped at t = 60.000 s' in text, text
+
+
+def test_lockstep_answer_given_while_the_simulator_waits_for_a_recorder_is_taken(
+        rclpy_context: tuple[Context, dict[str, str]], tmp_path: pathlib.Path) -> None:
+    """Lockstep and recorder pacing at once: a recorder (here a progress publisher that never
+    reports) holds the run at 10 s of simulated time, and the pilot's answer to the state of
+    t = 10 s arrives while the simulator waits for that recorder. The answer is taken: no
+    command is ignored, none is waited for in vain, and the run goes on to its stop time once
+    the simulator stops waiting for the recorder."""
+    from builtin_interfaces.msg import Time
+
+    context, env = rclpy_context
+    log = tmp_path / 'node.log'
+    node = Node('sim_lockstep_pacing_test', context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    node.create_publisher(Time, '/auv/recorder/progress', 10)
+    ctrl_ns = round(CONTROL_PERIOD * NS)
+    pending: list[int] = []
+    answered: list[int] = []
+
+    def on_state(msg: VehicleState) -> None:
+        ns = stamp_to_ns(msg.header.stamp)
+        if ns % ctrl_ns == 0:
+            pending.append(ns)
+
+    node.create_subscription(VehicleState, '/auv/state', on_state, QOS)
+    for kind, topic in ((Odometry, '/auv/odom'),
+                        (HydrodynamicForces, '/auv/hydrodynamic_forces')):
+        node.create_subscription(kind, topic, lambda m: None, QOS)
+    bar_pub = node.create_publisher(ActuatorSetpoint, '/auv/bar_command', QOS)
+    trim_bar = float(build_setup(SimSettings()).x0[12])
+    proc = start_node(env, ['--lockstep', '--real-time-factor', '0', '--control-period',
+                            str(CONTROL_PERIOD), '--lockstep-timeout', '10',
+                            '--lockstep-startup-timeout', '30', '--stop-time', '12',
+                            '--start-subscribers', '1'], log)
+    try:
+        deadline = time.monotonic() + 60.0
+        while proc.poll() is None:
+            assert time.monotonic() < deadline, log.read_text()
+            executor.spin_once(timeout_sec=0.01)
+            if pending and bar_pub.get_subscription_count() > 0:
+                for ns in pending:
+                    msg = ActuatorSetpoint()
+                    msg.header.stamp = stamp_from_ns(ns)
+                    msg.value = trim_bar
+                    bar_pub.publish(msg)
+                    answered.append(ns)
+                pending.clear()
+    finally:
+        if proc.poll() is None:
+            proc.terminate()
+            proc.wait(10)
+        executor.shutdown(timeout_sec=0.0)
+        node.destroy_node()
+    text = log.read_text()
+    assert proc.returncode == 0, text
+    assert 10 * NS in answered
+    assert 'recorder pacing: no progress within 5.0 s at t = 10.00 s' in text, text
+    assert 'ignored bar command' not in text and 'no bar command stamped' not in text, text
+    assert 'stopped at t = 12.000 s' in text, text

@@ -18,9 +18,12 @@ wall seconds after the last report when states were written since, the recorder 
 ``recorder/progress`` (``builtin_interfaces/Time``) the stamp up to which it has written the
 stamped streams of the graph (:data:`PACED_TOPICS`: the simulator's ``state``, ``odom``,
 ``hydrodynamic_forces`` and ``/clock``, the pilot's ``bar_command``): the oldest of their last
-written stamps, over those that have delivered a message. A simulator running as fast as
-possible paces itself on it (see :mod:`auv_sim.node`), and at its ``stop_time`` waits for it,
-so a recorder short of CPU slows the run instead of losing samples of any of them.
+written stamps. It reports nothing while a stream with a matched publisher has delivered
+nothing yet (its first message may be on its way again: DDS can lose the first sample to a
+reader that has just matched and repairs it at the writer's next heartbeat); streams without a
+publisher do not count. A simulator running as fast as possible paces itself on it (see
+:mod:`auv_sim.node`), and at its ``stop_time`` waits for it, so a recorder short of CPU slows
+the run instead of losing samples of any of them.
 """
 from __future__ import annotations
 
@@ -226,6 +229,10 @@ class Recorder:
         self._unreported = 0
         self._dirty = False
         self._reported_at = time.monotonic()
+        if any(topic not in self._last_paced and sub.get_publisher_count() > 0
+               for topic, (sub, _) in self.subscriptions.items() if topic in self._paced):
+            self._dirty = True  # a stream with a publisher has delivered nothing yet: wait
+            return
         stamps = [st for st in map(header_stamp, self._last_paced.values()) if st is not None]
         if stamps:
             sec, nanosec = min(stamps)

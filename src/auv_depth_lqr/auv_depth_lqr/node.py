@@ -102,6 +102,12 @@ from auv_sim.params import load_vehicle
 NS_PER_S = 1_000_000_000
 DEFAULT_NAMESPACE = '/auv'
 NODE_NAME = 'depth_pilot'
+#: Depth of the ``bar_command`` publisher's history (reliable, keep last): 100 s of commands
+#: at 10 Hz. A reader that lost a sample (DDS may drop the first one to a reader that has just
+#: matched) gets it again from this history at the writer's next heartbeat, seconds of wall
+#: time later; a lockstep graph runs many times faster than real time and a recorder paces it
+#: only on what it has written, so a shorter history lost the first commands of fast runs.
+BAR_HISTORY = 1000
 
 #: The depth-command subscriptions: together they match every publisher (see module docstring).
 COMMAND_QOS: dict[str, QoSProfile] = {
@@ -229,8 +235,8 @@ class DepthPilotNode(Node):
         self.command_mode = values['depth_command_mode']
         self.odom_frame = values['odom_frame']
         self.add_on_set_parameters_callback(self._on_set)
-        # reliable, last 100 (10 s at 10 Hz): a lost sample is resent from this history
-        self.pub = self.create_publisher(ActuatorSetpoint, 'bar_command', 100)
+        # reliable, last BAR_HISTORY: a sample a reader lost is resent from this history
+        self.pub = self.create_publisher(ActuatorSetpoint, 'bar_command', BAR_HISTORY)
         self.pub_diagnostics = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self._seen: collections.OrderedDict[tuple[Any, ...], None] = collections.OrderedDict()
         self._last_refusal = ''

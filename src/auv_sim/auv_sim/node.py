@@ -68,7 +68,9 @@ such a publisher is matched, the simulator does not run more than half its outpu
 starved of CPU slows the run instead of losing samples; at ``stop_time`` it also waits until
 the recorder has written the last instant of every stream, since samples still on their way
 die with their publishers' processes. It waits at most ``_RECORDER_TIMEOUT`` wall seconds,
-then says so and stops waiting for that run. Pacing changes wall time only, never the numbers.
+then says so and stops waiting for that run. Pacing changes wall time only, never the numbers:
+the pilot's answer to a control instant is taken from the moment that state is published, also
+while the simulator waits for the recorder.
 
 Same inputs, same numbers: given the initial state and the command sequence with the instants
 it acts at, :meth:`SimSetup.simulator` stepped offline gives the node's states bit for bit.
@@ -425,9 +427,14 @@ class SimulatorNode(Node):
             self.get_logger().warning(f'lockstep: no pilot connected within {timeout} s; '
                                       f'starting anyway')
 
-    def _await_command(self, executor: SingleThreadedExecutor) -> None:
+    def _expect_command(self) -> None:
+        """Accept the pilot's answer to the control instant about to be published: from here
+        on, also while the recorder pacing serves callbacks before :meth:`_await_command`."""
         self._awaiting_ns = self.setup.stamp_ns(self.sim.k)
         self._answered = False
+
+    def _await_command(self, executor: SingleThreadedExecutor) -> None:
+        """Wait (``lockstep_timeout``) for the answer :meth:`_expect_command` set up."""
         timeout = self.settings.lockstep_timeout
         try:
             ok = self._spin_until(executor, time.monotonic() + timeout, lambda: self._answered)
@@ -463,6 +470,8 @@ class SimulatorNode(Node):
             if self._stop.is_set():
                 break
             control_instant = s.lockstep and k == next_ctrl
+            if control_instant:
+                self._expect_command()
             if k == next_pub or control_instant:
                 self._publish()
                 if s.real_time_factor <= 0.0 and s.use_sim_clock:
