@@ -24,7 +24,18 @@ at its RK4 step, lockstep) on:
   noise sigma U(0, 0.05) m), each flying a depth change drawn from -30, -10, +10, +30 m
   (equal odds) from a start depth U(40, 60) m (climbs) or U(10, 30) m (dives) at 2 m/s;
   with ``--own-bound N`` the first N flights are also judged against the time-optimal bound
-  of their plant's own model (:func:`plant_bound`).
+  of their plant's own model (:func:`plant_bound`);
+* **Monte Carlo on the identification's intervals** (``--family ident``): the same draws,
+  but each coefficient ``auv ident`` identifies (CZuw, CMuw, CZuq, CMuq; identified as in the
+  identified-model case, in the same run) varies within the larger of its 95 % interval and
+  the error the identification made on that true vehicle, relative to its value (the
+  intervals alone are far narrower than the errors: they assume the rest of the model is
+  right, and CMbar is not identified); the coefficients it does not identify keep U(0.7, 1.3).
+  Written under ``monte_carlo_ident`` with the spreads it used;
+* **attribution** (``--attribute N``): the first N failed plants of the Monte Carlo flown
+  again without one group of errors at a time (each coefficient, all coefficients, those
+  ``auv ident`` does not identify, plane delay and lag, buoyancy, current, biases): the share
+  of them that then passes says which errors make the failures.
 
 Criteria (:class:`Criteria`): settled within 2x the time-optimal bound of the design model
 (:func:`auv_depth_lqr.bound.settling_bound`, same change and speed), ``|theta| < 35 deg``
@@ -54,6 +65,7 @@ from timing import save_figures
 
 from auv_depth_lqr.bound import settling_bound
 from auv_depth_lqr.robustness import (
+    MODEL_PARAMETERS,
     Distribution,
     Manoeuvre,
     Plant,
@@ -73,6 +85,8 @@ MC_CHANGES = (-30.0, -10.0, 10.0, 30.0)
 #: The true vehicle of the identified-model case: factors on the A18M file.
 IDENT_TRUTH = {'CZuw': 1.2, 'CMuw': 1.25, 'CZuq': 1.2, 'CMuq': 0.75, 'CMbar': 0.85}
 IDENT_MISSIONS = ('surge', 'pitch')
+#: Results key of each Monte-Carlo family.
+MC_KEYS = {'uniform': 'monte_carlo', 'ident': 'monte_carlo_ident'}
 IDENT_SEEDS = (300, 301)
 
 
@@ -224,12 +238,59 @@ def _drivers(features: list[dict[str, float]], failed: list[bool]) -> dict[str, 
     return out
 
 
+def ident_spreads(coefficients: dict[str, Any], truth: VehicleParams) -> dict[str, float]:
+    """Relative spreads of the coefficients an identification gave (``{name: {'value',
+    'ci95'}}``) of the vehicle ``truth``: for each of :data:`MODEL_PARAMETERS` it identified,
+    the larger of the 95 % interval's half-width and the error against the truth, relative
+    to the identified value (see the module docstring)."""
+    spreads = {}
+    for name, c in coefficients.items():
+        if name not in MODEL_PARAMETERS:
+            continue
+        value = float(c['value'])
+        half = 0.5 * abs(float(c['ci95'][1]) - float(c['ci95'][0]))
+        error = abs(value - float(truth.values[name]))
+        spreads[name] = round(max(half, error) / abs(value), 4)
+    return spreads
+
+
+#: The errors the attribution removes, one group at a time, from failed Monte-Carlo plants.
+ATTRIBUTION: dict[str, tuple[str, ...]] = {
+    **{name: (name,) for name in MODEL_PARAMETERS},
+    'all coefficients': MODEL_PARAMETERS,
+    'coefficients auv ident does not identify': ('CZbar', 'CMbar', 'Iy', 'Mqdot', 'Zwdot'),
+    'plane delay and lag': ('actuator_delay', 'actuator_lag'),
+    'buoyancy offset': ('buoyancy_offset',),
+    'current': ('current',),
+    'plane and pitch-sensor biases': ('bar_bias', 'pitch_sensor_bias'),
+}
+
+
+def without(plant: Plant, group: str) -> Plant:
+    """``plant`` without the errors of the attribution group ``group``
+    (:data:`ATTRIBUTION`: coefficient factors set to 1, effects removed)."""
+    names = ATTRIBUTION[group]
+    return dataclasses.replace(
+        plant, factors={k: v for k, v in plant.factors.items() if k not in names},
+        effects={k: v for k, v in plant.effects.items() if k not in names})
+
+
 def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
-        table: bool = True, mc: bool = True, own_bound: int = 0) -> dict[str, Any]:
+        table: bool = True, mc: bool = True, own_bound: int = 0,
+        family: str = 'uniform', attribute: int = 0) -> dict[str, Any]:
     """Per-effect table, identified-model case (``table``) and Monte Carlo (``mc``; its
-    first ``own_bound`` flights also judged against their plants' own bounds); returns the
-    figures."""
+    first ``own_bound`` flights also judged against their plants' own bounds; ``family``
+    ``uniform`` or ``ident``, see the module docstring; its first ``attribute`` failed
+    plants flown again without each group of :data:`ATTRIBUTION`); returns the figures."""
     design = load_vehicle(VEHICLE)
+    dist = Distribution()
+    spreads_used: dict[str, float] = {}
+    if mc and family == 'ident':
+        truth = design.replace(**{k: design.values[k] * f for k, f in IDENT_TRUTH.items()})
+        with tempfile.TemporaryDirectory() as tmp:
+            _, coefficients = identify_truth(truth, VEHICLE, pathlib.Path(tmp))
+        spreads_used = ident_spreads(coefficients, truth)
+        dist = Distribution(factor_spreads=spreads_used)
     changes = sorted({(m.z1 - m.z0, m.u0) for m in TABLE_MANOEUVRES.values()}
                      | {(dz, U0) for dz in MC_CHANGES})
     wall0 = time.perf_counter()
@@ -279,7 +340,7 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
         rng = np.random.default_rng(seed)
         jobs = []
         for i in range(plants if mc else 0):
-            plant = draw_plant(design, rng, f'mc{i:04d}')
+            plant = draw_plant(design, rng, f'mc{i:04d}', dist)
             manoeuvre = _draw_manoeuvre(rng)
             jobs.append((design, plant, manoeuvre, bound_of(manoeuvre)))
         rows = pool.map(_fly, jobs, chunksize=4)
@@ -288,6 +349,12 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
         own = pool.map(plant_bound, [(design, plant, m) for _, plant, m, _b in
                                      jobs[:own_bound]])
         own_wall = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        failed_jobs = [job for job, row in zip(jobs, rows) if not row['pass']][:attribute]
+        refly = [(name, (d, without(plant, name), m, b))
+                 for name in ATTRIBUTION for (d, plant, m, b) in failed_jobs]
+        reflown = pool.map(_fly, [job for _, job in refly], chunksize=2)
+        attribution_wall = time.perf_counter() - t0
     monte_carlo: dict[str, Any] | None = None
     if mc:
         for (_, plant, _m, _b), row in zip(jobs, rows):
@@ -297,7 +364,8 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
                     for (_, plant, _m, _b), row in zip(jobs, rows) if not row['pass']]
         monte_carlo = {
             'seed': seed,
-            'distribution': dataclasses.asdict(Distribution()),
+            'family': family,
+            'distribution': dataclasses.asdict(dist),
             'changes_m': list(MC_CHANGES),
             'all': _shares(rows),
             'pilot_told_water_speed': _shares([r for r in rows if r['water_speed_told']]),
@@ -315,6 +383,15 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
         if own_bound:
             monte_carlo['own_bound'] = dict(own_bound_figures(rows[:own_bound], own),
                                             wall_s=round(own_wall, 1))
+        if failed_jobs:
+            passed = {name: 0 for name in ATTRIBUTION}
+            for (name, _), row in zip(refly, reflown):
+                passed[name] += bool(row['pass'])
+            monte_carlo['attribution'] = {
+                'failed_plants_reflown': len(failed_jobs),
+                'share_passing_without': {k: round(v / len(failed_jobs), 3)
+                                          for k, v in passed.items()},
+                'wall_s': round(attribution_wall, 1)}
     return {
         'vehicle': VEHICLE.name, 'u0_m_s': U0, 'theta_max_deg': math.degrees(THETA_MAX),
         'criteria': {'settle_within_bound_x': 2.0, 'tumble_deg': 35.0,
@@ -324,7 +401,7 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
                                   for (dz, u0), b in bounds.items()},
         'bounds_wall_s': round(bounds_wall, 1),
         **results,
-        **({'monte_carlo': monte_carlo} if monte_carlo is not None else {}),
+        **({MC_KEYS[family]: monte_carlo} if monte_carlo is not None else {}),
         'workers': workers,
         'total_wall_s': round(time.perf_counter() - wall0, 1),
         'python': platform.python_version(), 'machine': platform.machine(),
@@ -342,6 +419,14 @@ def main() -> None:
     parser.add_argument('--own-bound', type=int, default=0, metavar='N',
                         help='judge the first N Monte-Carlo flights also against their '
                              'plants\' own time-optimal bounds (one optimisation each)')
+    parser.add_argument('--family', choices=sorted(MC_KEYS), default='uniform',
+                        help='Monte-Carlo coefficient family: uniform +-30 %% on every '
+                             'coefficient, or ident: the identification\'s intervals and '
+                             'errors where it identifies (see the module docstring)')
+    parser.add_argument('--attribute', type=int, default=0, metavar='N',
+                        help='fly the first N failed Monte-Carlo plants again without each '
+                             'group of errors (coefficients one by one, plane delay and lag, '
+                             'buoyancy, current, biases): the share that then passes')
     parser.add_argument('--no-mc', action='store_true',
                         help='per-effect table and identified model only; the Monte-Carlo '
                              'figures already in the results file are kept')
@@ -349,18 +434,21 @@ def main() -> None:
     if args.no_table and args.no_mc:
         parser.error('--no-table and --no-mc leave nothing to run')
     figures = run(args.plants, args.workers, args.seed, table=not args.no_table,
-                  mc=not args.no_mc, own_bound=args.own_bound)
+                  mc=not args.no_mc, own_bound=args.own_bound, family=args.family,
+                  attribute=args.attribute)
     previous = pathlib.Path(__file__).resolve().parent / 'results' / 'robustness.json'
     kept = json.loads(previous.read_text()) if previous.exists() else {}
     keys = (('per_effect', 'per_effect_all_pass', 'per_effect_wall_s', 'identified_model')
-            if args.no_table else ('monte_carlo',) if args.no_mc else ())
+            if args.no_table else ())
+    keys += tuple(k for k in MC_KEYS.values() if args.no_mc or k != MC_KEYS[args.family])
     for key in keys:
         if key in kept:
             figures[key] = kept[key]
     save_figures('robustness', figures)
     summary = {k: v for k, v in figures.items() if k not in ('per_effect',)}
-    summary['monte_carlo'] = {k: v for k, v in figures['monte_carlo'].items()
-                              if k != 'failures'}
+    for key in MC_KEYS.values():
+        if key in figures:
+            summary[key] = {k: v for k, v in figures[key].items() if k != 'failures'}
     print(json.dumps(summary, indent=2))
 
 

@@ -184,6 +184,25 @@ def test_plant_draws_stay_within_the_stated_distribution(design: VehicleParams) 
     assert all(p.vehicle(design).values['CMbar'] < 0 for p in plants[:50])
 
 
+def test_named_spreads_replace_the_common_one_for_their_parameters(
+        design: VehicleParams) -> None:
+    """``factor_spreads`` (an identification's intervals) narrows the parameters it names
+    and leaves the others at ``factor_spread``; a spread outside [0, 1) or an unknown name is
+    refused with the name."""
+    dist = Distribution(factor_spreads={'CMuw': 0.15, 'CZuw': 0.0})
+    rng = np.random.default_rng(12)
+    plants = [draw_plant(design, rng, str(i), dist) for i in range(2000)]
+    cmuw = np.array([p.factors['CMuw'] for p in plants])
+    assert cmuw.min() >= 0.85 and cmuw.max() <= 1.15 and cmuw.min() < 0.86 and cmuw.max() > 1.14
+    assert all(p.factors['CZuw'] == 1.0 for p in plants)
+    cmbar = np.array([p.factors['CMbar'] for p in plants])
+    assert cmbar.min() < 0.71 and cmbar.max() > 1.29
+    with pytest.raises(DesignError, match='CMqq_typo'):
+        Distribution(factor_spreads={'CMqq_typo': 0.1})
+    with pytest.raises(DesignError, match=r'spread of CMbar = 1\.2'):
+        Distribution(factor_spreads={'CMbar': 1.2})
+
+
 def test_a_bad_plant_parameter_is_named(design: VehicleParams) -> None:
     with pytest.raises(DesignError, match='plant bad'):
         Plant('bad', factors={'CMqq_typo': 1.1}).vehicle(design)

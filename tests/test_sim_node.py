@@ -82,6 +82,14 @@ def rclpy_context(ros_env: dict[str, str]) -> Iterator[tuple[Context, dict[str, 
         context.try_shutdown()
 
 
+def probe(context: Context, name: str) -> tuple[Node, SingleThreadedExecutor]:
+    """The test's own node ``name`` in ``context`` and an executor spinning it."""
+    node = Node(name, context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    return node, executor
+
+
 def start_node(env: dict[str, str], args: list[str], log: pathlib.Path) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, '-m', 'auv_sim.node', *args], cwd=ROOT, env=env,
                             stdout=subprocess.DEVNULL, stderr=log.open('w'))
@@ -97,9 +105,7 @@ def test_lockstep_bar_commands_move_depth_and_pitch_as_offline(
     proc = start_node(env, ['--lockstep', '--real-time-factor', '0', '--control-period',
                             str(CONTROL_PERIOD), '--lockstep-timeout', '10',
                             '--lockstep-startup-timeout', '30'], log)
-    node = Node('sim_node_test', context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
+    node, executor = probe(context, 'sim_node_test')
     states: dict[int, VehicleState] = {}
     odoms: dict[int, Odometry] = {}
     forces: dict[int, HydrodynamicForces] = {}
@@ -225,9 +231,7 @@ def test_real_time_pacing_and_parameter_changes(
     context, env = rclpy_context
     log = tmp_path / 'node.log'
     proc = start_node(env, ['--real-time-factor', '1'], log)
-    node = Node('sim_param_test', context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
+    node, executor = probe(context, 'sim_param_test')
     clocks: list[tuple[float, int]] = []
     node.create_subscription(Clock, '/clock',
                              lambda m: clocks.append((time.monotonic(), stamp_to_ns(m.clock))),
@@ -283,9 +287,7 @@ def test_as_fast_as_possible_the_simulator_keeps_pace_with_a_recorder(
 
     context, env = rclpy_context
     log = tmp_path / 'node.log'
-    node = Node('sim_pacing_test', context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
+    node, executor = probe(context, 'sim_pacing_test')
     clocks: list[int] = []
     progress = node.create_publisher(Time, '/auv/recorder/progress', 10)
     node.create_subscription(Clock, '/clock', lambda m: clocks.append(stamp_to_ns(m.clock)),
@@ -341,9 +343,7 @@ def test_lockstep_answer_given_while_the_simulator_waits_for_a_recorder_is_taken
 
     context, env = rclpy_context
     log = tmp_path / 'node.log'
-    node = Node('sim_lockstep_pacing_test', context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
+    node, executor = probe(context, 'sim_lockstep_pacing_test')
     node.create_publisher(Time, '/auv/recorder/progress', 10)
     ctrl_ns = round(CONTROL_PERIOD * NS)
     pending: list[int] = []

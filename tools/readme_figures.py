@@ -152,6 +152,18 @@ ROWS: list[tuple[str, str, str]] = [
      '({robustness:monte_carlo.own_bound.own_over_design_bound.min:.2f}-'
      '{robustness:monte_carlo.own_bound.own_over_design_bound.max:.2f})',
      '>= 99 %'),
+    ('the same on the identification\'s intervals (the four coefficients `auv ident` fits '
+     'vary within the larger of their 95 % interval and the error it made on a known vehicle; '
+     'the five it does not fit x U(0.7, 1.3)): spread of CMuw / CMuq; plants; settled within '
+     '2x the bound; tumbled; pitch limit exceeded by > 2 deg; worst steady depth error',
+     '+-{robustness:monte_carlo_ident.distribution.factor_spreads.CMuw:.1%} / '
+     '+-{robustness:monte_carlo_ident.distribution.factor_spreads.CMuq:.1%}; '
+     '{robustness:monte_carlo_ident.all.plants}; '
+     '{robustness:monte_carlo_ident.all.share_settled_within_2x_bound:.1%}; '
+     '{robustness:monte_carlo_ident.all.share_tumbled:.1%}; '
+     '{robustness:monte_carlo_ident.all.share_pitch_limit_exceeded_by_more_than_2deg:.2%}; '
+     '{robustness:monte_carlo_ident.all.worst_steady_error_m:.1f} m',
+     'none; 1000; >= 99 %; 0; 0; < 0.1 m'),
     ('Foxglove live view, 50 Hz state: delivered share; latency p95; bridge CPU',
      '{foxglove:summary./auv/state.delivered.median:.3f}; '
      '{foxglove:summary./auv/state.latency_ms_p95.median:.1f} ms; '

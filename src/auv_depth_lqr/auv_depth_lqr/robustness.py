@@ -255,15 +255,17 @@ class Distribution:
     """How :func:`draw_plant` draws a plant (uniform draws unless said).
 
     ``factor_spread``: each of :data:`MODEL_PARAMETERS` scaled by a factor uniform in
-    ``[1 - s, 1 + s]``, independently; ``current`` [m/s] from a direction uniform in 0-360 deg
-    (horizontal), the pilot told its water speed with probability ``told``; buoyancy offset
-    uniform within ``+-buoyancy`` of the weight; plane delay uniform in ``[0, delay]`` [s];
-    plane lag time constant uniform between the file's and ``lag`` [s]; plane bias and
-    pitch-sensor bias uniform within ``+-bar_bias``, ``+-pitch_bias`` [rad]; depth-sensor
-    noise sigma uniform in ``[0, depth_noise]`` [m].
+    ``[1 - s, 1 + s]``, independently; ``factor_spreads``: the spread of named parameters
+    instead (e.g. the relative half-widths of an identification's intervals); ``current``
+    [m/s] from a direction uniform in 0-360 deg (horizontal), the pilot told its water speed
+    with probability ``told``; buoyancy offset uniform within ``+-buoyancy`` of the weight;
+    plane delay uniform in ``[0, delay]`` [s]; plane lag time constant uniform between the
+    file's and ``lag`` [s]; plane bias and pitch-sensor bias uniform within ``+-bar_bias``,
+    ``+-pitch_bias`` [rad]; depth-sensor noise sigma uniform in ``[0, depth_noise]`` [m].
     """
 
     factor_spread: float = 0.3
+    factor_spreads: Mapping[str, float] = dataclasses.field(default_factory=dict)
     current: float = 0.3
     told: float = 0.5
     buoyancy: float = 0.01
@@ -273,14 +275,25 @@ class Distribution:
     pitch_bias: float = 0.5 * DEG
     depth_noise: float = 0.05
 
+    def __post_init__(self) -> None:
+        unknown = sorted(set(self.factor_spreads) - set(MODEL_PARAMETERS))
+        if unknown:
+            raise DesignError(f'Distribution.factor_spreads: unknown parameters {unknown}; '
+                              f'known: {list(MODEL_PARAMETERS)}')
+        for name, spread in {'factor_spread': self.factor_spread, **self.factor_spreads}.items():
+            if isinstance(spread, bool) or not isinstance(spread, (int, float)) \
+                    or not 0.0 <= spread < 1.0:
+                raise DesignError(f'Distribution spread of {name} = {spread!r} must be in '
+                                  f'[0, 1)')
+
 
 def draw_plant(design: VehicleParams, rng: np.random.Generator, name: str,
                dist: Distribution | None = None) -> Plant:
     """One random plant around ``design`` with every error and effect at once (see
     :class:`Distribution`)."""
     d = dist or Distribution()
-    factors = {k: float(rng.uniform(1.0 - d.factor_spread, 1.0 + d.factor_spread))
-               for k in MODEL_PARAMETERS}
+    spreads = {k: float(d.factor_spreads.get(k, d.factor_spread)) for k in MODEL_PARAMETERS}
+    factors = {k: float(rng.uniform(1.0 - s, 1.0 + s)) for k, s in spreads.items()}
     heading = float(rng.uniform(0.0, 2.0 * math.pi))
     effects = {
         'current': {'north': d.current * math.cos(heading),
