@@ -13,9 +13,9 @@ at its RK4 step, lockstep) on:
 * **identified model**: the true vehicle is the A18M with CZuw x1.2, CMuw x1.25, CZuq x1.2,
   CMuq x0.75 and CMbar x0.85; its surge and pitch missions are simulated, written as bags
   with navigation-grade sensor noise (:meth:`SensorNoise.realistic`) and no force topic, and
-  identified with ``auv ident --vehicle config/a18m.yaml`` (forces from the motion); the pilot
-  designed on the identified file flies the true vehicle (CMbar is not identified by
-  ``auv ident``: the design keeps the base file's, 18 % off);
+  identified with ``auv ident --vehicle config/a18m.yaml --fit-planes`` (forces from the
+  motion; the plane's CZbar and CMbar fitted too); the pilot designed on the identified file
+  flies the true vehicle;
 * **Monte Carlo**: ``--plants`` plants (default 1000), every effect and error at once,
   drawn by :func:`draw_plant` with :class:`Distribution` defaults (each of the nine
   parameters x U(0.7, 1.3); current 0.3 m/s from U(0, 360) deg, pilot told its water speed
@@ -26,15 +26,14 @@ at its RK4 step, lockstep) on:
   with ``--own-bound N`` the first N flights are also judged against the time-optimal bound
   of their plant's own model (:func:`plant_bound`);
 * **Monte Carlo on the identification's intervals** (``--family ident``): the same draws,
-  but each coefficient ``auv ident`` identifies (CZuw, CMuw, CZuq, CMuq; identified as in the
-  identified-model case, in the same run) varies within the larger of its 95 % interval and
-  the error the identification made on that true vehicle, relative to its value (the
-  intervals alone are far narrower than the errors: they assume the rest of the model is
-  right, and CMbar is not identified); the coefficients it does not identify keep U(0.7, 1.3).
+  but each coefficient ``auv ident`` identifies (CZuw, CMuw, CZuq, CMuq, CZbar, CMbar;
+  identified as in the identified-model case, in the same run) varies within the larger of
+  its 95 % interval and the error the identification made on that true vehicle, relative to
+  its value; the coefficients it does not identify (Iy, Mqdot, Zwdot) keep U(0.7, 1.3).
   Written under ``monte_carlo_ident`` with the spreads it used;
 * **attribution** (``--attribute N``): the first N failed plants of the Monte Carlo flown
-  again without one group of errors at a time (each coefficient, all coefficients, those
-  ``auv ident`` does not identify, plane delay and lag, buoyancy, current, biases): the share
+  again without one group of errors at a time (each coefficient, all coefficients, the plane
+  and inertia coefficients, plane delay and lag, buoyancy, current, biases): the share
   of them that then passes says which errors make the failures.
 
 Criteria (:class:`Criteria`): settled within 2x the time-optimal bound of the design model
@@ -139,10 +138,12 @@ def own_bound_figures(rows: list[dict[str, Any]], bounds: list[float | None]
 
 
 def identify_truth(truth: VehicleParams, base_path: pathlib.Path, workdir: pathlib.Path,
-                   seeds: Sequence[int] = IDENT_SEEDS) -> tuple[VehicleParams, dict[str, Any]]:
-    """Identify ``truth`` with ``auv ident`` from its simulated surge and pitch missions
-    logged with realistic sensor noise (no force topic); returns the identified vehicle and
-    the identification's coefficients (value, ci95)."""
+                   seeds: Sequence[int] = IDENT_SEEDS, fit_planes: bool = True
+                   ) -> tuple[VehicleParams, dict[str, Any]]:
+    """Identify ``truth`` with ``auv ident`` (``--fit-planes`` unless ``fit_planes`` is
+    False) from its simulated surge and pitch missions logged with realistic sensor noise (no
+    force topic); returns the identified vehicle and the identification's coefficients
+    (value, ci95)."""
     from auv_ident import cli
     from auv_ident.simlog import SensorNoise, write_record
     from auv_sim.missions import load_mission, run_mission
@@ -157,7 +158,8 @@ def identify_truth(truth: VehicleParams, base_path: pathlib.Path, workdir: pathl
     parser = argparse.ArgumentParser()
     cli.add_arguments(parser)
     args = parser.parse_args([*bags, '--vehicle', str(base_path), '--out', str(out),
-                              '--equations', 'surge', 'heave', 'pitch', '--no-nelder-mead'])
+                              '--equations', 'surge', 'heave', 'pitch', '--no-nelder-mead',
+                              *(['--fit-planes'] if fit_planes else [])])
     if cli.run(args) != 0:
         raise RuntimeError('auv ident failed')
     report = json.loads((out / 'report.json').read_text())
@@ -258,7 +260,7 @@ def ident_spreads(coefficients: dict[str, Any], truth: VehicleParams) -> dict[st
 ATTRIBUTION: dict[str, tuple[str, ...]] = {
     **{name: (name,) for name in MODEL_PARAMETERS},
     'all coefficients': MODEL_PARAMETERS,
-    'coefficients auv ident does not identify': ('CZbar', 'CMbar', 'Iy', 'Mqdot', 'Zwdot'),
+    'CZbar, CMbar, Iy, Mqdot, Zwdot': ('CZbar', 'CMbar', 'Iy', 'Mqdot', 'Zwdot'),
     'plane delay and lag': ('actuator_delay', 'actuator_lag'),
     'buoyancy offset': ('buoyancy_offset',),
     'current': ('current',),

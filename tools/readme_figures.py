@@ -152,10 +152,12 @@ ROWS: list[tuple[str, str, str]] = [
      '({robustness:monte_carlo.own_bound.own_over_design_bound.min:.2f}-'
      '{robustness:monte_carlo.own_bound.own_over_design_bound.max:.2f})',
      '>= 99 %'),
-    ('the same on the identification\'s intervals (the four coefficients `auv ident` fits '
-     'vary within the larger of their 95 % interval and the error it made on a known vehicle; '
-     'the five it does not fit x U(0.7, 1.3)): spread of CMuw / CMuq; plants; settled within '
-     '2x the bound; tumbled; pitch limit exceeded by > 2 deg; worst steady depth error',
+    ('the same on the identification\'s intervals (the six coefficients `auv ident '
+     '--fit-planes` fits vary within the larger of their 95 % interval and the error it made '
+     'on a known vehicle; Iy, Mqdot, Zwdot x U(0.7, 1.3)): spread of CMbar / CMuw / CMuq; '
+     'plants; settled within 2x the bound; tumbled; pitch limit exceeded by > 2 deg; worst '
+     'steady depth error',
+     '+-{robustness:monte_carlo_ident.distribution.factor_spreads.CMbar:.1%} / '
      '+-{robustness:monte_carlo_ident.distribution.factor_spreads.CMuw:.1%} / '
      '+-{robustness:monte_carlo_ident.distribution.factor_spreads.CMuq:.1%}; '
      '{robustness:monte_carlo_ident.all.plants}; '

@@ -64,6 +64,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--out', required=True, help='output directory')
     parser.add_argument('--fit-c0', action='store_true',
                         help='fit CZ0 and CM0 too (default: fixed at the base values)')
+    parser.add_argument('--fit-planes', action='store_true',
+                        help='fit the dive plane\'s CZbar and CMbar too, from the plane\'s '
+                             'part of the heave force and pitch moment (forces from motion; '
+                             'default: fixed at the base values)')
     parser.add_argument('--bounds', action='store_true',
                         help='bounded solve with physical signs (Ksh >= 0; CZuw, CMuq, CYuv, '
                              'CNur <= 0)')
@@ -220,8 +224,8 @@ def identify_and_report(records: Sequence[ForceRecord], base: VehicleParams, out
                         bags: Sequence[str], *, fit_c0: bool = False, bounds: bool = False,
                         errors: str = 'hac', equations: Sequence[str] | None = None,
                         nelder_mead: bool = True, progress: Progress | None = None,
-                        extra: dict[str, Any] | None = None, partial: bool = False
-                        ) -> tuple[Identification, dict[str, str]]:
+                        extra: dict[str, Any] | None = None, partial: bool = False,
+                        fit_planes: bool = False) -> tuple[Identification, dict[str, str]]:
     """Fit, compare with Nelder-Mead (optional) and write every output into ``out``
     (``partial``: see :func:`auv_ident.identify.identify`)."""
     if progress is not None:
@@ -229,7 +233,8 @@ def identify_and_report(records: Sequence[ForceRecord], base: VehicleParams, out
                  f'{sum(len(r.t) for r in records)} samples')
     t0 = time.perf_counter()
     result = identify(records, base, equations=equations, fit_offsets=fit_c0,
-                      bounds=SIGN_BOUNDS if bounds else None, errors=errors, partial=partial)
+                      bounds=SIGN_BOUNDS if bounds else None, errors=errors, partial=partial,
+                      fit_planes=fit_planes)
     if progress is not None:
         progress(f'fitted in {time.perf_counter() - t0:.2f} s')
         for eq, why in result.not_identifiable.items():
@@ -288,7 +293,7 @@ def run(args: argparse.Namespace) -> int:
     result, files = identify_and_report(
         records, base, args.out, args.bags, fit_c0=args.fit_c0, bounds=args.bounds,
         errors=args.errors, equations=args.equations, nelder_mead=not args.no_nelder_mead,
-        progress=stderr_progress, extra=extra, partial=partial)
+        progress=stderr_progress, extra=extra, partial=partial, fit_planes=args.fit_planes)
     out = {name: {'value': c.value, 'std_error': c.std_error, 'ci95': list(c.ci95)}
            for name, c in result.coefficients.items()}
     print(json.dumps({'source': source, 'coefficients': out, 'files': files}, indent=2))

@@ -26,12 +26,13 @@ class Equation(NamedTuple):
     coefficients: tuple[str, ...]    # always fitted
     offset: str | None               # CZ0 / CM0: fixed from the base, or fitted on request
     figure: int                      # the report's figure showing this fit
+    plane: str | None = None         # CZbar / CMbar: fixed from the base, or fitted on request
 
 
 EQUATIONS: dict[str, Equation] = {
     'surge': Equation('surge', 0, 'N', ('Ksh',), None, 2),
-    'heave': Equation('heave', 2, 'N', ('CZuw', 'CZuq'), 'CZ0', 3),
-    'pitch': Equation('pitch', 4, 'N m', ('CMuw', 'CMuq'), 'CM0', 4),
+    'heave': Equation('heave', 2, 'N', ('CZuw', 'CZuq'), 'CZ0', 3, 'CZbar'),
+    'pitch': Equation('pitch', 4, 'N m', ('CMuw', 'CMuq'), 'CM0', 4, 'CMbar'),
     'sway': Equation('sway', 1, 'N', ('CYuv', 'CYur'), None, 5),
     'yaw': Equation('yaw', 5, 'N m', ('CNuv', 'CNur'), None, 6),
 }
@@ -62,6 +63,9 @@ EXCITATION: dict[str, Excitation] = {
     'CMuw': Excitation(2, 'heave velocity w', 1.0, 'm/s', 0.005, _MANOEUVRE_PITCH),
     'CZuq': Excitation(4, 'pitch rate q', _DEG, 'deg/s', math.radians(0.2), _MANOEUVRE_PITCH),
     'CMuq': Excitation(4, 'pitch rate q', _DEG, 'deg/s', math.radians(0.2), _MANOEUVRE_PITCH),
+    # the plane's own angle is not in nu: its doublets show in the pitch rate they cause
+    'CZbar': Excitation(4, 'pitch rate q', _DEG, 'deg/s', math.radians(0.2), _MANOEUVRE_PITCH),
+    'CMbar': Excitation(4, 'pitch rate q', _DEG, 'deg/s', math.radians(0.2), _MANOEUVRE_PITCH),
     'CYuv': Excitation(1, 'sway velocity v', 1.0, 'm/s', 0.005, _MANOEUVRE_YAW),
     'CNuv': Excitation(1, 'sway velocity v', 1.0, 'm/s', 0.005, _MANOEUVRE_YAW),
     'CYur': Excitation(5, 'yaw rate r', _DEG, 'deg/s', math.radians(0.2), _MANOEUVRE_YAW),

@@ -99,7 +99,8 @@ def exciting_records(system: LinearSystem) -> dict[str, tuple[str, ...]]:
 def identify(records: Sequence[ForceRecord], base: VehicleParams, *,
              equations: Sequence[str] | None = None, fit_offsets: bool = False,
              bounds: Mapping[str, tuple[float, float]] | None = None,
-             errors: str = 'hac', partial: bool = False) -> Identification:
+             errors: str = 'hac', partial: bool = False,
+             fit_planes: bool = False) -> Identification:
     """Identify the coefficients of ``equations`` (default: all five) from ``records``.
 
     Every equation is fitted on all records pooled (each equation holds on every manoeuvre;
@@ -110,6 +111,8 @@ def identify(records: Sequence[ForceRecord], base: VehicleParams, *,
         base: the vehicle the identified values replace (and the fixed CZ0/CM0 come from).
         equations: names from :data:`EQUATIONS`.
         fit_offsets: fit CZ0 and CM0 too (else fixed at the base values, as the report).
+        fit_planes: fit the dive plane's CZbar and CMbar too (forces from motion; else fixed
+            at the base values, as the report).
         bounds: name -> (lo, hi) for a bounded solve (e.g. :data:`SIGN_BOUNDS`).
         errors: standard-error method, one of :data:`ERROR_METHODS`.
         partial: an equation the data cannot identify is left out and said so in
@@ -131,12 +134,12 @@ def identify(records: Sequence[ForceRecord], base: VehicleParams, *,
         if name not in EQUATIONS:
             raise IdentificationError(f'unknown equation {name!r} (known: {list(EQUATIONS)})')
     for key in (bounds or {}):
-        if not any(key in (*e.coefficients, e.offset) for e in EQUATIONS.values()):
+        if not any(key in (*e.coefficients, e.offset, e.plane) for e in EQUATIONS.values()):
             raise IdentificationError(f'bound given for unknown coefficient {key!r}')
     fits: dict[str, EquationFit] = {}
     left_out: dict[str, str] = {}
     for name in names:
-        system = build_system(records, EQUATIONS[name], base, fit_offsets)
+        system = build_system(records, EQUATIONS[name], base, fit_offsets, fit_planes)
         try:
             fits[name] = fit_equation(system, base, bounds, errors)
         except NotIdentifiableError as exc:
@@ -153,7 +156,7 @@ def identify(records: Sequence[ForceRecord], base: VehicleParams, *,
         raise IdentificationError(f'identified values are not a valid vehicle: {exc}') from None
     return Identification(fits=fits, base=base, params=params, source=sources.pop(),
                           errors=errors, fit_offsets=fit_offsets, bounds=dict(bounds or {}),
-                          not_identifiable=left_out)
+                          not_identifiable=left_out, fit_planes=fit_planes)
 
 
 
@@ -168,7 +171,8 @@ def compare_nelder_mead(records: Sequence[ForceRecord], result: Identification,
     """
     out: dict[str, dict[str, Any]] = {}
     for name, fit in result.fits.items():
-        system = build_system(records, fit.equation, result.base, result.fit_offsets)
+        system = build_system(records, fit.equation, result.base, result.fit_offsets,
+                              result.fit_planes)
         lsq = np.array([c.value for c in fit.coefficients])
         start = [(x0 or {}).get(c, result.base.values[c]) for c in system.names]
         nm = nelder_mead(system, start, result.bounds)

@@ -69,6 +69,10 @@ class ForceRecord:
     #: which actuator positions were used, per channel (``bar``: ``measured fin position`` or
     #: ``command through the actuator model``); empty: not said
     actuators: dict[str, str] = dataclasses.field(default_factory=dict)
+    #: (N, 6) the dive plane's wrench per unit coefficient (``CZbar`` on Z [N], ``CMbar`` on
+    #: M [N m]; zero elsewhere), filtered like ``tau``, which excludes the plane's wrench
+    #: (forces from motion); None: not available (the force topic)
+    plane_unit: np.ndarray | None = None
 
 
 def check_record(rec: ForceRecord) -> None:

@@ -58,14 +58,24 @@ class LinearSystem:
 
 
 def build_system(records: Sequence[ForceRecord], equation: Equation, base: VehicleParams,
-                 fit_offset: bool = False) -> LinearSystem:
+                 fit_offset: bool = False, fit_plane: bool = False) -> LinearSystem:
     """Pool the records into ``b = A theta`` for ``equation``.
 
     The offset coefficient (CZ0, CM0) is a column when ``fit_offset``, else its base value
-    times its column is subtracted from the measured component (report 2.2).
+    times its column is subtracted from the measured component (report 2.2). With
+    ``fit_plane`` the dive plane's coefficient (CZbar, CMbar) is a column too, the record's
+    plane wrench per unit coefficient (:attr:`ForceRecord.plane_unit`), and the plane wrench
+    the reconstruction subtracted with the base value is added back to the measured component
+    (forces from motion only).
     """
-    names = equation.coefficients if (equation.offset is None or not fit_offset) else (
+    hydro = equation.coefficients if (equation.offset is None or not fit_offset) else (
         (equation.offset, *equation.coefficients))
+    plane = equation.plane if fit_plane else None
+    names = (*hydro, plane) if plane is not None else hydro
+    if plane is not None and base.values[plane] == 0.0:
+        raise IdentificationError(f'fitting {plane} needs a non-zero {plane} in the base '
+                                  f'vehicle (its sign and rough size): the plane column comes '
+                                  f'from it')
     fixed = {} if (equation.offset is None or fit_offset) else {
         equation.offset: base.values[equation.offset]}
     # the model's other terms on this component are known (not fitted): moved to b like
@@ -78,8 +88,17 @@ def build_system(records: Sequence[ForceRecord], equation: Equation, base: Vehic
     for i, rec in enumerate(records):
         check_record(rec)
         cols = unbiased_columns(equation, rec, base)
-        stacked = filtered(np.column_stack([cols[k] for k in (*names, *fixed)]), rec.kernel)
+        stacked = filtered(np.column_stack([cols[k] for k in (*hydro, *fixed)]), rec.kernel)
         meas = rec.tau[:, equation.axis]
+        if plane is not None:
+            if rec.plane_unit is None:
+                raise IdentificationError(
+                    f'{rec.name}: fitting {plane} needs forces from motion (the force topic '
+                    f'carries the hydrodynamic wrench without the plane\'s)')
+            column = rec.plane_unit[:, equation.axis]
+            stacked = np.column_stack([stacked[:, :len(hydro)], column,
+                                       stacked[:, len(hydro):]])
+            meas = meas + base.values[plane] * column
         ok = np.isfinite(meas)
         if rec.kernel is not None:
             # instruments: the filtered regressors one window before and after (noise-free

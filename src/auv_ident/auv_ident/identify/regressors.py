@@ -86,11 +86,13 @@ def unbiased_columns(equation: Equation, rec: ForceRecord, base: VehicleParams
 def hydro_gradient(equation: Equation, nu: np.ndarray, coefficients: dict[str, float],
                    base: VehicleParams) -> np.ndarray:
     """``d/d nu`` of the equation's hydrodynamic component ``sum_k c_k col_k`` for the
-    coefficients ``coefficients`` (name -> value) at every row of ``nu`` (N, 6) [N or N m
-    per m/s or rad/s], central differences."""
+    coefficients ``coefficients`` (name -> value; names that are not hydrodynamic terms, such
+    as a fitted plane coefficient, are left out) at every row of ``nu`` (N, 6) [N or N m per
+    m/s or rad/s], central differences."""
     out = np.zeros((len(nu), 6))
     for c in range(6):
         h = 1e-6 * (1.0 + float(np.max(np.abs(nu[:, c]))))
         cu, cd = _stepped_columns(equation, nu, c, h, base)
-        out[:, c] = sum(v * (cu[k] - cd[k]) for k, v in coefficients.items()) / (2.0 * h)
+        out[:, c] = sum(v * (cu[k] - cd[k]) for k, v in coefficients.items()
+                        if k in cu) / (2.0 * h)
     return out

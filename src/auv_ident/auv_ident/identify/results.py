@@ -80,6 +80,8 @@ class Identification:
     bounds: dict[str, tuple[float, float]]
     #: equations left out: name -> what is not identifiable, why and what would fix it
     not_identifiable: dict[str, str] = dataclasses.field(default_factory=dict)
+    #: the dive plane's CZbar and CMbar fitted too (else fixed at the base values)
+    fit_planes: bool = False
 
     @property
     def coefficients(self) -> dict[str, CoefficientEstimate]:
@@ -114,6 +116,7 @@ def summary(result: Identification) -> dict[str, Any]:
                  'at_bound': c.at_bound, 'records': list(c.records)}
         for c in result.coefficients.values()}
     return {'source': result.source, 'errors': result.errors, 'fit_offsets': result.fit_offsets,
+            'fit_planes': result.fit_planes,
             'bounds': {k: list(v) for k, v in result.bounds.items()},
             'coefficients': coefs, 'equations': eqs,
             **({'not_identifiable': dict(result.not_identifiable)}
