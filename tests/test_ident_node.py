@@ -66,21 +66,25 @@ def call_identify(domain_id: int, timeout: float = 60.0) -> dict:  # type: ignor
         rclpy.shutdown(context=ctx)
 
 
+@pytest.mark.parametrize('options', [[], ['--source', 'motion', '--fit-planes']],
+                         ids=['forces', 'motion_planes'])
 def test_node_and_offline_command_agree_on_a_replayed_bag(ros_env: dict[str, str],
-                                                          tmp_path: pathlib.Path) -> None:
+                                                          tmp_path: pathlib.Path,
+                                                          options: list[str]) -> None:
     params = load_vehicle(ROOT / 'config' / 'a18m.yaml')
     bag = tmp_path / 'short_pitch'
     write_record(bag, run_mission(params, parse_mission(MANOEUVRE)), forces=True)
 
     offline = subprocess.run(
         [sys.executable, '-m', 'auv_bringup.cli', 'ident', str(bag), '--out',
-         str(tmp_path / 'offline'), '--equations', *EQUATIONS], env=ros_env,
+         str(tmp_path / 'offline'), '--equations', *EQUATIONS, *options], env=ros_env,
         capture_output=True, text=True, timeout=120)
     assert offline.returncode == 0, offline.stderr
     expected = json.loads(offline.stdout)['coefficients']
+    assert ('CMbar' in expected) == ('--fit-planes' in options)
 
     node = auv('ident-node', '--out', str(tmp_path / 'node'), '--equations', *EQUATIONS,
-               env=ros_env)
+               *options, env=ros_env)
     try:
         play = subprocess.run(
             [sys.executable, '-m', 'auv_bringup.cli', 'play', str(bag), '--rate', '8',

@@ -15,7 +15,8 @@ mapping file (:mod:`auv_ident.realog`, as ``auv ident --map`` does) into its buf
 their contract topics had been received, then goes on accumulating live topics.
 
 Parameters: ``vehicle_file`` (the vehicle file the identified values replace), ``out``
-(output directory), ``source`` (auto|forces|motion), ``fit_c0``, ``bounds``, ``errors``
+(output directory), ``source`` (auto|forces|motion), ``fit_c0``, ``fit_planes`` (the dive
+plane's CZbar and CMbar too, forces from motion), ``bounds``, ``errors``
 (hac|ess|iid), ``equations`` (list; empty: all), ``window`` [s], ``estimate_period`` [s],
 ``qos_depth`` (messages).
 """
@@ -93,6 +94,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              'topics hold (default: %(default)s)')
     parser.add_argument('--fit-c0', action='store_true',
                         help='fit CZ0 and CM0 too (default: fixed at the vehicle file values)')
+    parser.add_argument('--fit-planes', action='store_true',
+                        help='fit the dive plane\'s CZbar and CMbar too (forces from motion)')
     parser.add_argument('--bounds', action='store_true',
                         help='bounded solve with the physical signs of the coefficients')
     parser.add_argument('--errors', choices=ERROR_METHODS, default='hac',
@@ -139,6 +142,7 @@ def _make_node(overrides: dict[str, Any]) -> Any:
             self.declare_parameter('out', 'out/ident')
             self.declare_parameter('source', 'auto')
             self.declare_parameter('fit_c0', False)
+            self.declare_parameter('fit_planes', False)
             self.declare_parameter('bounds', False)
             self.declare_parameter('errors', 'hac')
             self.declare_parameter('equations', [''])
@@ -251,7 +255,8 @@ def _make_node(overrides: dict[str, Any]) -> Any:
         def identify(self, nelder_mead: bool = True) -> dict[str, Any]:
             """Identify from everything received; writes the outputs; returns a summary."""
             p = {k: self.get_parameter(k).value for k in
-                 ('out', 'source', 'fit_c0', 'bounds', 'errors', 'equations', 'window')}
+                 ('out', 'source', 'fit_c0', 'fit_planes', 'bounds', 'errors', 'equations',
+                  'window')}
             equations = self._equations(p['equations'])
             records = self._records(p['source'], p['window'])
 
@@ -262,7 +267,8 @@ def _make_node(overrides: dict[str, Any]) -> Any:
                 records, self.base, p['out'], ['live topics'], fit_c0=p['fit_c0'],
                 bounds=p['bounds'], errors=p['errors'], equations=equations,
                 nelder_mead=nelder_mead, progress=log_info,
-                partial=bool(self.imports) and not any(p['equations'] or []))
+                partial=bool(self.imports) and not any(p['equations'] or []),
+                fit_planes=bool(p['fit_planes']))
             return {'source': result.source, 'files': files,
                     'coefficients': {n: {'value': c.value, 'std_error': c.std_error,
                                          'ci95': list(c.ci95)}
@@ -284,12 +290,13 @@ def _make_node(overrides: dict[str, Any]) -> Any:
                 return
             try:
                 p = {k: self.get_parameter(k).value for k in
-                     ('source', 'fit_c0', 'errors', 'equations', 'window')}
+                     ('source', 'fit_c0', 'fit_planes', 'errors', 'equations', 'window')}
                 from auv_ident.identify import identify
                 equations = self._equations(p['equations'])
                 records = self._records(p['source'], p['window'])
                 result = identify(records, self.base, equations=equations,
-                                  fit_offsets=p['fit_c0'], errors=p['errors'])
+                                  fit_offsets=p['fit_c0'], errors=p['errors'],
+                                  fit_planes=bool(p['fit_planes']))
                 text = json.dumps({'t': float(self.state.array()['t'][-1]),
                                    'coefficients': {n: [c.value, c.std_error] for n, c in
                                                     result.coefficients.items()}})
@@ -306,7 +313,9 @@ def run(args: argparse.Namespace, ros_args: Sequence[str] | None = None) -> int:
     from rclpy.signals import SignalHandlerOptions
 
     overrides: dict[str, Any] = {'out': args.out, 'source': args.source,
-                                 'fit_c0': bool(args.fit_c0), 'bounds': bool(args.bounds),
+                                 'fit_c0': bool(args.fit_c0),
+                                 'fit_planes': bool(args.fit_planes),
+                                 'bounds': bool(args.bounds),
                                  'errors': args.errors,
                                  'equations': list(args.equations) or [''],
                                  'window': float(args.window),
