@@ -26,7 +26,7 @@ PITCH_AND_HEAVE = ('CZuw', 'CZuq', 'CMuw', 'CMuq')
 def test_fitting_the_plane_removes_the_pitch_fits_bias(tmp_path: pathlib.Path) -> None:
     bench = load_bench('robustness')
     design = load_vehicle(A18M)
-    truth = design.replace(**{k: design.values[k] * f for k, f in bench.IDENT_TRUTH.items()})
+    truth = bench.ident_truth(design)
     _, fixed = bench.identify_truth(truth, A18M, tmp_path / 'fixed', fit_planes=False)
     _, fitted = bench.identify_truth(truth, A18M, tmp_path / 'fitted')
 

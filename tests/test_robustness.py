@@ -101,7 +101,7 @@ def test_pilot_flies_a_light_vehicle_down(design: VehicleParams) -> None:
 def test_pilot_designed_on_an_identified_model_flies_the_true_vehicle(
         design: VehicleParams, bound: float, tmp_path: pathlib.Path) -> None:
     bench = load_bench('robustness')
-    truth = design.replace(**{k: design.values[k] * f for k, f in bench.IDENT_TRUTH.items()})
+    truth = bench.ident_truth(design)
     identified, report = bench.identify_truth(truth, A18M, tmp_path)
     # the pitch derivatives and the plane's moment are identified (``--fit-planes``) within
     # 5 % of the truth, which the base file misses by 15-25 %; every interval holds the truth

@@ -225,14 +225,14 @@ class Recorder:
 
     def _report(self) -> None:
         """Publish the oldest of the paced topics' last written stamps (see the module
-        docstring)."""
+        docstring); nothing, and again next period, while a paced stream with a publisher has
+        delivered nothing."""
         self._unreported = 0
-        self._dirty = False
         self._reported_at = time.monotonic()
         if any(topic not in self._last_paced and sub.get_publisher_count() > 0
                for topic, (sub, _) in self.subscriptions.items() if topic in self._paced):
-            self._dirty = True  # a stream with a publisher has delivered nothing yet: wait
             return
+        self._dirty = False
         stamps = [st for st in map(header_stamp, self._last_paced.values()) if st is not None]
         if stamps:
             sec, nanosec = min(stamps)

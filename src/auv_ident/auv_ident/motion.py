@@ -356,15 +356,14 @@ def reconstruct(t: np.ndarray, state: np.ndarray,
         other_f[:, j] = np.convolve(other[:, j], kernel, mode='same')
     if sub > 1:
         other_f += act_f
-    else:
-        act_f = np.column_stack([np.convolve(W[:, 3, j], kernel, mode='same')
-                                 for j in range(6)])
     # the plane's wrench per unit CZbar / CMbar, as subtracted (linear in each; no thrust-line
     # term in the identification's still water)
     plane_unit = np.zeros((n, 6))
     for axis, name in ((2, 'CZbar'), (4, 'CMbar')):
         value = float(params.values[name])
-        plane_unit[:, axis] = act_f[:, axis] / value if value != 0.0 else np.nan
+        subtracted = act_f[:, axis] if sub > 1 else np.convolve(W[:, 3, axis], kernel,
+                                                                mode='same')
+        plane_unit[:, axis] = subtracted / value if value != 0.0 else np.nan
     M = mass_matrix(params)
     tau = nu_dot @ M.T - other_f
     tau[:m] = np.nan
