@@ -324,6 +324,54 @@ def test_depth_command_is_delivered(ros_env: dict[str, str]) -> None:
     assert json.loads(out.strip().splitlines()[-1]) == [12.5]
 
 
+def test_depth_command_reaches_a_latched_subscriber_that_matches_late(
+        ros_env: dict[str, str]) -> None:
+    """A subscriber that matches ``auv depth``'s publisher only after another one has
+    acknowledged the command (DDS matches each process on its own) still gets it: a latched
+    subscription created 0.5 s after the first subscriber heard the command receives it."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from rclpy.signals import SignalHandlerOptions
+    from std_msgs.msg import Float64
+
+    context = Context()
+    rclpy.init(context=context, domain_id=int(ros_env['ROS_DOMAIN_ID']),
+               signal_handler_options=SignalHandlerOptions.NO)
+    first: list[float] = []
+    late: list[float] = []
+    proc = None
+    try:
+        node = rclpy.create_node('depth_probe', context=context)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        node.create_subscription(Float64, '/auv/depth_command', lambda m: first.append(m.data),
+                                 QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
+        proc = subprocess.Popen(_auv('depth', '12.5'), env=ros_env, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + LISTEN_S
+        while not first and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.02)
+        assert first == [12.5]
+        end = time.monotonic() + 0.5
+        while time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.02)
+        node.create_subscription(Float64, '/auv/depth_command', lambda m: late.append(m.data),
+                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                                            durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        deadline = time.monotonic() + 10.0
+        while not late and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.02)
+        assert late == [12.5]
+        assert proc.wait(30) == 0, proc.stderr.read() if proc.stderr else ''
+    finally:
+        if proc is not None and proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        context.try_shutdown()
+
+
 def test_recorder_progress_waits_for_every_stream_with_a_publisher(
         ros_env: dict[str, str], tmp_path: pathlib.Path) -> None:
     """``recorder/progress`` is the oldest of the paced streams' last written stamps, and it

@@ -3,10 +3,14 @@
 The depth is in metres, positive down (NED). The command waits, with a deadline, for a
 subscriber (the depth pilot) to match, publishes once and waits briefly for the reliable
 delivery to be acknowledged, so that a script can rely on it having arrived. The publisher is
-reliable and transient-local (latched): a pilot that starts while it is still up gets the
-command too. ``--namespace auv1`` commands the vehicle in ``/auv1`` (topic
-``/auv1/depth_command``). Whether the pilot accepts the depth (its envelope) is in its log and
-on ``/diagnostics``.
+reliable and transient-local (latched), and it stays up ``LATCH_TIME`` after the delivery:
+DDS matches a new publisher with each subscriber's process on its own, so the pilot may match
+it after another subscriber (a recorder) has already acknowledged (on a 2-core machine, 10 s
+after the pilot started, its subscriptions matched after the recorder's and the command was
+lost to it); a latched subscription that matches while it is up, such as the pilot's, gets
+the command from its history. A pilot that starts while it is up gets it too.
+``--namespace auv1`` commands the vehicle in ``/auv1`` (topic ``/auv1/depth_command``).
+Whether the pilot accepts the depth (its envelope) is in its log and on ``/diagnostics``.
 """
 from __future__ import annotations
 
@@ -21,6 +25,10 @@ from auv_bringup.launch import namespace_path
 DEPTH_TOPIC = '/auv/depth_command'
 DEPTH_TOPIC_NAME = 'depth_command'  # in the vehicle's namespace
 ACK_TIMEOUT = 2.0  # s
+#: s the latched publisher stays up after the first delivery (see the module docstring): past
+#: Fast DDS's participant announcement period (3 s), after which a subscriber's process that
+#: missed the first announcements of the new publisher hears of it
+LATCH_TIME = 4.0
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -70,6 +78,8 @@ def run(args: argparse.Namespace) -> int:
         if not pub.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT)):
             raise CliError(f'depth command on {args.topic} not acknowledged within '
                            f'{ACK_TIMEOUT:g} s')
+        time.sleep(LATCH_TIME)  # late-matching latched subscriptions take it from the history
+        pub.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT))
         print(f'depth command {args.depth:g} m published on {args.topic}', file=sys.stderr)
         node.destroy_node()
     finally:
