@@ -30,7 +30,11 @@ at its RK4 step, lockstep) on:
   identified as in the identified-model case, in the same run) varies within the larger of
   its 95 % interval and the error the identification made on that true vehicle, relative to
   its value; the coefficients it does not identify (Iy, Mqdot, Zwdot) keep U(0.7, 1.3).
-  Written under ``monte_carlo_ident`` with the spreads it used;
+  The identified values are apparent ones (``Distribution.apparent``): the identification
+  reconstructs forces with the file's added masses, so a plant whose heave added mass
+  differs has the Munk moment of that difference on its ``CMuw`` (what the identification
+  of that plant would have measured is the drawn value). Written under
+  ``monte_carlo_ident`` with the spreads it used;
 * **attribution** (``--attribute N``): the first N failed plants of the Monte Carlo flown
   again without one group of errors at a time (each coefficient, all coefficients, the plane
   and inertia coefficients, plane delay and lag, buoyancy, current, biases): the share
@@ -296,7 +300,7 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
         with tempfile.TemporaryDirectory() as tmp:
             identified, coefficients = identify_truth(truth, VEHICLE, pathlib.Path(tmp))
         ident_wall = time.perf_counter() - t0
-    dist = (Distribution(factor_spreads=ident_spreads(coefficients, truth))
+    dist = (Distribution(factor_spreads=ident_spreads(coefficients, truth), apparent=True)
             if mc and family == 'ident' else Distribution())
     changes = sorted({(m.z1 - m.z0, m.u0) for m in TABLE_MANOEUVRES.values()}
                      | {(dz, U0) for dz in MC_CHANGES})

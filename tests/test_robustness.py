@@ -34,6 +34,7 @@ from auv_depth_lqr.robustness import (
     Outcome,
     Plant,
     catalogue,
+    coriolis_shift,
     draw_plant,
     fly,
 )
@@ -200,6 +201,59 @@ def test_named_spreads_replace_the_common_one_for_their_parameters(
         Distribution(factor_spreads={'CMqq_typo': 0.1})
     with pytest.raises(DesignError, match=r'spread of CMbar = 1\.2'):
         Distribution(factor_spreads={'CMbar': 1.2})
+
+
+def test_an_added_mass_error_shifts_the_coefficients_its_coriolis_wrench_shares(
+        design: VehicleParams) -> None:
+    """Hand-worked (Fossen 2011, eq. 6.43, vertical plane): the added-mass Coriolis pitch
+    moment is Munk's ``(Xudot - Zwdot) u w`` and the heave force ``-Xudot u q``, so against
+    ``qs L u w`` (CMuw) and ``qs L u q`` (CZuq), with ``qs = rho S / 2``, an added-mass
+    change ``dXudot``, ``dZwdot`` shifts CMuw by ``(dXudot - dZwdot) / (qs L)`` and CZuq by
+    ``-dXudot / (qs L)``; CZuw and CMuq share no Coriolis term with them."""
+    v = design.values
+    qs_l = 0.5 * v['rho'] * v['S_ref'] * v['L_ref']
+    light = design.replace(Zwdot=0.75 * v['Zwdot'])  # dZwdot = +170 kg
+    assert coriolis_shift(design, light, 'CMuw') == pytest.approx(
+        -0.25 * -v['Zwdot'] / qs_l, rel=1e-12)
+    heavy = design.replace(Xudot=v['Xudot'] - 20.0)
+    assert coriolis_shift(design, heavy, 'CMuw') == pytest.approx(-20.0 / qs_l, rel=1e-12)
+    assert coriolis_shift(design, heavy, 'CZuq') == pytest.approx(20.0 / qs_l, rel=1e-12)
+    for name in ('CZuw', 'CMuq'):
+        assert coriolis_shift(design, light, name) == 0.0
+        assert coriolis_shift(design, heavy, name) == 0.0
+    # the inertia does not enter the vertical plane's Coriolis wrench; the plane has no basis
+    assert coriolis_shift(design, design.replace(Iy=1.3 * v['Iy']), 'CMuw') == 0.0
+    assert coriolis_shift(design, light, 'CMbar') == 0.0
+
+
+def test_apparent_draws_keep_the_identified_munk_and_damping_total(
+        design: VehicleParams) -> None:
+    """With ``apparent``, a plant's CMuw is the drawn (identified) value less the Munk
+    moment of its drawn heave added mass: its whole ``u w`` pitch moment, ``CMuw qs L +
+    Xudot - Zwdot``, stays within the drawn CMuw's spread of the design's (the
+    identification measured that total), while its own CMuw moves with Zwdot."""
+    v = design.values
+    qs_l = 0.5 * v['rho'] * v['S_ref'] * v['L_ref']
+    spread = 0.03
+
+    def total(p: VehicleParams) -> float:
+        return float(p.values['CMuw'] * qs_l + p.values['Xudot'] - p.values['Zwdot'])
+
+    dist = Distribution(factor_spreads={'CMuw': spread}, apparent=True)
+    rng = np.random.default_rng(13)
+    plants = [draw_plant(design, rng, str(i), dist).vehicle(design) for i in range(300)]
+    nominal = total(design)
+    deviation = np.array([total(p) - nominal for p in plants]) / abs(v['CMuw'] * qs_l)
+    assert np.max(np.abs(deviation)) <= spread + 1e-12
+    own = np.array([p.values['CMuw'] / v['CMuw'] for p in plants])
+    zw = np.array([p.values['Zwdot'] / v['Zwdot'] for p in plants])
+    assert np.corrcoef(own, zw)[0, 1] > 0.95  # a heavier added mass, more Munk to cancel
+    assert own.min() < 0.7 and own.max() > 1.3
+    # without it the drawn factor is the plant's own
+    rng = np.random.default_rng(13)
+    plain = [draw_plant(design, rng, str(i), Distribution(factor_spreads={'CMuw': spread}))
+             for i in range(300)]
+    assert max(abs(p.factors['CMuw'] - 1.0) for p in plain) <= spread
 
 
 def test_a_bad_plant_parameter_is_named(design: VehicleParams) -> None:

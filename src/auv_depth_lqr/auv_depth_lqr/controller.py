@@ -167,6 +167,7 @@ class DepthController:
         self._observed: tuple[float, float, float] | None = None
         self._z_prev: float | None = None
         self._z_rate = 0.0
+        self._still = 0.0
         self.reference.reset()
         self._bar_prev = None if bar_previous is None else finite('bar_previous', bar_previous)
 
@@ -277,7 +278,10 @@ class DepthController:
         if self._z_prev is not None:
             alpha = ts / (settings.stall_time + ts)
             self._z_rate += alpha * ((z - self._z_prev) / ts - self._z_rate)
-        stalled = self._z_prev is not None and abs(self._z_rate) <= settings.stall_speed
+            self._still = self._still + ts if abs(self._z_rate) <= settings.stall_speed else 0.0
+        # Stalled: the low-passed rate has stayed within stall_speed for stall_time, not just
+        # passed through it (a vehicle turning round at the end of an overshoot).
+        stalled = self._still >= settings.stall_time
         # The reference waits for a vehicle that falls behind it by more than max_lag, unless
         # the vehicle has stalled: then the reference goes on to the command, at rest, where
         # the integrator removes the offset.

@@ -98,10 +98,12 @@ class GovernorSettings:
     """Time constant [s] of the low-pass of the measured depth rate that tells a stalled
     vehicle (see ``stall_speed``)."""
     stall_speed: float = 0.01
-    """A vehicle whose low-passed depth rate is at most this [m/s] has stalled: held off the
-    reference by a steady disturbance. The reference then no longer waits for it
-    (``max_lag``) and the integrator runs at any distance from the reference at rest
-    (``integrate_within`` no longer applies), so integral action removes steady offsets."""
+    """A vehicle whose low-passed depth rate has stayed at most this [m/s] for
+    ``stall_time`` has stalled: held off the reference by a steady disturbance (a rate that
+    only passes through zero, as at the turn of an overshoot, is not a stall). The
+    reference then no longer waits for it (``max_lag``) and the integrator runs at any
+    distance from the reference at rest (``integrate_within`` no longer applies), so integral
+    action removes steady offsets."""
     disturbance_estimate: bool = True
     """Whether the controller estimates the heave and pitch accelerations its linear model
     does not explain and moves its level trim to hold them (``disturbance_time``). Off, the

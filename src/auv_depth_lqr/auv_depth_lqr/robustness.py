@@ -30,6 +30,7 @@ from auv_depth_lqr.metrics import step_metrics
 from auv_depth_lqr.pilot import DepthPilot, PilotSettings
 from auv_sim.environment import Environment
 from auv_sim.errors import AuvSimError
+from auv_sim.model import HYDRO_AXIS, HYDRO_TERMS, NX, hydro_basis, wrenches
 from auv_sim.params import VehicleParams
 
 DEG = math.pi / 180.0
@@ -37,6 +38,38 @@ DEG = math.pi / 180.0
 #: Vertical-plane parameters of the model-error cases: hydrodynamic derivatives, plane
 #: effectiveness, pitch inertia and the heave/pitch added masses.
 MODEL_PARAMETERS = ('CZuw', 'CMuw', 'CZuq', 'CMuq', 'CZbar', 'CMbar', 'Iy', 'Mqdot', 'Zwdot')
+
+#: The coefficients of :data:`MODEL_PARAMETERS` whose basis term (``surge x heave`` or
+#: ``surge x pitch rate``, :func:`auv_sim.model.hydro_basis`) the added-mass Coriolis wrench
+#: also has, with the state index of their second velocity (``w`` 8, ``q`` 10).
+CORIOLIS_SHARED = {'CZuw': 8, 'CZuq': 10, 'CMuw': 8, 'CMuq': 10}
+
+
+def coriolis_shift(design: VehicleParams, vehicle: VehicleParams, name: str) -> float:
+    """How much more of coefficient ``name`` [-] an identification that reconstructs the
+    hydrodynamic wrench with ``design``'s masses (``auv_ident.motion``) finds on ``vehicle``
+    than it has: the Coriolis wrench of ``vehicle`` less that of ``design`` on ``name``'s
+    axis, over ``name``'s basis term, both at 1 m/s surge and 1 m/s (or rad/s) of its second
+    velocity (the terms are bilinear, so the ratio holds at any speed). With added masses
+    that differ, this is Munk's moment ``(Xudot - Zwdot) u w`` on ``CMuw`` (Fossen 2011,
+    eq. 6.43; -0.40 on the A18M for a heave added mass 25 % low) and ``Xudot u q`` on
+    ``CZuq``; 0 for a coefficient outside :data:`CORIOLIS_SHARED`."""
+    if name not in CORIOLIS_SHARED:
+        return 0.0
+    x = np.zeros(NX)
+    x[6] = 1.0
+    x[CORIOLIS_SHARED[name]] = 1.0
+    term = HYDRO_TERMS.index(name)
+    axis = int(HYDRO_AXIS[term])
+    env = Environment().env_vector()
+    prof = Environment().profile()
+    coriolis = []
+    for params in (vehicle, design):
+        out = np.zeros((4, 6))
+        wrenches(0.0, x, params.as_array(), env, prof, out)
+        coriolis.append(out[1, axis])
+    basis = hydro_basis(x[6], x[7], x[8], x[9], x[10], x[11], design.as_array())[term]
+    return float((coriolis[0] - coriolis[1]) / basis)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -262,6 +295,15 @@ class Distribution:
     plane delay uniform in ``[0, delay]`` [s]; plane lag time constant uniform between the
     file's and ``lag`` [s]; plane bias and pitch-sensor bias uniform within ``+-bar_bias``,
     ``+-pitch_bias`` [rad]; depth-sensor noise sigma uniform in ``[0, depth_noise]`` [m].
+
+    ``apparent``: the coefficients ``factor_spreads`` names are an identification's, which
+    reconstructs the hydrodynamic wrench with the design file's added masses: what it
+    measures of a vehicle whose added masses differ is that vehicle's coefficient plus the
+    Coriolis difference on the same basis term (:func:`coriolis_shift`: Munk's moment on
+    ``CMuw``). A plant then takes the drawn value as the apparent one and its own
+    coefficient is that less the shift of its drawn added masses, so that it would give the
+    identification what the identification gave. Off, every factor scales the plant's own
+    coefficient (a model error independent of any log).
     """
 
     factor_spread: float = 0.3
@@ -274,6 +316,7 @@ class Distribution:
     bar_bias: float = 1.0 * DEG
     pitch_bias: float = 0.5 * DEG
     depth_noise: float = 0.05
+    apparent: bool = False
 
     def __post_init__(self) -> None:
         unknown = sorted(set(self.factor_spreads) - set(MODEL_PARAMETERS))
@@ -294,6 +337,10 @@ def draw_plant(design: VehicleParams, rng: np.random.Generator, name: str,
     d = dist or Distribution()
     spreads = {k: float(d.factor_spreads.get(k, d.factor_spread)) for k in MODEL_PARAMETERS}
     factors = {k: float(rng.uniform(1.0 - s, 1.0 + s)) for k, s in spreads.items()}
+    if d.apparent:
+        own = Plant(name, factors).vehicle(design)
+        for k in sorted(set(d.factor_spreads) & set(CORIOLIS_SHARED)):
+            factors[k] -= coriolis_shift(design, own, k) / float(design.values[k])
     heading = float(rng.uniform(0.0, 2.0 * math.pi))
     effects = {
         'current': {'north': d.current * math.cos(heading),
