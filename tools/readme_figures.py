@@ -154,7 +154,8 @@ ROWS: list[tuple[str, str, str]] = [
      '>= 99 %'),
     ('the same on the identification\'s intervals (the six coefficients `auv ident '
      '--fit-planes` fits vary within the larger of their 95 % interval and the error it made '
-     'on a known vehicle; Iy, Mqdot, Zwdot x U(0.7, 1.3)): spread of CMbar / CMuw / CMuq; '
+     'on a known vehicle, as apparent values: a plant\'s CMuw carries the Munk moment of its '
+     'heave added mass; Iy, Mqdot, Zwdot x U(0.7, 1.3)): spread of CMbar / CMuw / CMuq; '
      'plants; settled within 2x the bound; tumbled; pitch limit exceeded by > 2 deg; worst '
      'steady depth error',
      '+-{robustness:monte_carlo_ident.distribution.factor_spreads.CMbar:.1%} / '
@@ -164,7 +165,7 @@ ROWS: list[tuple[str, str, str]] = [
      '{robustness:monte_carlo_ident.all.share_settled_within_2x_bound:.1%}; '
      '{robustness:monte_carlo_ident.all.share_tumbled:.1%}; '
      '{robustness:monte_carlo_ident.all.share_pitch_limit_exceeded_by_more_than_2deg:.2%}; '
-     '{robustness:monte_carlo_ident.all.worst_steady_error_m:.1f} m',
+     '{robustness:monte_carlo_ident.all.worst_steady_error_m:.3f} m',
      'none; 1000; >= 99 %; 0; 0; < 0.1 m'),
     ('Foxglove live view, 50 Hz state: delivered share; latency p95; bridge CPU',
      '{foxglove:summary./auv/state.delivered.median:.3f}; '
