@@ -61,8 +61,8 @@ def coriolis_shift(design: VehicleParams, vehicle: VehicleParams, name: str) -> 
     x[CORIOLIS_SHARED[name]] = 1.0
     term = HYDRO_TERMS.index(name)
     axis = int(HYDRO_AXIS[term])
-    env = Environment().env_vector()
-    prof = Environment().profile()
+    still = Environment()
+    env, prof = still.env_vector(), still.profile()
     coriolis = []
     for params in (vehicle, design):
         out = np.zeros((4, 6))
