@@ -28,7 +28,12 @@ Beyond the report, :class:`DepthController` adds
   :class:`~auv_depth_lqr.schedule.OperatingPoint`),
   with the exact depth kinematics ``z_dot = -u sin(theta) + w cos(theta)``;
 * pitch envelope protection: the depth feedback may not ask for more than
-  ``pitch_guard * theta_max`` (a current or a wrong speed can make the vehicle lag the plan);
+  ``pitch_guard * theta_max`` (a current or a wrong speed can make the vehicle lag the plan),
+  less the pitch rate times the plane's reaction time while the vehicle rotates towards the
+  limit (``pitch_anticipation``);
+* a stop planned at the surge speed the vehicle is heading for when that is lower than the
+  measured one (``surge_length``, :class:`~auv_depth_lqr.surge.SurgeTrend`): with its
+  propeller held, a positively buoyant vehicle slows down in a dive, and its plane with it;
 * for a vehicle that is open-loop unstable in pitch/heave (its BAR -> vertical-speed series is
   not stable, e.g. the REMUS 100), a kinematic stop of the reference (``kinematic_stop``,
   :func:`~auv_depth_lqr.stop.kinematic_map`) instead of the held-plane stop, which would
@@ -52,6 +57,7 @@ from auv_depth_lqr.errors import ControllerError, DesignError
 from auv_depth_lqr.governor import GovernorSettings, Reference, ReferenceGovernor
 from auv_depth_lqr.limits import Limits
 from auv_depth_lqr.schedule import GainSchedule, Matrix, OperatingPoint, feedforward
+from auv_depth_lqr.surge import SurgeTrend
 from auv_depth_lqr.validate import finite, run_input
 
 __all__ = ['DepthController', 'DepthState', 'PlaneState']
@@ -145,6 +151,9 @@ class DepthController:
                     'grid')
         self.reference = ReferenceGovernor(design, self.limits, self.governor, ts)
         """The reference governor (:class:`~auv_depth_lqr.governor.ReferenceGovernor`)."""
+        self.surge = SurgeTrend(self.governor.surge_length, self.governor.surge_trend_time, ts,
+                                self.governor.surge_horizon)
+        """The measured surge speed's trend (:class:`~auv_depth_lqr.surge.SurgeTrend`)."""
         self.reset()
 
     @property
@@ -168,6 +177,8 @@ class DepthController:
         self._z_prev: float | None = None
         self._z_rate = 0.0
         self._still = 0.0
+        self._u_stop: float | None = None
+        self.surge.reset()
         self.reference.reset()
         self._bar_prev = None if bar_previous is None else finite('bar_previous', bar_previous)
 
@@ -271,7 +282,16 @@ class DepthController:
         op = self.trimmed(nominal)
 
         self.reference.start(z)
-        z_r, v_r, a_r, j_r, s_r = self.reference.advance(op, u, z_cmd)
+        # The stop is planned at the surge speed the vehicle is heading for, if lower: the
+        # lowest prediction since the manoeuvre started (a plan made on a speed that then
+        # falls would brake too late).
+        u_heading = min(u, self.surge.update(u))
+        ref = self.reference.reference
+        if ref is not None and (ref.v != 0.0 or ref.z != z_cmd) and self._u_stop is not None:
+            u_heading = min(u_heading, self._u_stop)
+        self._u_stop = u_heading
+        stop = None if u_heading >= u else (self.trimmed(self.design.at(u_heading)), u_heading)
+        z_r, v_r, a_r, j_r, s_r = self.reference.advance(op, u, z_cmd, stop)
         # Depth rate [m/s, down] from the measured depth, low-passed over stall_time: a vehicle
         # whose depth no longer moves is held off by a steady disturbance (a vertical current,
         # a buoyancy the model does not know), not by the transient of a manoeuvre.
@@ -298,12 +318,16 @@ class DepthController:
         K = op.K
         depth_terms = float(K[2] * error[2] + K[4] * error[4])
         # Pitch envelope protection: the depth and integral terms act like a pitch command
-        # theta_ref - depth_terms / K_theta for the attitude loop; clip that command.
+        # theta_ref - depth_terms / K_theta for the attitude loop; clip that command. While
+        # the vehicle rotates towards a limit, that side of the clip leads by the rotation over
+        # the plane's reaction time (the plane needs it to swing over and stop the rotation).
         k_theta = float(K[3])
         if k_theta != 0.0:
             theta_lim = settings.pitch_guard * lim.theta_max
+            lead = settings.pitch_anticipation * lim.bar_max / lim.bar_rate_max
             theta_cmd = x_ref[3] - depth_terms / k_theta
-            clipped = min(max(theta_cmd, -theta_lim), theta_lim)
+            clipped = min(max(theta_cmd, -theta_lim + lead * max(-q, 0.0)),
+                          theta_lim - lead * max(q, 0.0))
             depth_terms = k_theta * (x_ref[3] - clipped)
         bar_linear = bar_ff - float(K[0] * error[0] + K[1] * error[1] + K[3] * error[3]) \
             - depth_terms

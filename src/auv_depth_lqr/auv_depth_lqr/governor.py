@@ -123,6 +123,30 @@ class GovernorSettings:
     """Fraction of ``theta_max`` beyond which the depth feedback may not ask for more pitch:
     the pitch command ``theta_ref + (depth and integral terms) / K_theta`` of the LQR is
     clipped there (pitch envelope protection; inactive in normal flight) [-]."""
+    pitch_anticipation: float = 0.5
+    """Lead of the pitch guard on a rotation towards the limit, in units of the plane's
+    reaction time ``bar_max / bar_rate_max`` (the time it takes from one end to neutral)
+    [-]: while the pitch rate ``q`` runs towards a limit, that side of the guard moves in by
+    ``|q| * pitch_anticipation * bar_max / bar_rate_max`` [rad], so the attitude loop starts
+    to take the rotation out before the limit, while the plane swings over. Inactive at rest
+    and on a rotation away from the limit; 0 turns it off. Chosen on the Monte Carlo of
+    ``bench/bench_robustness.py --family ident`` (0, 0.5, 1: see docs/robustness.md)."""
+    surge_length: float = 0.0
+    """Time constant of the surge speed with the thrust held, times the speed [m]: the
+    vehicle's ``(m - Xudot) / (2 k)`` for a surge drag ``k u |u|`` (derived from the vehicle
+    file's level trims, :func:`auv_depth_lqr.tuning.surge_length`). A climb or dive changes
+    the surge speed of a vehicle whose propeller is held (the weight less the buoyancy along
+    its axis, the drag of the lift): the stop is planned at the speed the measured trend is
+    heading for (:class:`auv_depth_lqr.surge.SurgeTrend`), where the plane's authority will
+    be. 0 plans it at the measured speed (a vehicle whose speed loop holds it)."""
+    surge_trend_time: float = 1.0
+    """Time constant [s] of each of the two low-passes that give the measured surge speed's
+    trend (:class:`auv_depth_lqr.surge.SurgeTrend`)."""
+    surge_horizon: float = 10.0
+    """How far ahead [s] the surge speed is predicted for the stop: about the length of a
+    stop, after which the vehicle is level again and its speed no longer falls (the steady
+    speed of the dive, reached only after several time constants, would plan it far too
+    slowly)."""
 
     def __post_init__(self) -> None:
         for name in ('margin', 'bar_margin', 'brake_bar_share', 'pitch_guard',
@@ -135,9 +159,14 @@ class GovernorSettings:
         if not 0.0 <= share < 1.0:
             raise DesignError(f'GovernorSettings.release_bar_share must be in [0, 1), got '
                               f'{share!r}')
+        for name in ('pitch_anticipation', 'surge_length'):
+            if finite(f'GovernorSettings.{name}', getattr(self, name)) < 0.0:
+                raise DesignError(f'GovernorSettings.{name} must be >= 0, got '
+                                  f'{getattr(self, name)!r}')
         for name in ('accel_max', 'approach_length', 'jerk_time', 'landing_distance',
                      'integrate_within',
                      'integrate_below_speed', 'max_lag', 'stall_time', 'stall_speed',
+                     'surge_trend_time', 'surge_horizon',
                      'disturbance_time'):
             finite(f'GovernorSettings.{name}', getattr(self, name), positive=True)
 
@@ -263,9 +292,11 @@ class ReferenceGovernor:
         return v_cap, jerk, brake
 
 
-    def advance(self, op: OperatingPoint, u: float, z_cmd: float) -> Reference:
+    def advance(self, op: OperatingPoint, u: float, z_cmd: float,
+                stop: tuple[OperatingPoint, float] | None = None) -> Reference:
         """The governed reference one sample on (:class:`Reference`); not stored (see
-        :meth:`accept`).
+        :meth:`accept`). ``stop``, if given, is the operating point and surge speed [m/s] the
+        stop is planned at (the speed the vehicle is heading for); else ``op`` and ``u``.
 
         A time-optimal point-to-point motion, re-planned at every sample (so it follows a
         new command, a new speed or a reference held back by the vehicle). The snap ``s_r``
@@ -293,6 +324,8 @@ class ReferenceGovernor:
         if E < 1e-3 and abs(V) < 1e-3 and abs(A) < 2e-3 and abs(J) < 2e-3:
             return Reference(z_cmd, 0.0, 0.0, 0.0, 0.0)
         v_cap, jerk, brake = self.limits_toward(op, u, travel, self._landing[1])
+        if stop is not None:
+            brake = self.limits_toward(stop[0], stop[1], travel, self._landing[1])[2]
         landing, v_land = brake.landing, brake.v_land
         if 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E:
             # Final approach: the exponential e(t) = E exp(-t / landing).

@@ -48,6 +48,7 @@ from auv_depth_lqr.recovery import (
     recovery_bar,
 )
 from auv_depth_lqr.schedule import GainSchedule
+from auv_depth_lqr.surge import surge_length
 from auv_depth_lqr.tuning import derive_tuning
 from auv_depth_lqr.weights import Weights, preset
 from auv_sim.errors import TrimError
@@ -219,11 +220,13 @@ def build_controller(params: VehicleParams, settings: PilotSettings) -> DepthCon
     Q, R = weights.matrices()
     if settings.safe_bar is not None and not abs(settings.safe_bar) <= bar_max:
         raise DesignError(f'safe_bar = {settings.safe_bar} rad is beyond bar_max = {bar_max}')
-    schedule = GainSchedule.design(vehicle_linearization(params),
-                                   speeds=trimmable_speeds(params, settings.speeds),
+    speeds = trimmable_speeds(params, settings.speeds)
+    schedule = GainSchedule.design(vehicle_linearization(params), speeds=speeds,
                                    Q=Q, R=R, Ts=settings.Ts)
     limits = Limits(bar_max=bar_max, bar_rate_max=bar_rate, theta_max=settings.theta_max)
-    return DepthController(schedule, limits, settings.Ts, tuning.governor)
+    governor = dataclasses.replace(tuning.governor,
+                                   surge_length=surge_length(params, speeds))
+    return DepthController(schedule, limits, settings.Ts, governor)
 
 
 class DepthPilot:

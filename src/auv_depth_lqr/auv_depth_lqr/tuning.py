@@ -59,6 +59,7 @@ LANDING_PITCH = 0.12 / 8.0              # landing length / approach length [rad]
 LAG_LENGTHS = 0.5 / _A18M_L             # reference lead over the vehicle, of L: 0.5 m
 INTEGRATE_LENGTHS = 0.2 / _A18M_L       # integrator band about the reference, of L: 0.2 m
 DISTURBANCE_TIMES = 3.0 / _A18M_TIME    # disturbance estimate's time constant, of sqrt(L/g): 3 s
+SURGE_HORIZON_TIMES = 10.0 / _A18M_TIME  # surge speed prediction horizon, of sqrt(L/g): 10 s
 
 # Pitch-sensor offset estimate (auv_depth_lqr.attitude): forgetting time, of sqrt(L/g): 20 s,
 # the time to run ~9 hull lengths at the A18M's Froude speed share (2 m/s): long enough to
@@ -141,6 +142,10 @@ def derive_tuning(params: VehicleParams, theta_max: float,
     * ``max_lag = 0.1087 L`` [m] (0.5 m) and ``integrate_within = 0.04348 L`` [m] (0.2 m);
     * ``disturbance_time = 4.380 sqrt(L/g)`` [s] (3 s): time constant of the disturbance
       estimate (:meth:`auv_depth_lqr.controller.DepthController.step`).
+    * ``surge_horizon = 14.60 sqrt(L/g)`` [s] (10 s): how far ahead the surge speed a stop
+      is planned at is predicted (:class:`auv_depth_lqr.surge.SurgeTrend`); the surge time
+      constant itself is the vehicle's (:func:`auv_depth_lqr.surge.surge_length`, set by
+      :func:`auv_depth_lqr.pilot.build_controller`).
 
     Pitch-sensor offset estimate: ``pitch_offset_time = 29.20 sqrt(L/g)`` [s] (20 s)
     (:class:`auv_depth_lqr.attitude.PitchOffsetEstimator`).
@@ -166,7 +171,8 @@ def derive_tuning(params: VehicleParams, theta_max: float,
         landing_distance=LANDING_PITCH * approach,
         max_lag=LAG_LENGTHS * s.length,
         integrate_within=INTEGRATE_LENGTHS * s.length,
-        disturbance_time=DISTURBANCE_TIMES * s.time)
+        disturbance_time=DISTURBANCE_TIMES * s.time,
+        surge_horizon=SURGE_HORIZON_TIMES * s.time)
     nose_up = -1.0 if float(params.CMbar) <= 0.0 else 1.0
     return Tuning(weights, governor, nose_up * SAFE_BAR_SHARE * s.bar_max,
                   PITCH_OFFSET_TIMES * s.time, AUTHORITY_TIMES * s.time)

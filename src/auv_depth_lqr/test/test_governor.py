@@ -1,6 +1,7 @@
 """Tests of the reference governor and the feed-forward series (pure, on the stand-in model)."""
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -218,9 +219,36 @@ def test_pitch_protection_caps_the_depth_feedback(schedule: GainSchedule) -> Non
     assert bar == pytest.approx(op.bar_e, abs=1e-9)
 
 
+def test_pitch_protection_leads_a_rotation_towards_the_limit(schedule: GainSchedule) -> None:
+    """Rotating nose-up at q towards the cap, the guard's cap moves in by q times the plane's
+    reaction time (pitch_anticipation * bar_max / bar_rate_max): at the pitch cap - lead q
+    the attitude loop sees no pitch error, so the command is bar_e - K_q q (by hand from
+    BAR = BAR_ff - K (X - X_ref) with the reference at the trim); rotating away, the cap
+    stays where it was."""
+    limits = Limits(bar_rate_max=2.0 * Limits().bar_max / TS)
+    op = schedule.at(2.0)
+    theta_cap = IDEAL.pitch_guard * limits.theta_max
+    lead = IDEAL.pitch_anticipation * limits.bar_max / limits.bar_rate_max
+    k_q = float(op.K[1])
+    for q, theta in ((0.03, theta_cap - lead * 0.03), (-0.03, theta_cap)):
+        ctrl = DepthController(schedule, limits, TS, IDEAL)
+        ctrl.step(PlaneState(z=20.0, theta=op.theta_e, w=op.w_e, q=0.0, u=2.0), 20.0)
+        bar = ctrl.step(PlaneState(z=30.0, theta=theta, w=op.w_e, q=q, u=2.0), 20.0)
+        assert bar == pytest.approx(op.bar_e - k_q * q, abs=1e-9)
+    # Without the lead, the same rotation at the same pitch would be commanded further up.
+    ctrl = DepthController(schedule, limits, TS,
+                           dataclasses.replace(IDEAL, pitch_anticipation=0.0))
+    ctrl.step(PlaneState(z=20.0, theta=op.theta_e, w=op.w_e, q=0.0, u=2.0), 20.0)
+    bar = ctrl.step(PlaneState(z=30.0, theta=theta_cap - lead * 0.03, w=op.w_e, q=0.03,
+                               u=2.0), 20.0)
+    k_theta = float(op.K[3])
+    assert bar == pytest.approx(op.bar_e - k_q * 0.03 + k_theta * lead * 0.03, abs=1e-9)
+
+
 @pytest.mark.parametrize('kwargs', [{'bar_margin': 1.2}, {'landing_distance': 0.0},
                                     {'approach_length': -1.0}, {'jerk_bar_share': -0.1},
-                                    {'max_lag': math.nan}])
+                                    {'max_lag': math.nan}, {'pitch_anticipation': -0.5},
+                                    {'surge_length': -1.0}, {'surge_horizon': 0.0}])
 def test_new_governor_settings_are_validated(kwargs: dict[str, float]) -> None:
     with pytest.raises(DesignError, match=r'GovernorSettings\.'):
         GovernorSettings(**kwargs)
