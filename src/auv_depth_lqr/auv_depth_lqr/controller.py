@@ -48,6 +48,7 @@ No ROS import here: the depth-pilot node converts messages and calls :meth:`Dept
 """
 from __future__ import annotations
 
+import collections
 import math
 from typing import NamedTuple, Protocol
 
@@ -177,7 +178,8 @@ class DepthController:
         self._z_prev: float | None = None
         self._z_rate = 0.0
         self._still = 0.0
-        self._u_stop: float | None = None
+        self._headings: collections.deque[float] = collections.deque(
+            maxlen=max(int(round(self.governor.surge_horizon / self.Ts)), 1))
         self.surge.reset()
         self.reference.reset()
         self._bar_prev = None if bar_previous is None else finite('bar_previous', bar_previous)
@@ -233,6 +235,13 @@ class DepthController:
         self._observed = (w, q, theta)
 
     @property
+    def stop_speed(self) -> float | None:
+        """Surge speed [m/s] the last sample's stop was planned at (the lowest speed the
+        vehicle was heading for over the last ``surge_horizon``); None before the first
+        :meth:`step`."""
+        return min(self._headings) if self._headings else None
+
+    @property
     def governed_reference(self) -> tuple[float, float] | None:
         """Governed depth and vertical speed ``(z_r [m], v_r [m/s])`` seen by the LQR."""
         ref = self.reference.reference
@@ -283,13 +292,15 @@ class DepthController:
 
         self.reference.start(z)
         # The stop is planned at the surge speed the vehicle is heading for, if lower: the
-        # lowest prediction since the manoeuvre started (a plan made on a speed that then
-        # falls would brake too late).
+        # lowest prediction over the last surge_horizon of the manoeuvre (a plan made on a
+        # speed that then falls would brake too late; a prediction older than its horizon is
+        # about a moment already past).
         u_heading = min(u, self.surge.update(u))
         ref = self.reference.reference
-        if ref is not None and (ref.v != 0.0 or ref.z != z_cmd) and self._u_stop is not None:
-            u_heading = min(u_heading, self._u_stop)
-        self._u_stop = u_heading
+        if ref is None or (ref.v == 0.0 and ref.z == z_cmd):
+            self._headings.clear()
+        self._headings.append(u_heading)
+        u_heading = min(self._headings)
         stop = None if u_heading >= u else (self.trimmed(self.design.at(u_heading)), u_heading)
         z_r, v_r, a_r, j_r, s_r = self.reference.advance(op, u, z_cmd, stop)
         # Depth rate [m/s, down] from the measured depth, low-passed over stall_time: a vehicle

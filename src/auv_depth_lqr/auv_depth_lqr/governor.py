@@ -143,10 +143,11 @@ class GovernorSettings:
     """Time constant [s] of each of the two low-passes that give the measured surge speed's
     trend (:class:`auv_depth_lqr.surge.SurgeTrend`)."""
     surge_horizon: float = 10.0
-    """How far ahead [s] the surge speed is predicted for the stop: about the length of a
-    stop, after which the vehicle is level again and its speed no longer falls (the steady
-    speed of the dive, reached only after several time constants, would plan it far too
-    slowly)."""
+    """How far ahead [s] the surge speed is predicted for the stop, and how long a
+    prediction is kept (the stop is planned at the lowest of the last ``surge_horizon``):
+    about the length of a stop, after which the vehicle is level again and its speed no
+    longer falls (the steady speed of the dive, reached only after several time constants,
+    would plan it far too slowly)."""
 
     def __post_init__(self) -> None:
         for name in ('margin', 'bar_margin', 'brake_bar_share', 'pitch_guard',
