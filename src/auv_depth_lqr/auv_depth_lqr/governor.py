@@ -133,8 +133,9 @@ class GovernorSettings:
     ``bench/bench_robustness.py --family ident`` (0, 0.5, 1: see docs/robustness.md)."""
     surge_length: float = 0.0
     """Time constant of the surge speed with the thrust held, times the speed [m]: the
-    vehicle's ``(m - Xudot) / (2 k)`` for a surge drag ``k u |u|`` (derived from the vehicle
-    file's level trims, :func:`auv_depth_lqr.tuning.surge_length`). A climb or dive changes
+    vehicle's ``(m - Xudot) u / T'(u)``, ``(m - Xudot) / (2 k)`` for a surge drag ``k u |u|``
+    (from the vehicle file's level trims, :func:`auv_depth_lqr.surge.surge_length`, set by
+    :func:`auv_depth_lqr.pilot.build_controller`). A climb or dive changes
     the surge speed of a vehicle whose propeller is held (the weight less the buoyancy along
     its axis, the drag of the lift): the stop is planned at the speed the measured trend is
     heading for (:class:`auv_depth_lqr.surge.SurgeTrend`), where the plane's authority will
