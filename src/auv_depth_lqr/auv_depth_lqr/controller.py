@@ -178,6 +178,7 @@ class DepthController:
         self._z_prev: float | None = None
         self._z_rate = 0.0
         self._still = 0.0
+        self._stop_speed: float | None = None
         self._headings: collections.deque[float] = collections.deque(
             maxlen=max(int(round(self.governor.surge_horizon / self.Ts)), 1))
         self.surge.reset()
@@ -236,10 +237,10 @@ class DepthController:
 
     @property
     def stop_speed(self) -> float | None:
-        """Surge speed [m/s] the last sample's stop was planned at (the lowest speed the
-        vehicle was heading for over the last ``surge_horizon``); None before the first
-        :meth:`step`."""
-        return min(self._headings) if self._headings else None
+        """Surge speed [m/s] the last sample's stop was planned at: the measured one or, if
+        lower, the lowest the vehicle was heading for over the last ``surge_horizon``; None
+        before the first :meth:`step`."""
+        return self._stop_speed
 
     @property
     def governed_reference(self) -> tuple[float, float] | None:
@@ -291,16 +292,17 @@ class DepthController:
         op = self.trimmed(nominal)
 
         self.reference.start(z)
-        # The stop is planned at the surge speed the vehicle is heading for, if lower: the
-        # lowest prediction over the last surge_horizon of the manoeuvre (a plan made on a
-        # speed that then falls would brake too late; a prediction older than its horizon is
-        # about a moment already past).
-        u_heading = min(u, self.surge.update(u))
+        # The stop is planned at the surge speed the vehicle is heading for, if lower than the
+        # measured one: the lowest prediction over the last surge_horizon of the manoeuvre (a
+        # plan made on a speed that then falls would brake too late; a prediction older than
+        # its horizon is about a moment already past).
+        heading = self.surge.update(u)
         ref = self.reference.reference
         if ref is None or (ref.v == 0.0 and ref.z == z_cmd):
             self._headings.clear()
-        self._headings.append(u_heading)
-        u_heading = min(self._headings)
+        self._headings.append(heading)
+        u_heading = min(u, min(self._headings))
+        self._stop_speed = u_heading
         stop = None if u_heading >= u else (self.trimmed(self.design.at(u_heading)), u_heading)
         z_r, v_r, a_r, j_r, s_r = self.reference.advance(op, u, z_cmd, stop)
         # Depth rate [m/s, down] from the measured depth, low-passed over stall_time: a vehicle
