@@ -145,7 +145,8 @@ class GovernorSettings:
     trend (:class:`auv_depth_lqr.surge.SurgeTrend`)."""
     surge_horizon: float = 10.0
     """How far ahead [s] the surge speed is predicted for the stop, and how long a
-    prediction is kept (the stop is planned at the lowest of the last ``surge_horizon``):
+    prediction is kept (the stop is planned at the lowest of the last ``surge_horizon``, or
+    at the measured speed if that is lower):
     about the length of a stop, after which the vehicle is level again and its speed no
     longer falls (the steady speed of the dive, reached only after several time constants,
     would plan it far too slowly)."""
