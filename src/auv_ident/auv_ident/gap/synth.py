@@ -80,6 +80,11 @@ class Scenario:
     command_rate: float = 10.0
     pilot: bool = True
     bar_steps: tuple[tuple[float, float], ...] = ((0.0, 0.0),)
+    #: thruster-off stretches ``(t0, t1)`` [s]: thrust 0 N and the plane held at
+    #: ``coast_bar`` [rad] (no pilot, no doublets): the vehicle coasts, then rises or sinks
+    #: and hangs at the pitch its restoring moments give
+    coasts: tuple[tuple[float, float], ...] = ()
+    coast_bar: float = 0.0
 
 
 def panel_scenario(repeat: int = 1) -> Scenario:
@@ -172,6 +177,7 @@ def simulate(params: VehicleParams, effects: Environment | Mapping[str, Any] | N
     sigma = sensors.sigmas() if isinstance(sensors, SensorNoise) else np.asarray(sensors, float)
     rng = np.random.default_rng(seed)
     trim = VerticalPlane(params).trim(sc.u0, z=sc.z0)
+    coasting = False
     sim = Simulator(params, env, x0=trim.state())
     pilot = new_pilot(params, sc.command_rate) if sc.pilot else None
     every = int(round(sample_period / sim.dt))
@@ -187,7 +193,8 @@ def simulate(params: VehicleParams, effects: Environment | Mapping[str, Any] | N
         x[:12] += rng.standard_normal(12) * sigma
         samples.append((t, x_true, x, applied, wrench))
         if i % per_cmd == 0:
-            thrust = _held(sc.thrust, t)
+            coast = any(a <= t + 1e-9 < b for a, b in sc.coasts)
+            thrust = 0.0 if coast else _held(sc.thrust, t)
             if thrust != last_thrust:
                 sim.command('thrust', thrust)
                 cmds['thrust'].append((t, thrust))
@@ -198,11 +205,17 @@ def simulate(params: VehicleParams, effects: Environment | Mapping[str, Any] | N
                     pilot.set_depth_command(depth)
                     last_depth = depth
                 pilot.on_state(t, z=x[2], theta=x[4], w=x[8], q=x[10], u=x[6])
-                bar = pilot.command(t)[0]
+                if coasting and not coast:      # the pilot takes over again from scratch
+                    pilot = new_pilot(params, sc.command_rate)
+                    pilot.set_depth_command(depth)
+                    pilot.on_state(t, z=x[2], theta=x[4], w=x[8], q=x[10], u=x[6])
+                bar = sc.coast_bar if coast else pilot.command(t)[0]
             else:
-                bar = trim.bar + _held(sc.bar_steps, t)
-            bar = float(np.clip(bar + doublet(sc.doublets, t), -params.bar_max,
-                                params.bar_max))
+                bar = sc.coast_bar if coast else trim.bar + _held(sc.bar_steps, t)
+            coasting = coast
+            if not coast:
+                bar += doublet(sc.doublets, t)
+            bar = float(np.clip(bar, -params.bar_max, params.bar_max))
             sim.command('bar', bar)
             cmds['bar'].append((t, bar))
         if i < n - 1:

@@ -21,3 +21,8 @@ class MapError(RealLogError):
 class LogReadError(RealLogError):
     """A log cannot be read as the map says: missing topic, column or field path, ragged
     rows, unknown log kind or message type, unusable time stamps."""
+
+
+class NoSegmentError(RealLogError):
+    """A log holds no usable segment (empty after the segment rules: surfaced, propeller
+    off, too short); a batch import leaves such a log out and says so, unless strict."""

@@ -22,6 +22,7 @@ lower rudder its negative. Propeller speed from thrust by ``T = k n |n|`` (``k``
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import pathlib
@@ -193,3 +194,113 @@ def record_of(t: np.ndarray, state: np.ndarray,
     measured[:, :12] = state
     return Record(np.asarray(t, float), np.full((n, 15), np.nan), measured, cmd,
                   np.full((n, 4, 6), np.nan))
+
+
+# --------------------------------------------------------------------------------------------
+# a vendor's text log as real loggers write them
+
+@dataclasses.dataclass(frozen=True)
+class VendorText:
+    """How a vendor's text logger writes a flight (see :func:`write_vendor_text`).
+
+    ``steps``: the row spacing [s], a pattern repeated over the log (``(0.39, 0.61)``: rows
+    alternating 0.39 and 0.61 s apart, 2 Hz on average); ``depth_unit`` ``m`` or ``cm`` and
+    ``depth_resolution`` [m] (0.1: depth printed in 0.1 m steps; 0: full precision);
+    ``speed_period`` [s]: the DVL's update period (1.0 on 2 Hz rows: each value on two rows;
+    0: a new value on every row); ``thrust`` ``rpm`` (``T = K_RPM n |n|``) or ``percent``
+    (of ``thrust_full_scale`` [N]); ``fins`` ``pair`` (port and starboard elevators, the
+    starboard mirrored, an upper and a lower rudder, the lower mirrored) or ``y`` (a top
+    rudder and two lower fins at +-120 deg from the top, each deflected by ``bar /
+    cos(30 deg)`` so that their vertical forces sum to a pair's); ``roll_rudders`` [rad]: the
+    two rudders also move together (not mirrored) by this amplitude, a roll command that
+    cancels in the helm; ``cut_last_row``: the last row stops mid-line (a logger switched off
+    while writing); ``nan_rows``: row indices whose speed field reads ``nan``; ``t0`` [s]:
+    the clock at the first sample (an epoch time, or 0 for a log timed from its start).
+    """
+
+    steps: tuple[float, ...] = (0.5,)
+    depth_unit: str = 'cm'
+    depth_resolution: float = 0.0
+    speed_period: float = 0.0
+    thrust: str = 'rpm'
+    thrust_full_scale: float = 0.0
+    fins: str = 'pair'
+    roll_rudders: float = 0.0
+    cut_last_row: bool = False
+    nan_rows: tuple[int, ...] = ()
+    t0: float = 0.0
+
+    def columns(self) -> tuple[str, ...]:
+        """The header line's column names."""
+        depth = 'depth_m' if self.depth_unit == 'm' else 'depth_cm'
+        fins = (('fin_top_deg', 'fin_port_deg', 'fin_stbd_deg') if self.fins == 'y' else
+                ('elev_port_deg', 'elev_stbd_deg', 'rudder_up_deg', 'rudder_low_deg'))
+        thrust = 'thrust_pct' if self.thrust == 'percent' else 'rpm'
+        return ('time', depth, 'roll_deg', 'pitch_deg', 'heading_deg', 'speed_ms', *fins,
+                thrust)
+
+
+#: Cosine of the angle between a lower fin of a Y (at 120 deg from the top) and the
+#: horizontal: the share of its lift that acts vertically.
+COS_30 = math.cos(math.radians(30.0))
+
+
+def vendor_rows(t: np.ndarray, steps: tuple[float, ...]) -> np.ndarray:
+    """Indices into sample times ``t`` [s] (uniform) of rows spaced by the repeated pattern
+    ``steps`` [s] from ``t[0]`` (each row at the sample nearest its time)."""
+    dt = float(t[1] - t[0])
+    span = float(t[-1] - t[0])
+    pattern = np.asarray(steps, float)
+    n = int(span / pattern.mean()) + len(pattern) + 1
+    times = np.r_[0.0, np.cumsum(np.resize(pattern, n))]
+    times = times[times <= span + 1e-9]
+    out: np.ndarray = np.unique(np.clip(np.round(times / dt).astype(np.int64), 0, t.size - 1))
+    return out
+
+
+def write_vendor_text(path: str | os.PathLike[str], rec: Record, fmt: VendorText,
+                      noise: np.ndarray | None = None) -> int:
+    """Write ``rec`` as the vendor text log ``fmt`` describes (whitespace, header line; the
+    measured state plus ``noise`` (N x 12) at the rows, the commands applied at each row);
+    returns the rows written (a cut-off last row included)."""
+    meas = _state(rec, noise)
+    rows = vendor_rows(rec.t, fmt.steps)
+    # the DVL's value at each row: its latest update at or before the row
+    if fmt.speed_period > 0.0:
+        k = np.floor((rec.t[rows] - rec.t[0]) / fmt.speed_period + 1e-9)
+        first = np.r_[True, np.diff(k) > 0]
+        src = rows[np.maximum.accumulate(np.where(first, np.arange(rows.size), 0))]
+        speed_rows = meas[src, 6]
+    else:
+        speed_rows = meas[rows, 6]
+    depth = meas[rows, 2]
+    if fmt.depth_resolution > 0.0:
+        depth = np.round(depth / fmt.depth_resolution) * fmt.depth_resolution
+    depth = depth * (100.0 if fmt.depth_unit == 'cm' else 1.0)
+    lines = [' '.join(fmt.columns())]
+    for j, i in enumerate(rows):
+        bar, helm, thrust = rec.cmd[i]
+        bd, hd = math.degrees(bar), math.degrees(helm)
+        roll = math.degrees(fmt.roll_rudders) * math.sin(2 * math.pi * rec.t[i] / 20.0)
+        if fmt.fins == 'y':
+            fins: tuple[float, ...] = (hd, bd / COS_30, bd / COS_30)
+        else:
+            fins = (bd, -bd, hd + roll, -hd + roll)
+        thr = (100.0 * thrust / fmt.thrust_full_scale if fmt.thrust == 'percent'
+               else float(rpm_of_thrust(np.array(thrust))))
+        vals = (fmt.t0 + rec.t[i], depth[j], math.degrees(meas[i, 3]),
+                math.degrees(meas[i, 4]), math.degrees(meas[i, 5]) % 360.0, speed_rows[j],
+                *fins, thr)
+        text = [f'{vals[0]:.3f}', *(f'{v:.10g}' for v in vals[1:])]
+        if fmt.depth_resolution > 0.0:
+            digits = max(0, -int(math.floor(math.log10(fmt.depth_resolution * (
+                100.0 if fmt.depth_unit == 'cm' else 1.0)) + 1e-9)))
+            text[1] = f'{vals[1]:.{digits}f}'
+        if j in fmt.nan_rows:
+            text[5] = 'nan'
+        lines.append(' '.join(text))
+    if fmt.cut_last_row and len(lines) > 2:
+        lines[-1] = lines[-1][:len(lines[-1]) // 2].rstrip()
+    text_out = '\n'.join(lines) + ('' if fmt.cut_last_row else '\n')
+    pathlib.Path(path).write_text(text_out)
+    return len(rows)
