@@ -340,8 +340,9 @@ SRC_CURRENT = ('horizontal currents: tidal streams in coastal straits reach 2-3 
                'cannot make way against more than its own speed (~2.5 m/s)')
 SRC_UPWELLING = ('vertical currents (internal waves, convection, upwelling) are mm/s to '
                  'cm/s, rarely 0.1 m/s (Thorpe 2005, The Turbulent Ocean)')
-SRC_BALLAST = ('trim ballasting leaves |dB| within a few per mille of the weight; 5 % of the '
-               'weight (flooding, lost ballast) is the largest a flying vehicle survives')
+SRC_BALLAST = ('trim ballasting leaves |dB| within a few per mille of the weight; 2 % of it is '
+               'a badly trimmed vehicle, 5 % (flooding, lost ballast) the most a flying '
+               'vehicle survives (assumed)')
 SRC_COMPRESS = ('sea water compressibility 4.4e-10 1/Pa (4.4e-6 1/m, UNESCO EOS-80); hulls and '
                 'syntactic foam compress by the same order: |k| <= 1e-4 1/m (1 % per 100 m)')
 SRC_DELAY = ('bus, servo-controller and sample-and-hold latencies: tens to hundreds of ms; '
@@ -449,7 +450,7 @@ class BuoyancyOffset(Effect):
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         w = vehicle.W
         return (Parameter('dB', 'N', -0.15 * w, 0.15 * w, 0.0, 0.002 * w,
-                          (-0.05 * w, 0.05 * w), SRC_BALLAST),)
+                          (-0.02 * w, 0.02 * w), SRC_BALLAST),)
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         # extra buoyancy acts upward (-gravity direction) at the centre of buoyancy

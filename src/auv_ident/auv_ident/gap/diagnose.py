@@ -201,7 +201,7 @@ class NominalRuns:
     floor, the states with a gap, the channel scales of the cost, and whether the model
     diverges on the logs."""
 
-    all_w: list[int]
+    all_w: list[int]                # the windows kept (the diverging ones left out)
     err: np.ndarray                 # S x 12, nominal free run minus smoothed log
     rms: np.ndarray                 # per channel of CH_NAMES
     floor: np.ndarray               # per channel of CH_NAMES
@@ -209,7 +209,7 @@ class NominalRuns:
     scales: np.ndarray
     rms_z_win: np.ndarray           # depth RMS per window
     other_logs: list[GapLog] | None
-    diverging: list[bool]           # per window
+    diverging: list[bool]           # per window of all windows
     diverges: bool
 
 
@@ -226,6 +226,17 @@ def nominal_runs(pr: Problem, weighting: Weighting, say: Progress) -> NominalRun
     its rows) make the floor; channels whose RMS exceeds ``GAP_FACTOR`` times it carry a
     gap."""
     nom = Perturbation.nominal(pr.vehicle)
+    every = pr.select(None)
+    out, meas = pr.free_run([nom], every)
+    diverging = _diverging(pr, every, out[0] - meas)
+    diverges = bool(np.mean(diverging) >= DIVERGE_SHARE) if diverging else False
+    # runs on which the nominal model leaves the logs would weigh more than all the others
+    # together (a change that merely steadies the model would explain them): out of the
+    # free-run fits and scores, said
+    if any(diverging) and not diverges:
+        if pr.exclude([i for i, d in zip(every, diverging) if d]):
+            say(f'{int(np.sum(diverging))} of {len(every)} runs on which the nominal model '
+                'diverges are left out of the free-run fits and scores')
     all_w = pr.select(None)
     rng = np.random.default_rng(12345)
     x0_noise = np.zeros((MC_RUNS + 1, len(all_w), 12))
@@ -233,8 +244,6 @@ def nominal_runs(pr: Problem, weighting: Weighting, say: Progress) -> NominalRun
     out, meas = pr.free_run([nom] * (MC_RUNS + 1), all_w, x0_noise=x0_noise)
     err_nom = out[0] - meas
     rows_all = pr.window_rows(all_w)
-    diverging = [bool(not np.all(np.isfinite(err_nom[r][:, list(CH_INDEX)]))
-                      or np.max(np.abs(err_nom[r, 4])) > DIVERGE_PITCH) for r in rows_all]
     finite = np.all(np.isfinite(err_nom[:, CH_INDEX]), axis=1)
     if not finite.all():
         say('the nominal free run diverges in some windows')
@@ -262,9 +271,17 @@ def nominal_runs(pr: Problem, weighting: Weighting, say: Progress) -> NominalRun
     scales = np.where(weighting.channel_mask(CH_NAMES), np.inf, scales)
     gap_channels = [c for c in gap_channels if c not in weighting.channels]
     rms_z_win = np.array([np.sqrt(np.nanmean(err_nom[r, 2] ** 2)) for r in rows_all])
-    diverges = bool(np.mean(diverging) >= DIVERGE_SHARE) if diverging else False
     return NominalRuns(all_w, err_nom, rms_nom, floor, gap_channels, scales, rms_z_win,
                        other_logs, diverging, diverges)
+
+
+def _diverging(pr: Problem, windows: Sequence[int], err: np.ndarray) -> list[bool]:
+    """Per window of ``windows``: whether the free run whose errors against the log are
+    ``err`` (rows of :meth:`Problem.window_rows`) diverges (pitch off by more than
+    :data:`DIVERGE_PITCH`, or not finite)."""
+    return [bool(not np.all(np.isfinite(err[r][:, list(CH_INDEX)]))
+                 or np.max(np.abs(err[r, 4])) > DIVERGE_PITCH)
+            for r in pr.window_rows(windows)]
 
 
 @dataclasses.dataclass
@@ -336,7 +353,8 @@ class Search:
 
 
 def search_candidates(pr: Problem, nominal: NominalRuns, names: Sequence[str], top: int,
-                      max_effects: int, say: Progress) -> Search:
+                      max_effects: int, say: Progress,
+                      fitted: Mapping[str, FitResult] | None = None) -> Search:
     """Stage 3: every catalogue effect fitted by equation error and scored by held-out free
     run; the ``top`` plausible ones refined by free run (and the best one beyond its typical
     range that physics allows, when it scores above them); combinations grown greedily from
@@ -359,7 +377,8 @@ def search_candidates(pr: Problem, nominal: NominalRuns, names: Sequence[str], t
                                               'nominal')])[0]
     eqf = EquationFit(pr)
     say(f'equation-error fits of {len(names)} effects')
-    singles_a = {n: eqf.fit(pr.effect_set([n])) for n in names}
+    singles_a = {n: fitted[n] if fitted and n in fitted else eqf.fit(pr.effect_set([n]))
+                 for n in names}
     cands_a = {c.label: c for c in scorer.evaluate(list(singles_a.values()))}
     order = sorted(names, key=lambda n: -cands_a[n].score)
     found = [n for n in order if singles_a[n].n_active > 0]
@@ -443,6 +462,8 @@ class Judgement:
     white: bool
     findings: list[residuals.Finding]
     left: list[str]
+    #: the candidates behind ``ambiguous`` (for the statement)
+    rivals: list[Candidate] = dataclasses.field(default_factory=list)
 
 
 def judge(pr: Problem, search: Search, nominal: NominalRuns, site: GapSite,
@@ -480,19 +501,23 @@ def judge(pr: Problem, search: Search, nominal: NominalRuns, site: GapSite,
         if gap_channels else None
     if odd is not None:
         say(f'{odd.label}: beyond its typical range, and a better fit than any typical set')
-        rivals = [c for c in candidates if c is not odd and c.plausible and c.identifies
+        # rivals: typical or atypical (not impossible) answers the held-out windows cannot
+        # tell from it
+        rivals = [c for c in candidates if c is not odd and c.possible and c.identifies
                   and not (_nested(set(c.names), set(odd.names))
                            or _nested(set(odd.names), set(c.names)))
                   and c.cost <= AMBIGUOUS_RATIO * odd.cost
+                  and c.explained >= odd.explained / AMBIGUOUS_RATIO
                   and window_t_stat(c.window_cost - odd.window_cost) < AMBIGUOUS_T]
         ambiguous = list(dict.fromkeys(n for c in rivals for n in c.names
                                        if n not in odd.names))
+        rivals = list({c.label: c for c in reversed(rivals)}.values())[::-1]
         _rank(candidates, odd)
         eff = get_effect(odd.names[0])
         suggestion = (separating_manoeuvre(odd.names[0], ambiguous[0], envelope)
                       if ambiguous else f'to confirm: {eff.advice(envelope)}')
         return Judgement('ambiguous' if ambiguous else 'partly_explained', odd, True,
-                         ambiguous, suggestion, False, findings, left)
+                         ambiguous, suggestion, False, findings, left, rivals)
     if tested is not None and gap_channels:
         # a fit beyond physics that predicts the held-out windows significantly better than
         # the answer shows structure the answer leaves: not explained (its form is the hint)
@@ -524,6 +549,30 @@ def _atypical(scorer: _Scorer, best: Candidate, candidates: Sequence[Candidate]
     return None
 
 
+def _steadied_by(pr: Problem, names: Sequence[str], say: Progress
+                 ) -> tuple[dict[str, FitResult], list[str]]:
+    """A nominal model that diverges on the logs either has dynamics the logs do not
+    follow (re-identify it) or misses an effect large enough to throw its runs off (a 10 deg
+    fin zero error). Each effect fitted by equation error alone (the model's equations at
+    the logged states, no free run that a steadying change could win) is run over every
+    window: the effects (within what physics allows, identifying something) with which fewer
+    than half of :data:`DIVERGE_SHARE` of the runs diverge. Returns the fits too (the search
+    reuses them)."""
+    eqf = EquationFit(pr)
+    say(f'the nominal model diverges: equation-error fits of {len(names)} effects')
+    fits = {n: eqf.fit(pr.effect_set([n])) for n in names}
+    usable = [n for n in names if fits[n].n_active > 0
+              and not _plausibility(fits[n])[1] and not _plausibility(fits[n])[2]]
+    if not usable:
+        return fits, []
+    all_w = pr.select(None)
+    out, meas = pr.free_run([fits[n].effects.perturbation(fits[n].values) for n in usable],
+                            all_w)
+    steadied = [n for c, n in enumerate(usable)
+                if np.mean(_diverging(pr, all_w, out[c] - meas)) < 0.5 * DIVERGE_SHARE]
+    return fits, steadied
+
+
 def _divergence_text(pr: Problem, nominal: NominalRuns) -> str:
     """Why the diagnosis stops on a model that diverges on the logs."""
     k = int(np.sum(nominal.diverging))
@@ -532,9 +581,10 @@ def _divergence_text(pr: Problem, nominal: NominalRuns) -> str:
             f'runs of {pr.run:.3g} s leave the logged motion (pitch off by more than '
             f'{math.degrees(DIVERGE_PITCH):.0f} deg, or no finite state'
             + (f'; {pr.run_why}' if unstable else '')
-            + '). Any effect that merely steadies it would seem to explain the gap, so none is '
-            'named: re-identify the model first (auv ident on these logs, or logs with '
-            'manoeuvres), then diagnose the identified file'
+            + '), and no effect fitted to its equations keeps them with the logs. Any effect '
+            'that merely steadies it would seem to explain the gap, so none is named: '
+            're-identify the model first (auv ident on these logs, or logs with manoeuvres), '
+            'then diagnose the identified file'
             + ('; if the model is right and only unstable, log the pitch rate and heave '
                'velocity (or faster rows): the runs start from states differenced at the '
                'log\'s rows' if unstable and pr.x0_states else '') + '.')
@@ -580,19 +630,30 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | 
     site = locate_gap(pr, nominal)
     envelope = _envelope(pr)
     quiet = _quiet_findings(pr, site)
+    fitted: dict[str, FitResult] | None = None
     if nominal.diverges:
-        say('the nominal model diverges on the logs: re-identify it first')
-        statement = _divergence_text(pr, nominal)
-        judgement = Judgement('unexplained', None, False, [], None, False, [], [])
-        return _assemble(pr, nominal, site, None, judgement, weighting, quiet, statement,
-                         envelope)
-    search = search_candidates(pr, nominal, names, top, max_effects, say)
+        fitted, steadied = _steadied_by(pr, names, say)
+        if not steadied:
+            say('the nominal model diverges on the logs: re-identify it first')
+            statement = _divergence_text(pr, nominal)
+            judgement = Judgement('unexplained', None, False, [], None, False, [], [])
+            return _assemble(pr, nominal, site, None, judgement, weighting, quiet, statement,
+                             envelope)
+        say(f'with {", ".join(steadied)} fitted to the equations the free runs stay with the '
+            'logs: the divergence is an effect\'s, diagnosing on')
+        # the nominal's diverging runs out of the fits and scores (see nominal_runs)
+        every = pr.select(None)
+        if pr.exclude([i for i, d in zip(every, nominal.diverging) if d]):
+            nominal = nominal_runs(pr, weighting, say)
+    search = search_candidates(pr, nominal, names, top, max_effects, say, fitted)
     judgement = judge(pr, search, nominal, site, weighting, envelope, say)
     judgement = _with_quiet(judgement, quiet)
     implausible = [{'effect': c.label, 'explained': c.explained,
                     'kind': 'impossible' if not c.possible else 'atypical',
-                    'beyond': {k: [v, *c.beyond[k]] for k, v in _entry_params(c).items()
-                               if k in c.beyond}}
+                    'beyond': ({k: [v, *c.impossible[k]] for k, v in _entry_params(c).items()
+                                if k in c.impossible} if not c.possible else
+                               {k: [v, *c.beyond[k]] for k, v in _entry_params(c).items()
+                                if k in c.beyond})}
                    for c in search.candidates if not c.plausible and c.explained >= PARTLY
                    and c is not judgement.best]
     statement = _statement(judgement, implausible, envelope)
@@ -710,6 +771,7 @@ def _assemble(pr: Problem, nominal: NominalRuns, site: GapSite, search: Search |
         'run_why': pr.run_why,
         'advice': {n: get_effect(n).advice(envelope) for n in CATALOGUE},
         'diverging_runs': int(np.sum(nominal.diverging)),
+        'runs_left_out': sorted(pr.excluded),
     }
     plots = {'problem': pr, 'best': j.best, 'nominal': Perturbation.nominal(pr.vehicle),
              'e_nom': site.e_nom, 'corr': site.corr, 'band': site.band_info,
@@ -901,16 +963,18 @@ def _statement(j: Judgement, implausible: Sequence[Mapping[str, Any]],
         parts.append(f'{j.verdict.replace("_", " ").capitalize()}, by a value beyond the '
                      f'typical range: {describe(best.fit)} ({best.explained:.0%} of the '
                      'held-out gap above the noise floor).')
-        for (e, p), v, a in zip(best.fit.effects.params, best.fit.values, best.fit.active):
-            if a and not p.is_plausible(float(v)):
-                lo, hi = p.plausible_range
-                parts.append(f'{e}.{p.name} = {v:.4g} {p.unit} is beyond the typical range '
-                             f'({lo:.4g} to {hi:.4g} {p.unit}): check '
-                             f'{p.check or "how the vehicle is rigged"}.')
-        parts.append(f'To confirm it, fly {get_effect(best.names[0]).advice(envelope)}.')
+        parts += _beyond_typical(best)
         if j.ambiguous:
-            parts.append('The held-out data cannot tell it from ' + ', '.join(j.ambiguous)
-                         + '.')
+            texts = []
+            for c in j.rivals[:3]:
+                extra = ' '.join(_beyond_typical(c)).rstrip('.')
+                texts.append(f'{describe(c.fit)} ({c.explained:.0%})'
+                             + (f' [{extra}]' if extra else ''))
+            parts.append('The held-out data cannot tell it from '
+                         + ('; '.join(texts) if texts else ', '.join(j.ambiguous)) + '.')
+            parts.append(f'To tell them apart, fly {j.suggestion}.')
+        else:
+            parts.append(f'To confirm it, fly {get_effect(best.names[0]).advice(envelope)}.')
     else:
         parts.append(f'{j.verdict.replace("_", " ").capitalize()}: '
                      + describe(best.fit) + f' ({best.explained:.0%} of the held-out gap '
@@ -931,6 +995,20 @@ def _statement(j: Judgement, implausible: Sequence[Mapping[str, Any]],
     if j.left and best is not None:
         parts.append('Left over in the held-out residuals: ' + '; '.join(j.left[:4]) + '.')
     return ' '.join(parts)
+
+
+def _beyond_typical(c: Candidate) -> list[str]:
+    """One sentence per identified parameter of ``c`` beyond its typical range: the value,
+    the range and what to check."""
+    out = []
+    for (e, p), v, a in zip(c.fit.effects.params, c.fit.values, c.fit.active):
+        if a and not p.is_plausible(float(v)):
+            lo, hi = p.plausible_range
+            unit = '' if p.unit == '-' else f' {p.unit}'
+            out.append(f'{e}.{p.name} = {v:.4g}{unit} is beyond the typical range '
+                       f'({lo:.4g} to {hi:.4g}{unit}): check '
+                       f'{p.check or "how the vehicle is rigged"}.')
+    return out
 
 
 def _param_key(c: Candidate, effect: str, name: str) -> str:

@@ -285,6 +285,8 @@ class Problem:
         self.fine_n = [((lg.t.size - 1) // self.m) * self.sub * 2 + 1 for lg in self.logs]
         self.fine_off = np.r_[0, np.cumsum(self.fine_n)[:-1]].astype(np.int64)
         self.windows = self._windows(window, self.run, held_out_logs)
+        #: windows left out of the free runs (:meth:`exclude`)
+        self.excluded: frozenset[int] = frozenset()
         self.x0_cov = [None] * len(self.windows)
         if not any(w.held_out for w in self.windows) or all(w.held_out for w in self.windows):
             raise GapError('the logs are too short to hold out whole windows: need at least '
@@ -323,9 +325,21 @@ class Problem:
         return wins
 
     def select(self, held_out: bool | None) -> list[int]:
-        """Indices of the held-out (True), training (False) or all (None) windows."""
+        """Indices of the held-out (True), training (False) or all (None) windows, less the
+        :attr:`excluded` ones."""
         return [i for i, w in enumerate(self.windows)
-                if held_out is None or w.held_out == held_out]
+                if (held_out is None or w.held_out == held_out) and i not in self.excluded]
+
+    def exclude(self, windows: Sequence[int]) -> bool:
+        """Leave ``windows`` out of every later :meth:`select` (free-run fits, scores and
+        tests; the equation error keeps their samples), unless that would leave no training
+        or no held-out window; returns whether they were left out."""
+        left = set(windows) | self.excluded
+        keep = [w for i, w in enumerate(self.windows) if i not in left]
+        if not any(w.held_out for w in keep) or all(w.held_out for w in keep):
+            return False
+        self.excluded = frozenset(left)
+        return True
 
     # -- actuators ---------------------------------------------------------------------------
     def actuators(self, pert: Perturbation) -> np.ndarray:

@@ -120,7 +120,9 @@ def open_loop_scenario() -> Scenario:
                                (520.0, -0.015)))
 
 
-def _held(rows: tuple[tuple[float, float], ...], t: float) -> float:
+def held(rows: tuple[tuple[float, float], ...], t: float) -> float:
+    """The value of schedule ``rows`` ``(t [s], value)`` at ``t`` [s]: the last row at or
+    before it (before the first, the first)."""
     value = rows[0][1]
     for tr, v in rows:
         if tr <= t + 1e-9:
@@ -194,13 +196,13 @@ def simulate(params: VehicleParams, effects: Environment | Mapping[str, Any] | N
         samples.append((t, x_true, x, applied, wrench))
         if i % per_cmd == 0:
             coast = any(a <= t + 1e-9 < b for a, b in sc.coasts)
-            thrust = 0.0 if coast else _held(sc.thrust, t)
+            thrust = 0.0 if coast else held(sc.thrust, t)
             if thrust != last_thrust:
                 sim.command('thrust', thrust)
                 cmds['thrust'].append((t, thrust))
                 last_thrust = thrust
             if pilot is not None:
-                depth = _held(sc.depth, t)
+                depth = held(sc.depth, t)
                 if depth != last_depth:
                     pilot.set_depth_command(depth)
                     last_depth = depth
@@ -211,7 +213,7 @@ def simulate(params: VehicleParams, effects: Environment | Mapping[str, Any] | N
                     pilot.on_state(t, z=x[2], theta=x[4], w=x[8], q=x[10], u=x[6])
                 bar = sc.coast_bar if coast else pilot.command(t)[0]
             else:
-                bar = sc.coast_bar if coast else trim.bar + _held(sc.bar_steps, t)
+                bar = sc.coast_bar if coast else trim.bar + held(sc.bar_steps, t)
             coasting = coast
             if not coast:
                 bar += doublet(sc.doublets, t)

@@ -686,7 +686,7 @@ def import_log(logmap: LogMap, path: str | os.PathLike[str], name: str | None = 
     report = {
         'log': str(p),
         'map': logmap.path,
-        'start': {'stamp_s': t_start, 'utc': utc(t_start),
+        'start': {'stamp_s': t_start, 'utc': utc(t_start), 'file_time_s': file_time(p),
                   'file_time_utc': utc(ft) if (ft := file_time(p)) is not None else None},
         'signals': {sig: 'derived' if sig not in bs.given else signals.label[sig]
                     for sig in STATE} | {ch: signals.label[ch] for ch in commands},

@@ -515,7 +515,10 @@ def _vector(kind_name: str, node: _Node, topic: str | None, fields: Sequence[str
         u = unit(str(uname), str(node.where('unit')))
         if u.dimension != dim:
             raise MapError(f'{node.where("unit")}: unit {uname} does not fit a {kind_name}')
-        factor = u.factor
+        # scale: raw sensor counts per ... (a gyro logging counts: 1 / counts per unit)
+        factor = u.factor * (node.number('scale', 1.0) if node.has('scale') else 1.0)
+    elif node.has('scale'):
+        raise MapError(f'{node.where("scale")}: a quaternion has no scale')
     need = 4 if kind_name == 'orientation' else 3
     if len(fields) != need:
         raise MapError(f'{node.where("fields")}: a {kind_name} needs {need} fields')
@@ -591,7 +594,7 @@ def _preset(node: _Node, kind: str) -> tuple[list[Vector], list[Scalar]]:
         body['field'] = path
         return [], [_scalar(signal, _Node(body, node.key, node.line), kind, origin)]
     node.finish(('preset', 'topic', 'frame', 'use', 'unit', 'skip', 'mounting', 'lever_arm',
-                 'rate', 'resolution'))
+                 'rate', 'resolution', 'scale'))
     fields = _preset_fields(preset, node.where('preset'))
     use = node.get('use') or list(fields)
     if isinstance(use, str):
@@ -714,7 +717,7 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
                 scalars[sc.name] = sc
     for node in root.items('vectors'):
         node.finish(('kind', 'topic', 'fields', 'columns', 'frame', 'unit', 'mounting',
-                     'lever_arm', 'rate', 'resolution'))
+                     'lever_arm', 'rate', 'resolution', 'scale'))
         kname = node.text('kind')
         if kname not in VECTOR_KINDS:
             raise MapError(f'{node.where("kind")}: unknown vector kind {kname!r} '

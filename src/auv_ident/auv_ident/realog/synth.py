@@ -304,3 +304,84 @@ def write_vendor_text(path: str | os.PathLike[str], rec: Record, fmt: VendorText
     text_out = '\n'.join(lines) + ('' if fmt.cut_last_row else '\n')
     pathlib.Path(path).write_text(text_out)
     return len(rows)
+
+
+#: Raw counts of a MEMS gyro per deg/s (the +-250 deg/s range of common parts).
+GYRO_COUNTS_PER_DEG_S = 131.0
+
+
+def write_ybag(path: str | os.PathLike[str], rec: Record, *, t0: float = 1.744e9,
+               thrust_full_scale: float = 10.0, every: int = 5, dvl_every: int = 10,
+               zero_imu_stamps: bool = True, noise: np.ndarray | None = None) -> int:
+    """Write ``rec`` as a small vehicle's rosbag2 MCAP bag with three fins in a Y (see the
+    module docstring for the vendor conventions) and returns the messages written:
+
+    * ``/imu/data`` ``sensor_msgs/Imu``: orientation ENU/FLU, angular velocity FLU in raw
+      gyro counts (:data:`GYRO_COUNTS_PER_DEG_S` per deg/s); header stamps all zero when
+      ``zero_imu_stamps`` (a driver that does not stamp);
+    * ``/pressure`` ``sensor_msgs/FluidPressure`` [Pa] and ``/dvl/twist``
+      ``geometry_msgs/TwistStamped`` (FLU, every ``dvl_every``-th sample), stamped;
+    * ``/fins/top``, ``/fins/port``, ``/fins/stbd`` ``std_msgs/Float64`` [deg] (no header:
+      receive times): the top fin is the rudder, the lower fins at +-120 deg from the top
+      are each deflected by ``bar / cos(30 deg)``;
+    * ``/thruster/percent`` ``std_msgs/Float64``: thrust in per cent of
+      ``thrust_full_scale`` [N].
+
+    State messages every ``every``-th sample; receive times ``t0 + t`` [s] plus 2 ms.
+    """
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.LATEST)
+    T = store.types
+    Header, Time = T['std_msgs/msg/Header'], T['builtin_interfaces/msg/Time']
+    V3, Q = T['geometry_msgs/msg/Vector3'], T['geometry_msgs/msg/Quaternion']
+    Imu, Press = T['sensor_msgs/msg/Imu'], T['sensor_msgs/msg/FluidPressure']
+    Twist, TwistS, F64 = (T['geometry_msgs/msg/Twist'], T['geometry_msgs/msg/TwistStamped'],
+                          T['std_msgs/msg/Float64'])
+    meas = _state(rec, noise)
+    idx = np.arange(0, len(rec.t), every)
+    odom = state_to_odometry(meas[idx])
+    cov9 = np.zeros(9)
+
+    def header(t: float | None, frame: str) -> Any:
+        ns = 0 if t is None else int(round((t0 + t) * 1e9))
+        return Header(stamp=Time(sec=ns // 10**9, nanosec=ns % 10**9), frame_id=frame)
+
+    events: list[tuple[float, str, str, Any]] = []
+    for k, i in enumerate(idx):
+        t = float(rec.t[i])
+        q, lin, ang = odom.orientation[k], odom.linear[k], odom.angular[k]
+        counts = np.degrees(ang) * GYRO_COUNTS_PER_DEG_S
+        events.append((t, '/imu/data', 'sensor_msgs/msg/Imu', Imu(
+            header=header(None if zero_imu_stamps else t, 'imu'),
+            orientation=Q(x=q[0], y=q[1], z=q[2], w=q[3]), orientation_covariance=cov9,
+            angular_velocity=V3(x=counts[0], y=counts[1], z=counts[2]),
+            angular_velocity_covariance=cov9,
+            linear_acceleration=V3(x=0.0, y=0.0, z=0.0), linear_acceleration_covariance=cov9)))
+        events.append((t, '/pressure', 'sensor_msgs/msg/FluidPressure', Press(
+            header=header(t, 'pressure'), fluid_pressure=P0 + RHO * G * meas[i, 2],
+            variance=0.0)))
+        if k % max(1, dvl_every // every) == 0:
+            events.append((t, '/dvl/twist', 'geometry_msgs/msg/TwistStamped', TwistS(
+                header=header(t, 'dvl'),
+                twist=Twist(linear=V3(x=lin[0], y=lin[1], z=lin[2]),
+                            angular=V3(x=0.0, y=0.0, z=0.0)))))
+    change = np.flatnonzero(np.any(np.diff(rec.cmd, axis=0, prepend=np.nan) != 0, axis=1))
+    for i in change:
+        t = float(rec.t[i])
+        bar, helm, thrust = (float(v) for v in rec.cmd[i])
+        lower = math.degrees(bar) / COS_30
+        for topic, value in (('/fins/top', math.degrees(helm)), ('/fins/port', lower),
+                             ('/fins/stbd', lower),
+                             ('/thruster/percent', 100.0 * thrust / thrust_full_scale)):
+            events.append((t, topic, 'std_msgs/msg/Float64', F64(data=value)))
+    events.sort(key=lambda e: e[0])
+    with Writer(pathlib.Path(path), version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        conns: dict[str, Any] = {}
+        for t, topic, msgtype, msg in events:
+            if topic not in conns:
+                conns[topic] = w.add_connection(topic, msgtype, typestore=store)
+            w.write(conns[topic], int(round((t0 + t + 0.002) * 1e9)),
+                    store.serialize_cdr(msg, msgtype))
+    return len(events)
