@@ -354,11 +354,13 @@ class Search:
 
 def search_candidates(pr: Problem, nominal: NominalRuns, names: Sequence[str], top: int,
                       max_effects: int, say: Progress,
-                      fitted: Mapping[str, FitResult] | None = None) -> Search:
+                      fitted: Mapping[str, FitResult] | None = None,
+                      prefer: Sequence[str] = ()) -> Search:
     """Stage 3: every catalogue effect fitted by equation error and scored by held-out free
     run; the ``top`` plausible ones refined by free run (and the best one beyond its typical
-    range that physics allows, when it scores above them); combinations grown greedily from
-    the best plausible one (see the module docstring)."""
+    range that physics allows, when it scores above them, and those of ``prefer``);
+    combinations grown greedily from the best plausible one (see the module docstring).
+    ``fitted``: equation-error fits already made."""
     frf = FreeRunFit(pr, nominal.scales)
     nom = Perturbation.nominal(pr.vehicle)
     held_rows = pr.window_rows(frf.held)
@@ -391,6 +393,7 @@ def search_candidates(pr: Problem, nominal: NominalRuns, names: Sequence[str], t
     if odd is not None and odd not in refine and (
             not refine or cands_a[odd].score > cands_a[refine[0]].score):
         refine.append(odd)
+    refine += [n for n in prefer if n in found and n not in refine]
     say(f'free-run refinement of {", ".join(refine)}')
     singles: dict[str, Candidate] = dict(cands_a)
     refined = scorer.evaluate([frf.fit(singles_a[n]) for n in refine])
@@ -467,11 +470,15 @@ class Judgement:
 
 
 def judge(pr: Problem, search: Search, nominal: NominalRuns, site: GapSite,
-          weighting: Weighting, envelope: Envelope, say: Progress) -> Judgement:
+          weighting: Weighting, envelope: Envelope, say: Progress,
+          steadied: Sequence[str] = ()) -> Judgement:
     """Stage 4: residual tests of the best (a larger plausible set with white residuals may
     replace it), a better fit beyond physics as structure left, a better fit beyond the
     typical range as the finding (verdict at most ``partly_explained`` or ``ambiguous``,
-    with the manoeuvre that would confirm it), and the verdict (:func:`decide_verdict`)."""
+    with the manoeuvre that would confirm it), and the verdict (:func:`decide_verdict`).
+    ``steadied``: the effect whose equation-error fit kept the runs of a diverging nominal
+    model with the logs (:func:`_steadied_by`); beyond its typical range, it is the finding
+    (the divergence was its) when it explains at least ``PARTLY`` of the gap."""
     best = search.best
     candidates = search.candidates
     gap_channels = nominal.gap_channels
@@ -499,6 +506,10 @@ def judge(pr: Problem, search: Search, nominal: NominalRuns, site: GapSite,
                 break
     odd = _atypical(search.scorer, tested or search.nominal, candidates) \
         if gap_channels else None
+    cause = next((c for c in candidates if c.names == tuple(steadied) and c.possible
+                  and not c.plausible and c.identifies and c.explained >= PARTLY), None)
+    if cause is not None and gap_channels:
+        odd = cause
     if odd is not None:
         say(f'{odd.label}: beyond its typical range, and a better fit than any typical set')
         # rivals: typical or atypical (not impossible) answers the held-out windows cannot
@@ -553,11 +564,14 @@ def _steadied_by(pr: Problem, names: Sequence[str], say: Progress
                  ) -> tuple[dict[str, FitResult], list[str]]:
     """A nominal model that diverges on the logs either has dynamics the logs do not
     follow (re-identify it) or misses an effect large enough to throw its runs off (a 10 deg
-    fin zero error). Each effect fitted by equation error alone (the model's equations at
-    the logged states, no free run that a steadying change could win) is run over every
-    window: the effects (within what physics allows, identifying something) with which fewer
-    than half of :data:`DIVERGE_SHARE` of the runs diverge. Returns the fits too (the search
-    reuses them)."""
+    fin zero error). Each effect is fitted by equation error alone (the model's equations at
+    the logged states: no free run that a steadying change could win); the one the equations
+    want most (the lowest held-out equation-error cost among those within what physics
+    allows that identify something) is run over every window: when fewer than half of
+    :data:`DIVERGE_SHARE` of its runs diverge, the divergence was that effect's (returned in
+    the list); otherwise the model is what diverges (an empty list: any other effect that
+    steadies it would do so by taking something away, a plane's lift, not by adding what
+    is missing). Returns the fits too (the search reuses them)."""
     eqf = EquationFit(pr)
     say(f'the nominal model diverges: equation-error fits of {len(names)} effects')
     fits = {n: eqf.fit(pr.effect_set([n])) for n in names}
@@ -565,12 +579,14 @@ def _steadied_by(pr: Problem, names: Sequence[str], say: Progress
               and not _plausibility(fits[n])[1] and not _plausibility(fits[n])[2]]
     if not usable:
         return fits, []
+    wanted = min(usable, key=lambda n: eqf.cost(fits[n].effects, fits[n].values,
+                                                held_out=True))
     all_w = pr.select(None)
-    out, meas = pr.free_run([fits[n].effects.perturbation(fits[n].values) for n in usable],
-                            all_w)
-    steadied = [n for c, n in enumerate(usable)
-                if np.mean(_diverging(pr, all_w, out[c] - meas)) < 0.5 * DIVERGE_SHARE]
-    return fits, steadied
+    out, meas = pr.free_run([fits[wanted].effects.perturbation(fits[wanted].values)], all_w)
+    steady = np.mean(_diverging(pr, all_w, out[0] - meas)) < 0.5 * DIVERGE_SHARE
+    say(f'the effect the equations want most, {wanted}, '
+        + ('keeps' if steady else 'does not keep') + ' the free runs with the logs')
+    return fits, [wanted] if steady else []
 
 
 def _divergence_text(pr: Problem, nominal: NominalRuns) -> str:
@@ -581,8 +597,9 @@ def _divergence_text(pr: Problem, nominal: NominalRuns) -> str:
             f'runs of {pr.run:.3g} s leave the logged motion (pitch off by more than '
             f'{math.degrees(DIVERGE_PITCH):.0f} deg, or no finite state'
             + (f'; {pr.run_why}' if unstable else '')
-            + '), and no effect fitted to its equations keeps them with the logs. Any effect '
-            'that merely steadies it would seem to explain the gap, so none is named: '
+            + '), and the effect its equations want most does not keep them with the logs. '
+            'Any effect that merely steadies it would seem to explain the gap, so none is '
+            'named: '
             're-identify the model first (auv ident on these logs, or logs with manoeuvres), '
             'then diagnose the identified file'
             + ('; if the model is right and only unstable, log the pitch rate and heave '
@@ -631,6 +648,7 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | 
     envelope = _envelope(pr)
     quiet = _quiet_findings(pr, site)
     fitted: dict[str, FitResult] | None = None
+    steadied: list[str] = []
     if nominal.diverges:
         fitted, steadied = _steadied_by(pr, names, say)
         if not steadied:
@@ -645,8 +663,9 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | 
         every = pr.select(None)
         if pr.exclude([i for i, d in zip(every, nominal.diverging) if d]):
             nominal = nominal_runs(pr, weighting, say)
-    search = search_candidates(pr, nominal, names, top, max_effects, say, fitted)
-    judgement = judge(pr, search, nominal, site, weighting, envelope, say)
+    search = search_candidates(pr, nominal, names, top, max_effects, say, fitted, steadied)
+    judgement = judge(pr, search, nominal, site, weighting, envelope, say,
+                      steadied if fitted is not None else ())
     judgement = _with_quiet(judgement, quiet)
     implausible = [{'effect': c.label, 'explained': c.explained,
                     'kind': 'impossible' if not c.possible else 'atypical',
@@ -968,10 +987,11 @@ def _statement(j: Judgement, implausible: Sequence[Mapping[str, Any]],
             texts = []
             for c in j.rivals[:3]:
                 extra = ' '.join(_beyond_typical(c)).rstrip('.')
-                texts.append(f'{describe(c.fit)} ({c.explained:.0%})'
-                             + (f' [{extra}]' if extra else ''))
+                texts.append(f'{c.label} ({c.explained:.0%} of the gap'
+                             + (f'; {extra}' if extra else '') + ')')
             parts.append('The held-out data cannot tell it from '
-                         + ('; '.join(texts) if texts else ', '.join(j.ambiguous)) + '.')
+                         + ('; '.join(texts) if texts else ', '.join(j.ambiguous))
+                         + ' (values in the candidates).')
             parts.append(f'To tell them apart, fly {j.suggestion}.')
         else:
             parts.append(f'To confirm it, fly {get_effect(best.names[0]).advice(envelope)}.')

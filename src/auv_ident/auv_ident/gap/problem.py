@@ -52,9 +52,9 @@ UNSTABLE_FOLDS = 4.0
 MIN_WINDOW = 10.0
 #: Shortest free run [s] of a vehicle unstable without feedback (within a window).
 MIN_RUN = 5.0
-#: Windows the data should give at least (two training, one held out, and one to spare): the
-#: window is the longest, up to :data:`STABLE_WINDOW`, that gives them.
-MIN_WINDOWS = 4
+#: Windows the data should give at least (two training, one held out): the window is the
+#: longest, up to :data:`STABLE_WINDOW`, that gives them.
+MIN_WINDOWS = 3
 #: Shortest window [s] made at the end of a log piece (a shorter tail joins the window before
 #: it, or starts none).
 MIN_TAIL = 4.0

@@ -522,7 +522,7 @@ def base_state(logmap: LogMap, tables: Mapping[str | None, Table], signals: Sign
         jitter = spacing_jitter(t)
         if jitter is not None:
             notes.append(f'{base or "rows"}: {jitter} (auv ident needs it; auv gap '
-                         'interpolates onto the median step)')
+                         'interpolates the rows onto their mean step)')
     return BaseState(t, state, holds, set(state), floor, resolution)
 
 
@@ -646,6 +646,22 @@ def build_segments(logmap: LogMap, bs: BaseState, slices: Sequence[slice]) -> Se
     return Segments(pieces_t, pieces_s, derived, sorted(lever_notes), per_seg)
 
 
+def on_file_clock(tables: Mapping[str | None, Table], base: str | None, path: pathlib.Path,
+                  notes: list[str]) -> dict[str | None, Table]:
+    """Stage 1b: a log timed from its own start (its first stamp before
+    :data:`EPOCH_MIN_S`) whose file states its start time (:func:`file_time`: a header
+    comment or its name) is placed on that clock: every stamp plus the file's time less the
+    first stamp, said in ``notes``. Logs of one season then follow one another in time."""
+    clock = file_time(path)
+    first = tables[base].stamps[0] if base in tables and len(tables[base].stamps) else None
+    if clock is None or first is None or first >= EPOCH_MIN_S:
+        return dict(tables)
+    shift = float(clock) - float(first)
+    notes.append(f'timed from its start: its stamps placed on the time its file states '
+                 f'(a header comment or its name), {utc(clock)}: {shift:+.3f} s')
+    return {k: dataclasses.replace(tab, stamps=tab.stamps + shift) for k, tab in tables.items()}
+
+
 def import_log(logmap: LogMap, path: str | os.PathLike[str], name: str | None = None, *,
                strict: bool = False, envelope: Envelope | None = None) -> ContractLog:
     """Import one log through ``logmap`` (see the module docstring), in stages that each
@@ -667,8 +683,9 @@ def import_log(logmap: LogMap, path: str | os.PathLike[str], name: str | None = 
     notes: list[str] = []
     tables = read_tables(logmap, p, notes, strict)
     left_out: list[str] = [line for tab in tables.values() for line in tab.skipped]
-    signals = convert_signals(logmap, tables, notes)
     base = logmap.time.base if logmap.kind == 'bag' else None
+    tables = on_file_clock(tables, base, p, notes)
+    signals = convert_signals(logmap, tables, notes)
     t_start = float(tables[base].stamps[0]) if base in tables and len(tables[base].stamps) \
         else 0.0
     signals = drop_nonfinite(signals, t_start, left_out)

@@ -543,13 +543,13 @@ def read_text(path: str | os.PathLike[str], columns: Sequence[str], time_column:
             continue
         rows.append(fields)
         line_no.append(i)
+    if not rows:
+        raise LogReadError(f'{p}: no data rows' + ('' if head else ' (the file is empty)'))
     col_names = list(names) if names else (head or [])
     if not col_names:
         raise LogReadError(f'{p}: no column names (no header line and no columns: in the map)')
     if len(set(col_names)) != len(col_names):
         raise LogReadError(f'{p}: column names repeat: {col_names}')
-    if not rows:
-        raise LogReadError(f'{p}: no data rows')
     index = {n: k for k, n in enumerate(col_names)}
     for name in [time_column, *columns]:
         if name not in index:
