@@ -99,7 +99,7 @@ def test_short_pieces_in_any_order_do_not_break_the_spectrum() -> None:
         pr = Problem(vehicle, logs)
         residual = rng.standard_normal(pr.eq_index.size)
         results.append(band(pr, residual, 1))
-    for hz, info in results:
+    for _, info in results:
         assert info['psd'].shape == info['noise'].shape
 
 
@@ -182,31 +182,23 @@ def test_the_period_of_jittered_rows() -> None:
 
 @pytest.fixture(scope='module')
 def coasting(tmp_path_factory):  # type: ignore[no-untyped-def]
-    """One log of the small AUV's season (:mod:`auv_ident.campaign.season`): porpoising at
-    1.5 m/s with thruster-off coasts, 2 N buoyant, its centre of gravity 5 mm forward of the
-    file's, written as the vendor's 2 Hz jittered text log."""
+    """The first log of the small AUV's season (:func:`auv_ident.campaign.season.
+    write_season`, seed 0; the worked example of docs/real-logs.md): porpoising at 1.5 m/s
+    with thruster-off coasts, 2 N buoyant, its centre of gravity 5 mm forward of the file's,
+    its depth sensor reading 0.085 m at the surface, written as the vendor's 2 Hz jittered
+    text log (the second log of a season of two is empty)."""
     from auv_ident.campaign import season
-    from auv_ident.gap import synth
-    from auv_ident.realog import synth as vendor
-    from auv_ident.simlog import SensorNoise
 
     out = tmp_path_factory.mktemp('coasting')
-    vpath, params = season.small_auv(out)
-    sc = season.porpoise(params, np.random.default_rng(5), dives=3, coasts=True)
-    log = synth.simulate(params, {'effects': season.SMALL_TRUTH}, sc, seed=5,
-                         noise=SensorNoise.realistic(), sample_period=season.SAMPLE)
-    season.float_at_surface(log, sc, 0.085, np.random.default_rng(6))
-    fmt = vendor.VendorText(steps=(0.39, 0.61), depth_unit='m', depth_resolution=0.1,
-                            speed_period=1.0, cut_last_row=True)
-    vendor.write_vendor_text(out / 'dive.txt', log.record, fmt)
-    (out / 'map.yaml').write_text(season.vendor_map(fmt))
-    return out, vpath
+    case = season.write_season(out, 2, seed=0)
+    return case.logs[0], case.map, case.vehicle
 
 
 def test_a_diverging_model_is_reported_and_the_coasts_name_what_a_hand_analysis_finds(
         coasting) -> None:  # type: ignore[no-untyped-def]
-    """The small AUV's file (unstable without feedback, +0.54 1/s) diverges on its 2 Hz log:
-    no effect is named (a buoyancy of either sign would steady it), the report says to
+    """The small AUV's file (unstable without feedback) diverges on its 2 Hz log and the
+    effect its equations want most (the centre of gravity) does not keep the runs with the
+    logs: no effect is named (a plane that lost its lift would steady it), the report says to
     re-identify; the coasts still give the buoyancy (+2 N) and the centre of gravity (5 mm
     forward) with the right sign and intervals that hold them, and the surface passes the
     depth sensor's zero (0.085 m)."""
@@ -215,14 +207,14 @@ def test_a_diverging_model_is_reported_and_the_coasts_name_what_a_hand_analysis_
 
     from auv_ident import gap_cli
 
-    out, vpath = coasting
+    log, map_path, vpath = coasting
+    out = log.parent / 'gap'
     parser = argparse.ArgumentParser()
     gap_cli.add_arguments(parser)
-    args = parser.parse_args([str(out / 'dive.txt'), '--map', str(out / 'map.yaml'),
-                              '--vehicle', str(vpath), '--out', str(out / 'gap'),
-                              '--no-plots', '--quiet'])
+    args = parser.parse_args([str(log), '--map', str(map_path), '--vehicle', str(vpath),
+                              '--out', str(out), '--no-plots', '--quiet'])
     assert gap_cli.run(args) == 0
-    r = json.loads((out / 'gap' / 'report.json').read_text())
+    r = json.loads((out / 'report.json').read_text())
     assert r['diverges'] and r['verdict'] == 'unexplained' and r['best'] is None
     assert 're-identify the model first' in r['statement']
     found = {f['effect']: f for f in r['findings']}

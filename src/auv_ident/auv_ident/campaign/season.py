@@ -64,8 +64,8 @@ def vendor_map(fmt: vendor.VendorText, rate: float | None = 1.0,
         f', resolution: {resolution:g}' if resolution else '') + '}'
     speed = '{column: speed_ms, unit: m/s, frame: FRD' + (
         f', rate: {rate:g}' if rate else '') + '}'
-    return f"""# A vendor's text log: whitespace rows, time from the log's start, depth, roll, pitch,
-# heading, the DVL's surge speed, two elevators and two rudders, propeller rpm.
+    return f"""# A vendor's text log: whitespace rows, time from the log's start, depth, roll,
+# pitch, heading, the DVL's surge speed, two elevators and two rudders, propeller rpm.
 format: auv-log-map/1
 kind: text
 text: {{delimiter: whitespace, header: true}}
@@ -254,9 +254,9 @@ def season_expectations(case: Case) -> dict[str, dict[str, Any]]:
     return out
 
 
-YBAG_MAP = """# A 1.2 m AUV's MCAP bag: IMU (ENU/FLU; its header stamps are zero, so its receive times;
-# its angular velocity in raw gyro counts, 131 per deg/s), pressure depth, a DVL, three fins
-# in a Y on Float64 topics (no header: receive times), thrust in per cent of 10 N.
+YBAG_MAP = """# A 1.2 m AUV's MCAP bag: IMU (ENU/FLU; its header stamps are zero, so its receive
+# times; its angular velocity in raw gyro counts, 131 per deg/s), pressure depth, a DVL,
+# three fins in a Y on Float64 topics (no header: receive times), thrust in per cent of 10 N.
 format: auv-log-map/1
 kind: bag
 time: {stamp: header, stamps: {/imu/data: log}, base: /pressure, max_age: 0.15}

@@ -233,10 +233,10 @@ def nominal_runs(pr: Problem, weighting: Weighting, say: Progress) -> NominalRun
     # runs on which the nominal model leaves the logs would weigh more than all the others
     # together (a change that merely steadies the model would explain them): out of the
     # free-run fits and scores, said
-    if any(diverging) and not diverges:
-        if pr.exclude([i for i, d in zip(every, diverging) if d]):
-            say(f'{int(np.sum(diverging))} of {len(every)} runs on which the nominal model '
-                'diverges are left out of the free-run fits and scores')
+    if any(diverging) and not diverges \
+            and pr.exclude([i for i, d in zip(every, diverging) if d]):
+        say(f'{int(np.sum(diverging))} of {len(every)} runs on which the nominal model '
+            'diverges are left out of the free-run fits and scores')
     all_w = pr.select(None)
     rng = np.random.default_rng(12345)
     x0_noise = np.zeros((MC_RUNS + 1, len(all_w), 12))
@@ -525,10 +525,10 @@ def judge(pr: Problem, search: Search, nominal: NominalRuns, site: GapSite,
         rivals = list({c.label: c for c in reversed(rivals)}.values())[::-1]
         _rank(candidates, odd)
         eff = get_effect(odd.names[0])
-        suggestion = (separating_manoeuvre(odd.names[0], ambiguous[0], envelope)
-                      if ambiguous else f'to confirm: {eff.advice(envelope)}')
+        hint = (separating_manoeuvre(odd.names[0], ambiguous[0], envelope)
+                if ambiguous else f'to confirm: {eff.advice(envelope)}')
         return Judgement('ambiguous' if ambiguous else 'partly_explained', odd, True,
-                         ambiguous, suggestion, False, findings, left, rivals)
+                         ambiguous, hint, False, findings, left, rivals)
     if tested is not None and gap_channels:
         # a fit beyond physics that predicts the held-out windows significantly better than
         # the answer shows structure the answer leaves: not explained (its form is the hint)
@@ -659,10 +659,6 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | 
                              envelope)
         say(f'with {", ".join(steadied)} fitted to the equations the free runs stay with the '
             'logs: the divergence is an effect\'s, diagnosing on')
-        # the nominal's diverging runs out of the fits and scores (see nominal_runs)
-        every = pr.select(None)
-        if pr.exclude([i for i, d in zip(every, nominal.diverging) if d]):
-            nominal = nominal_runs(pr, weighting, say)
     search = search_candidates(pr, nominal, names, top, max_effects, say, fitted, steadied)
     judgement = judge(pr, search, nominal, site, weighting, envelope, say,
                       steadied if fitted is not None else ())

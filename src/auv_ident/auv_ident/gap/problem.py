@@ -297,7 +297,9 @@ class Problem:
         self._eq_act_cache: dict[bytes, np.ndarray] = {}
         self._eq_samples(eq_period, smooth_window)
         self.ranges = ranges
-        self.eq_sigma = np.where(np.isin(EQUATIONS, list(left_out)), np.inf, self.eq_sigma)
+        sigma: np.ndarray = np.where(np.isin(EQUATIONS, list(left_out)), np.inf,
+                                     self.equation_sigma(self.M))
+        self.eq_sigma = sigma
         self.estimate_initial(list(fitted_initial))
 
     def effect_set(self, names: Sequence[str]) -> EffectSet:

@@ -62,6 +62,24 @@ def _state(rec: Record, noise: np.ndarray | None) -> np.ndarray:
     return meas
 
 
+def _imu_and_pressure(T: Any, t: float, imu_header: Any, pressure_header: Any, q: np.ndarray,
+                      rates: np.ndarray, depth: float) -> list[tuple[float, str, str, Any]]:
+    """The ``sensor_msgs/Imu`` (orientation ``q`` x y z w, angular velocity ``rates`` as
+    given) and ``sensor_msgs/FluidPressure`` (``P0 + rho g depth`` [Pa]) events of one sample
+    at ``t`` [s]; ``T`` the typestore's types."""
+    V3, cov9 = T['geometry_msgs/msg/Vector3'], np.zeros(9)
+    return [
+        (t, '/imu/data', 'sensor_msgs/msg/Imu', T['sensor_msgs/msg/Imu'](
+            header=imu_header,
+            orientation=T['geometry_msgs/msg/Quaternion'](x=q[0], y=q[1], z=q[2], w=q[3]),
+            orientation_covariance=cov9,
+            angular_velocity=V3(x=rates[0], y=rates[1], z=rates[2]),
+            angular_velocity_covariance=cov9,
+            linear_acceleration=V3(x=0.0, y=0.0, z=0.0), linear_acceleration_covariance=cov9)),
+        (t, '/pressure', 'sensor_msgs/msg/FluidPressure', T['sensor_msgs/msg/FluidPressure'](
+            header=pressure_header, fluid_pressure=P0 + RHO * G * depth, variance=0.0))]
+
+
 def write_ros2(path: str | os.PathLike[str], rec: Record, *, storage: str = 'mcap',
                ros1: bool = False, every: int = 1, custom_fins: bool = False,
                noise: np.ndarray | None = None, t0: float = 1.7e9) -> int:
@@ -76,13 +94,13 @@ def write_ros2(path: str | os.PathLike[str], rec: Record, *, storage: str = 'mca
     store.register(get_types_from_msg(FIN_MSG, FIN_TYPE))
     T = store.types
     Header, Time = T['std_msgs/msg/Header'], T['builtin_interfaces/msg/Time']
-    Odometry, Imu = T['nav_msgs/msg/Odometry'], T['sensor_msgs/msg/Imu']
+    Odometry = T['nav_msgs/msg/Odometry']
     V3, Q, Pt = T['geometry_msgs/msg/Vector3'], T['geometry_msgs/msg/Quaternion'], \
         T['geometry_msgs/msg/Point']
     Pose, PoseC = T['geometry_msgs/msg/Pose'], T['geometry_msgs/msg/PoseWithCovariance']
     Twist, TwistC = T['geometry_msgs/msg/Twist'], T['geometry_msgs/msg/TwistWithCovariance']
-    Press, F64, Fins = T['sensor_msgs/msg/FluidPressure'], T['std_msgs/msg/Float64'], T[FIN_TYPE]
-    cov36, cov9 = np.zeros(36), np.zeros(9)
+    F64, Fins = T['std_msgs/msg/Float64'], T[FIN_TYPE]
+    cov36 = np.zeros(36)
     meas = _state(rec, noise)
     idx = np.arange(0, len(rec.t), every)
     odom = state_to_odometry(meas[idx])
@@ -105,14 +123,8 @@ def write_ros2(path: str | os.PathLike[str], rec: Record, *, storage: str = 'mca
             twist=TwistC(twist=Twist(linear=V3(x=lin[0], y=lin[1], z=lin[2]),
                                      angular=V3(x=ang[0], y=ang[1], z=ang[2])),
                          covariance=cov36))))
-        events.append((t, '/imu/data', 'sensor_msgs/msg/Imu', Imu(
-            header=header(t, 'imu_link'), orientation=quat, orientation_covariance=cov9,
-            angular_velocity=V3(x=ang[0], y=ang[1], z=ang[2]),
-            angular_velocity_covariance=cov9,
-            linear_acceleration=V3(x=0.0, y=0.0, z=0.0), linear_acceleration_covariance=cov9)))
-        events.append((t, '/pressure', 'sensor_msgs/msg/FluidPressure', Press(
-            header=header(t, 'pressure'), fluid_pressure=P0 + RHO * G * meas[i, 2],
-            variance=0.0)))
+        events += _imu_and_pressure(T, t, header(t, 'imu_link'), header(t, 'pressure'), q,
+                                    ang, float(meas[i, 2]))
     change = np.flatnonzero(np.any(np.diff(rec.cmd, axis=0, prepend=np.nan) != 0, axis=1))
     for i in change:
         t = float(rec.t[i])
@@ -335,14 +347,12 @@ def write_ybag(path: str | os.PathLike[str], rec: Record, *, t0: float = 1.744e9
     store = get_typestore(Stores.LATEST)
     T = store.types
     Header, Time = T['std_msgs/msg/Header'], T['builtin_interfaces/msg/Time']
-    V3, Q = T['geometry_msgs/msg/Vector3'], T['geometry_msgs/msg/Quaternion']
-    Imu, Press = T['sensor_msgs/msg/Imu'], T['sensor_msgs/msg/FluidPressure']
+    V3 = T['geometry_msgs/msg/Vector3']
     Twist, TwistS, F64 = (T['geometry_msgs/msg/Twist'], T['geometry_msgs/msg/TwistStamped'],
                           T['std_msgs/msg/Float64'])
     meas = _state(rec, noise)
     idx = np.arange(0, len(rec.t), every)
     odom = state_to_odometry(meas[idx])
-    cov9 = np.zeros(9)
 
     def header(t: float | None, frame: str) -> Any:
         ns = 0 if t is None else int(round((t0 + t) * 1e9))
@@ -353,15 +363,8 @@ def write_ybag(path: str | os.PathLike[str], rec: Record, *, t0: float = 1.744e9
         t = float(rec.t[i])
         q, lin, ang = odom.orientation[k], odom.linear[k], odom.angular[k]
         counts = np.degrees(ang) * GYRO_COUNTS_PER_DEG_S
-        events.append((t, '/imu/data', 'sensor_msgs/msg/Imu', Imu(
-            header=header(None if zero_imu_stamps else t, 'imu'),
-            orientation=Q(x=q[0], y=q[1], z=q[2], w=q[3]), orientation_covariance=cov9,
-            angular_velocity=V3(x=counts[0], y=counts[1], z=counts[2]),
-            angular_velocity_covariance=cov9,
-            linear_acceleration=V3(x=0.0, y=0.0, z=0.0), linear_acceleration_covariance=cov9)))
-        events.append((t, '/pressure', 'sensor_msgs/msg/FluidPressure', Press(
-            header=header(t, 'pressure'), fluid_pressure=P0 + RHO * G * meas[i, 2],
-            variance=0.0)))
+        events += _imu_and_pressure(T, t, header(None if zero_imu_stamps else t, 'imu'),
+                                    header(t, 'pressure'), q, counts, float(meas[i, 2]))
         if k % max(1, dvl_every // every) == 0:
             events.append((t, '/dvl/twist', 'geometry_msgs/msg/TwistStamped', TwistS(
                 header=header(t, 'dvl'),
