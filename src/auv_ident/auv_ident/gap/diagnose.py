@@ -1,19 +1,24 @@
 """The sim-to-real gap diagnosis: where the nominal model departs from a log, and which
 catalogue effect (or combination) explains it, scored on held-out windows.
 
-Steps (see :func:`diagnose`):
+Steps (see :func:`diagnose`; each a function that returns its data):
 
 1. Nominal free runs over all windows and their noise floor (a Monte Carlo over the
    initial-state uncertainty plus the sensor noise); channels whose RMS exceeds the floor by
-   ``GAP_FACTOR`` carry a gap. No such channel: ``no_gap``.
-2. Equation error of the nominal model; where the gap lies (:mod:`auv_ident.gap.analysis`).
+   ``GAP_FACTOR`` carry a gap. No such channel: ``no_gap`` (:func:`nominal_runs`). A model
+   whose runs diverge on the logs (``DIVERGE_SHARE`` of them) is reported as such unless the
+   effect its equations want most keeps them with the logs (:func:`_steadied_by`).
+2. Equation error of the nominal model; where the gap lies (:mod:`auv_ident.gap.analysis`,
+   :func:`locate_gap`); what the coasts and surface passes give (:mod:`auv_ident.gap.static`).
 3. Every catalogue effect (among them ``coefficients``: the model's own vertical-plane
    coefficients re-fitted) fitted by equation error on the training windows, scored by free
    run on the held-out windows; the ``top`` best refined by free-run error and scored again.
 4. Combinations, greedily: the best plausible set plus each other effect, refitted jointly,
    kept while the held-out score improves, every parameter stays plausible and the added
    effect identifies something (an interval that excludes its "absent" value).
-5. Verdict (:func:`decide_verdict`): plausibility, the held-out share of the gap explained, the
+5. Verdict (:func:`judge`, :func:`decide_verdict`): typical and possible ranges (an atypical
+   fit that predicts the held-out windows significantly better is a finding, at most
+   ``partly_explained``: :func:`_atypical`), the held-out share of the gap explained, the
    residual tests of :mod:`auv_ident.gap.residuals`, and the candidates the held-out windows
    cannot tell from the best (within ``AMBIGUOUS_RATIO`` of its held-out cost and of its
    explained share, and not worse by ``AMBIGUOUS_T`` standard errors over the windows).
