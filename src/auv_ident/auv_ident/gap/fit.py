@@ -83,10 +83,10 @@ def cluster_covariance(J: np.ndarray, r: np.ndarray, clusters: np.ndarray
     informative clusters the plain ``G - 1`` under-covers (Imbens and Kolesar 2016, Pustejovsky
     and Tipton 2018).
 
-    With no more clusters than parameters plus one (short logs: one training window or two)
-    the clusters' scores span too few directions and CR2 gives some parameters a variance of
-    zero (a single cluster: zero for all, at the least-squares optimum ``J^T r = 0``): an
-    interval "3.33-3.33". There each variance is at least the model-based one, ``s^2
+    With no more clusters than parameters (short logs: one training window) the clusters'
+    scores, which sum to ``J^T r = 0`` at the least-squares optimum, span fewer directions
+    than there are parameters and CR2 gives some a variance of zero (a single cluster: zero
+    for all): an interval "3.33-3.33". There each variance is at least the model-based one, ``s^2
     (J^T J)^-1`` with ``s^2 = r^T r / (n - p)``, times ``n / n_eff`` for the residuals'
     correlation within clusters (lag-1, ``n_eff = n (1 - rho) / (1 + rho)``), and the degrees
     of freedom stay ``G - 1`` (at least 1: a t quantile of 12.7 for one window).
@@ -128,7 +128,7 @@ def cluster_covariance(J: np.ndarray, r: np.ndarray, clusters: np.ndarray
         tr = float(np.trace(gtg))
         tr2 = float(np.sum(gtg * gtg))
         df[k] = tr * tr / tr2 if tr2 > 0 else float(len(ids) - 1)
-    if len(ids) <= p + 1:
+    if len(ids) <= p:
         V = V + np.diag(np.maximum(np.diag(_model_covariance(J, r, clusters, b_inv))
                                    - np.diag(V), 0.0))
     return V, np.clip(df, 1.0, max(len(ids) - 1, 1))
