@@ -232,7 +232,14 @@ def nominal_runs(pr: Problem, weighting: Weighting, say: Progress) -> NominalRun
     gap."""
     nom = Perturbation.nominal(pr.vehicle)
     every = pr.select(None)
-    out, meas = pr.free_run([nom], every)
+
+    def runs(windows: list[int]) -> tuple[np.ndarray, np.ndarray]:
+        rng = np.random.default_rng(12345)
+        x0_noise = np.zeros((MC_RUNS + 1, len(windows), 12))
+        x0_noise[1:] = pr.initial_noise(rng, MC_RUNS, windows)
+        return pr.free_run([nom] * (MC_RUNS + 1), windows, x0_noise=x0_noise)
+
+    out, meas = runs(every)
     diverging = _diverging(pr, every, out[0] - meas)
     diverges = bool(np.mean(diverging) >= DIVERGE_SHARE) if diverging else False
     # runs on which the nominal model leaves the logs would weigh more than all the others
@@ -242,11 +249,8 @@ def nominal_runs(pr: Problem, weighting: Weighting, say: Progress) -> NominalRun
             and pr.exclude([i for i, d in zip(every, diverging) if d]):
         say(f'{int(np.sum(diverging))} of {len(every)} runs on which the nominal model '
             'diverges are left out of the free-run fits and scores')
+        out, meas = runs(pr.select(None))
     all_w = pr.select(None)
-    rng = np.random.default_rng(12345)
-    x0_noise = np.zeros((MC_RUNS + 1, len(all_w), 12))
-    x0_noise[1:] = pr.initial_noise(rng, MC_RUNS, all_w)
-    out, meas = pr.free_run([nom] * (MC_RUNS + 1), all_w, x0_noise=x0_noise)
     err_nom = out[0] - meas
     rows_all = pr.window_rows(all_w)
     finite = np.all(np.isfinite(err_nom[:, CH_INDEX]), axis=1)
