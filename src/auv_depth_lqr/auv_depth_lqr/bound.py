@@ -31,7 +31,7 @@ last grid point ``n - 1`` whose band is wider than ``band`` and the first ``n`` 
 within it, linearly in the band each reaches: ``T = step (n - 1 + (b(n-1) - band) / (b(n-1)
 - b(n)))``. A threshold on the grid alone jumps by a whole step when ``b(n-1)`` crosses
 ``band`` (the A18M's 40 -> 10 m climb at 2 m/s reaches 0.1013 m one step early: a change of
-the model's last digits would move a grid time by 0.2 s); the interpolation moves with
+the model's last digits could move a grid time by 0.2 s); the interpolation moves with
 ``b``, continuously, and an SLP stopped a few millimetres short of ``b``'s minimum moves it by
 hundredths of a second. No plan on the grid settles before the grid time ``n step``
 (:attr:`SettlingBound.grid_time`, as far as the local search finds the least ``b(n-1)``), and
@@ -39,7 +39,8 @@ hundredths of a second. No plan on the grid settles before the grid time ``n ste
 
 The bound ignores the plane's lag, the surge speed's variation and any feedback margin, so a
 real pilot can only approach it; the ratio of a pilot's settling time to it measures how much
-of the plane's authority the pilot leaves unused.
+of the plane's authority the pilot leaves unused. Results are kept per process, by model and
+arguments.
 """
 from __future__ import annotations
 
@@ -85,7 +86,7 @@ found."""
 
 @dataclasses.dataclass(frozen=True)
 class SettlingBound:
-    """Result of :func:`settling_bound`."""
+    """Result of :func:`settling_bound` (its arrays are read-only: results are shared)."""
 
     settling_time: float
     """Shortest settling time [s]: between :attr:`grid_time` less one step and
@@ -714,8 +715,11 @@ def _search(params: VehicleParams, z0: float, z1: float, u0: float, theta_max: f
     # alone jumps by a step when the band one step earlier crosses the problem's
     share = 1.0 if not math.isfinite(earlier) else (earlier - band) / (earlier - reached)
     best = fine.best
+    t = np.arange(best.bar.size + 1) * step
+    for array in (t, best.states, best.bar):
+        array.flags.writeable = False  # shared by every caller of the cache
     return SettlingBound(settling_time=round((n - 1 + share) * step, 9),
                          grid_time=round(n * step, 9), kinematic_bound=t_kin,
-                         t=np.arange(best.bar.size + 1) * step, states=best.states,
+                         t=t, states=best.states,
                          bar=best.bar, band_reached=reached, earlier_band=earlier,
                          solves=fine.solves)
