@@ -29,6 +29,7 @@ import math
 import os
 import pathlib
 import platform
+import sys
 import time
 from typing import Any
 
@@ -102,6 +103,7 @@ def load_previous(path: str) -> Any:
     if spec is None or spec.loader is None:
         raise ImportError(f'cannot load {path}')
     module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # its dataclasses look their module up
     spec.loader.exec_module(module)
     return module
 
