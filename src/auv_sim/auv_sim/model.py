@@ -25,6 +25,7 @@ import numpy as np
 from numba import njit, prange
 from numba.misc.special import literally
 
+from auv_contract import CHANNELS, STATE_FIELDS
 from auv_sim.params import PARAM_NAMES
 
 _I = {name: i for i, name in enumerate(PARAM_NAMES)}
@@ -66,8 +67,7 @@ E_BDRIFT = 20       # buoyancy change in time: B(t) = B + rate t [N/s] from t = 
 ENV_SIZE = 21
 
 NX = 15
-STATE_NAMES = ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r',
-               'bar', 'helm', 'thrust')
+STATE_NAMES = STATE_FIELDS + CHANNELS
 _INV_LN10 = 1.0 / np.log(10.0)
 RE_MIN = 1.0e5  # below this the ITTC-1957 line is not valid; C_XF is held at its value here
 
