@@ -174,7 +174,8 @@ def test_code_version_is_in_the_cache_key(text_logs: tuple[pathlib.Path, list[fl
     (pkg / '__pycache__' / 'a.cpython-311.pyc').write_bytes(b'\1')
     assert tree_hash([pkg]) == h2          # compiled files are not the source
     version = code_version()
-    assert version['packages'] == ['auv_ident', 'auv_sim'] and 'numpy' in version['libraries']
+    assert version['packages'] == ['auv_ident', 'auv_gap', 'auv_logs', 'auv_sim']
+    assert 'numpy' in version['libraries']
     # a record made by one code version is not served to another
     d, _ = text_logs
     log = str(d / 'dive_01.txt')

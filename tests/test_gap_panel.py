@@ -117,7 +117,7 @@ def test_cli_errors(tmp_path: pathlib.Path) -> None:
 
 
 def test_unknown_effect_is_an_error(vehicle) -> None:  # type: ignore[no-untyped-def]
-    from auv_ident.errors import GapError
+    from auv_gap.errors import GapError
     log = synth.simulate(vehicle, None, synth.panel_scenario(), seed=1, noise=np.zeros(12))
     with pytest.raises(GapError, match="unknown effect 'waves'"):
         diagnose(vehicle, log.gap_logs(), effects=['waves'])

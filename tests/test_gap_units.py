@@ -15,10 +15,10 @@ from auv_gap.catalogue import (
     register,
     separating_manoeuvre,
 )
+from auv_gap.errors import GapError
 from auv_gap.logs import from_arrays
 from auv_gap.problem import CH_INDEX, EffectSet, Problem
 from auv_gap.synth import Scenario, simulate
-from auv_ident.errors import GapError
 from auv_sim.environment import EFFECT_FIELDS, declare_effect, undeclare_effect
 from auv_sim.params import load_vehicle
 

@@ -85,7 +85,7 @@ def test_a_10hz_log_is_slow_whatever_the_rounding_of_its_stamps() -> None:
 
 
 def test_unknown_origin_is_an_error() -> None:
-    from auv_ident.errors import GapError
+    from auv_gap.errors import GapError
     with pytest.raises(GapError, match='origins given for unknown state signals'):
         _piece({'depth': 'derived: z'})
 

@@ -32,10 +32,8 @@ from auv_campaign import engine, inputs, report
 from auv_campaign.cache import code_version, file_hash
 from auv_campaign.errors import CampaignError
 from auv_campaign.runner import run_missions, stderr_lines
+from auv_contract import config_path
 from auv_sim.cli_options import add_vehicle_option
-
-ROOT = pathlib.Path(__file__).resolve().parents[4]
-DEFAULT_VEHICLE = ROOT / 'config' / 'a18m.yaml'
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -74,7 +72,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest='mode', required=True, metavar='ident|gap|montecarlo')
     ident = sub.add_parser('ident', help='identify the coefficients of every log')
     _logs(ident)
-    add_vehicle_option(ident, default=str(DEFAULT_VEHICLE), old_names=('--base',),
+    add_vehicle_option(ident, default=str(config_path('a18m.yaml')), old_names=('--base',),
                        help_text='vehicle file the identified values replace')
     _common(ident)
     gap = sub.add_parser('gap', help='sim-to-real gap diagnosis of every log')
@@ -86,7 +84,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                           'in every mission')
     _common(gap)
     mc = sub.add_parser('montecarlo', help='closed-loop runs over a draw of vehicles')
-    mc.add_argument('--vehicle', default=str(DEFAULT_VEHICLE), metavar='VEHICLE.yaml',
+    mc.add_argument('--vehicle', default=str(config_path('a18m.yaml')), metavar='VEHICLE.yaml',
                     help='nominal vehicle (the pilot is designed on it)')
     mc.add_argument('--runs', type=int, default=200, help='number of runs (default 200)')
     mc.add_argument('--chunk', type=int, default=25, help='runs per task (default 25)')
