@@ -29,8 +29,8 @@ import time
 from collections.abc import Callable, Sequence
 
 from auv_bringup.errors import LaunchError
+from auv_contract import config_path, topic_basename
 
-ROOT = pathlib.Path(__file__).resolve().parents[3]
 STOP_DEADLINE = 10.0  # s a node gets to exit after its signal
 PR_SET_PDEATHSIG = 1  # prctl(2) option: signal sent to this process when its parent dies
 
@@ -122,7 +122,7 @@ def ros_params(**params: object) -> list[str]:
 class GraphConfig:
     """What to launch; times in seconds, depths in metres, speed in m/s."""
 
-    vehicle: str = str(ROOT / 'config' / 'a18m.yaml')
+    vehicle: str = str(config_path('a18m.yaml'))
     effects: str = ''
     lockstep: bool = False
     real_time_factor: float = 1.0
@@ -214,12 +214,6 @@ def records_bar(cfg: GraphConfig) -> bool:
         topic_basename(t) == 'bar_command' for t in cfg.topics))
 
 
-def topic_basename(topic: str) -> str:
-    """The last name of a topic, relative or absolute (``/auv1/bar_command`` ->
-    ``bar_command``)."""
-    return topic.rstrip('/').rsplit('/', 1)[-1]
-
-
 def send_depth_command(z: float, env: dict[str, str], subscribers: int = 1,
                        timeout: float = 20.0, namespace: str = '') -> None:
     """Publish a depth command [m] with ``auv depth`` on ``<namespace>/depth_command`` once
@@ -296,7 +290,7 @@ def run_graph(cfg: GraphConfig, duration: float | None = None,
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument('--vehicle', default=str(ROOT / 'config' / 'a18m.yaml'),
+    parser.add_argument('--vehicle', default=str(config_path('a18m.yaml')),
                         help='vehicle file (default config/a18m.yaml)')
     parser.add_argument('--effects', default='', help='effects file for the simulated vehicle')
     parser.add_argument('--lockstep', action='store_true',

@@ -11,21 +11,19 @@ mission's duration has passed in simulated time.
 from __future__ import annotations
 
 import argparse
-import pathlib
 import sys
 import time
 
+from auv_contract import CHANNELS, config_path
 from auv_sim.missions import events_array, load_mission
 from auv_sim.params import load_vehicle
-from auv_sim.simulator import CHANNELS
 
-ROOT = pathlib.Path(__file__).resolve().parents[3]
 NS_PER_S = 1_000_000_000
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('mission', help='surge, pitch, yaw or a mission file')
-    parser.add_argument('--vehicle', default=str(ROOT / 'config' / 'a18m.yaml'),
+    parser.add_argument('--vehicle', default=str(config_path('a18m.yaml')),
                         help='vehicle file (default: config/a18m.yaml)')
     parser.add_argument('--timeout', type=float, default=30.0,
                         help='wall seconds to wait for the first state')

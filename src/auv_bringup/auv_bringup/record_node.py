@@ -41,7 +41,7 @@ from types import FrameType
 from typing import Any
 
 from auv_bringup.cli import CliError, standalone
-from auv_bringup.launch import topic_basename
+from auv_contract import topic_basename
 
 #: Types of the project's topics (architecture contract), subscribed without waiting; names
 #: relative to the recorder's namespace (``/auv`` unless remapped with ``-r __ns:=...``).

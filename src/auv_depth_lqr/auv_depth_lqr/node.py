@@ -64,7 +64,6 @@ import functools
 import gc
 import math
 import os
-import pathlib
 import sys
 import time
 from typing import Any
@@ -89,6 +88,7 @@ from rclpy.qos import (
 from rclpy.timer import Timer, TimerInfo
 from std_msgs.msg import Float64
 
+from auv_contract import config_path
 from auv_depth_lqr.authority import LOW, UNKNOWN
 from auv_depth_lqr.controller import PlaneState
 from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
@@ -153,10 +153,8 @@ _FLAGS: dict[str, bool] = {'lockstep': False, 'recovery': True}
 
 
 def default_vehicle_file() -> str:
-    """``config/a18m.yaml`` of the workspace (``AUV_ROOT``) or of the source tree."""
-    root = os.environ.get('AUV_ROOT')
-    base = pathlib.Path(root) if root else pathlib.Path(__file__).resolve().parents[3]
-    return str(base / 'config' / 'a18m.yaml')
+    """The shipped ``a18m.yaml`` (:func:`auv_contract.config_path`)."""
+    return str(config_path('a18m.yaml'))
 
 
 def checked_values(values: dict[str, Any]) -> dict[str, Any]:
