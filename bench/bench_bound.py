@@ -78,7 +78,7 @@ def case_figures(vehicle: str, z0: float, z1: float, u0: float, previous: Any | 
         old, wall = timed(previous.settling_bound, params, z0, z1, u0, THETA_MAX)
         out.update(previous_bound_s=round(old.settling_time, 3),
                    previous_wall_s=round(wall, 1))
-    bound_module._CACHE.clear()
+    bound_module.clear_cache()
     nominal, wall = timed(bound_module.settling_bound, params, z0, z1, u0, THETA_MAX)
     out.update(bound_s=round(nominal.settling_time, 4), grid_time_s=round(nominal.grid_time, 3),
                earlier_band_m=round(nominal.earlier_band, 4),

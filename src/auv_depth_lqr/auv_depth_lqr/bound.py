@@ -118,6 +118,11 @@ same change several times); at most :data:`_CACHE_SIZE`, the oldest dropped firs
 _CACHE_SIZE = 256
 
 
+def clear_cache() -> None:
+    """Forget the bounds computed in this process (a benchmark timing the search itself)."""
+    _CACHE.clear()
+
+
 class PlaneModel:
     """The vertical plane at surge speed ``u0`` [m/s], stepped by the simulator's RK4.
 
