@@ -1,6 +1,6 @@
 """Serve the live topics on a Foxglove WebSocket (``auv foxglove``, ``auv launch --foxglove``).
 
-Each topic of the graph (:data:`auv_bringup.record_node.KNOWN_TOPICS` by default) is
+Each topic of the graph (:data:`auv_bringup.topics.KNOWN_TOPICS` by default) is
 subscribed raw over DDS and its CDR bytes are forwarded unchanged to a Foxglove channel of the
 same name, with the message's ``ros2msg`` definition as schema (``cdr`` encoding): Foxglove
 decodes and plots every field as a ROS 2 tool would.
@@ -48,13 +48,8 @@ from typing import Any, NamedTuple
 
 from auv_bringup.cli import CliError, standalone
 from auv_bringup.errors import BridgeError
-from auv_bringup.record_node import (
-    KNOWN_TOPICS,
-    NAMESPACE,
-    header_stamp,
-    known_types,
-    message_class,
-)
+from auv_bringup.record_node import message_class
+from auv_bringup.topics import KNOWN_TOPICS, NAMESPACE, header_stamp, known_types
 
 VEHICLE = pathlib.Path(__file__).resolve().parents[3] / 'config' / 'a18m.yaml'
 DEFAULT_PORT = 8765  # Foxglove's default WebSocket port
