@@ -56,8 +56,8 @@ def bridge(ros_env: dict[str, str]) -> Iterator[tuple[int, subprocess.Popen[str]
     try:
         line = reader.wait_for('foxglove: serving', 60.0)
         # every channel of the graph exists before a client can connect (a channel added while
-        # a client subscribes can be refused as unknown): the 8 topics and 3 pose topics
-        assert 'serving 11 topics' in line, line
+        # a client subscribes can be refused as unknown): the 9 topics and 3 pose topics
+        assert 'serving 12 topics' in line, line
         port = int(line.rsplit(':', 1)[1])
         yield port, proc, reader
     finally:
@@ -279,9 +279,8 @@ def test_launch_foxglove_serves_the_commands_of_the_closed_loop(
 
     def command_depth() -> None:
         depth_cmd.append(subprocess.run(
-            # the pilot's three depth-command subscriptions (latched, volatile, best effort)
-            # and the bridge's
-            [sys.executable, '-m', 'auv_bringup.cli', 'depth', '35', '--min-subscribers', '4',
+            # two subscriber nodes: the pilot and the bridge
+            [sys.executable, '-m', 'auv_bringup.cli', 'depth', '35', '--min-subscribers', '2',
              '--timeout', '30'], cwd=ROOT, env=ros_env, capture_output=True, text=True,
             timeout=60))
 

@@ -8,12 +8,17 @@ times: :meth:`CommandIntake.first_time` lets it act once.
 
 Loss is never silent where the pilot can see it:
 
-* a publisher's first sample to arrive has sequence number ``n > 1`` and the publisher is
-  volatile: its ``n - 1`` earlier samples were published before DDS matched it with the pilot
-  (:meth:`CommandIntake.missed_before`);
+* a publisher's first sample to arrive has sequence number ``n > 1`` (and did not come as the
+  last sample a latched publisher keeps for late joiners): its ``n - 1`` earlier samples were
+  published before DDS matched it with the pilot (:meth:`CommandIntake.missed_before`);
 * a publisher matched the pilot's reliable subscription and left without a sample arriving
   through it (:meth:`CommandIntake.silent_departures`): a script that published once right
   after ``create_publisher`` and exited lost its command that way (if it published at all).
+
+What no node can see: a publisher whose process publishes and exits before DDS discovery has
+matched it with the pilot at all (tens of milliseconds on an idle machine) leaves no trace in
+the pilot; only the script can avoid that loss, by waiting for the match (``auv depth``,
+``examples/depth_command.py``).
 """
 from __future__ import annotations
 
@@ -94,9 +99,9 @@ class CommandIntake:
 
     def missed_before(self, publisher: bytes | None, sequence: int | None,
                       volatile: bool) -> int:
-        """Samples of a volatile ``publisher`` published before the first one that reached
-        the pilot (0 after its first sample, for a latched publisher, whose late joiners get
-        only its last sample by design, or when the identity is unknown)."""
+        """Samples of ``publisher`` published before the first one that reached the pilot (0
+        after its first sample, when the sample came as the last one a latched publisher
+        keeps for late joiners, ``volatile`` False, or when the identity is unknown)."""
         if publisher is None or sequence is None or publisher in self._first_sequence:
             return 0
         self._first_sequence[publisher] = sequence

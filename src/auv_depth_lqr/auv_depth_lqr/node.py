@@ -379,7 +379,8 @@ class DepthPilotNode(Node):
         self.intake.arrived(gid, subscription == 'reliable')
         if not self.intake.first_time(gid, seq):
             return
-        missed = self.intake.missed_before(gid, seq, volatile=self._is_volatile(gid))
+        # a latched publisher's late joiner gets only its last sample, by design
+        missed = self.intake.missed_before(gid, seq, volatile=subscription != 'latched')
         if missed:
             self._lost(f'{missed} earlier depth command(s) of {self._publisher_name(gid)} did '
                        'not reach the pilot (published before DDS matched the publisher with '
@@ -431,13 +432,6 @@ class DepthPilotNode(Node):
         self._command_warning = text
         self._publish_diagnostics()
 
-    def _is_volatile(self, gid: bytes | None) -> bool:
-        """Whether the publisher ``gid`` of depth commands is volatile (False if unknown)."""
-        topic = self.command_subscriptions['reliable'].topic_name
-        return any(bytes(i.endpoint_gid) == gid
-                   and i.qos_profile.durability == DurabilityPolicy.VOLATILE
-                   for i in self.get_publishers_info_by_topic(topic))
-
     def _publisher_name(self, gid: bytes | None) -> str:
         topic = self.command_subscriptions['reliable'].topic_name
         for i in self.get_publishers_info_by_topic(topic):
@@ -446,9 +440,10 @@ class DepthPilotNode(Node):
         return 'a publisher'
 
     def _on_command_matched(self, info: QoSSubscriptionMatchedInfo) -> None:
+        # the status is coalesced: a publisher that matched and left between two events shows
+        # as total + 1, current + 0; the graph lists a departed publisher a little later
         self._matched = (info.total_count, info.current_count)
-        if info.current_count_change < 0 and self._departure_check is None:
-            # the graph lists a departed publisher a little after the match status says so
+        if info.total_count > info.current_count and self._departure_check is None:
             self._departure_check = self.create_timer(_DEPARTURE_SETTLE, self._check_departures,
                                                       clock=self._steady)
 
