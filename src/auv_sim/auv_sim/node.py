@@ -471,6 +471,7 @@ class SimulatorNode(Node):
         self._conflict_next = time.monotonic() + _CONFLICT_POLL
         topic = self._pub_state.topic_name
         others = [f'{i.node_namespace.rstrip("/")}/{i.node_name}'
+                  if '_UNKNOWN_' not in i.node_name else 'another node'
                   for i in self.get_publishers_info_by_topic(topic)
                   if (i.node_name, i.node_namespace) != (self.get_name(),
                                                          self.get_namespace())]
