@@ -10,7 +10,7 @@ already uses), so the file follows the app's layout format. Panels, for ``auv la
 * pitch and plane: ``/auv/state.theta`` [rad] and ``/auv/bar_command.value`` [rad];
 * the pilot's ``/diagnostics`` (depth control, plane authority, the last depth command's answer).
 
-Run: ``python tools/foxglove_layout.py [OUT]``; ``tests/test_foxglove_layout.py`` checks that
+Run: ``python tools/foxglove_layout.py [OUT]``; ``tests/test_foxglove.py`` checks that
 the file in the repository is what this writes.
 """
 from __future__ import annotations
