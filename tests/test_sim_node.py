@@ -15,7 +15,8 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from typing import Any
 
 import numpy as np
 import pytest
@@ -93,6 +94,36 @@ def probe(context: Context, name: str) -> tuple[Node, SingleThreadedExecutor]:
 def start_node(env: dict[str, str], args: list[str], log: pathlib.Path) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, '-m', 'auv_sim.node', *args], cwd=ROOT, env=env,
                             stdout=subprocess.DEVNULL, stderr=log.open('w'))
+
+
+def answer_until_exit(proc: subprocess.Popen, log: pathlib.Path, node: Node,
+                      executor: SingleThreadedExecutor, bar_pub: Any, pending: list[int],
+                      stamp_of: Callable[[int], Any], value: float, timeout: float) -> list[int]:
+    """Play the pilot's side of lockstep until the simulator exits: answer each control
+    instant in ``pending`` [ns] (filled by a state subscription) with a BAR command of
+    ``value`` [rad] stamped ``stamp_of(instant)``; returns the stamps sent [ns]. Ends the
+    simulator if it is still running at ``timeout`` (wall s), and ``node``."""
+    answered = []
+    deadline = time.monotonic() + timeout
+    try:
+        while proc.poll() is None:
+            assert time.monotonic() < deadline, log.read_text()
+            executor.spin_once(timeout_sec=0.01)
+            if pending and bar_pub.get_subscription_count() > 0:
+                for ns in pending:
+                    msg = ActuatorSetpoint()
+                    msg.header.stamp = stamp_of(ns)
+                    msg.value = value
+                    bar_pub.publish(msg)
+                    answered.append(stamp_to_ns(msg.header.stamp))
+                pending.clear()
+    finally:
+        if proc.poll() is None:
+            proc.terminate()
+            proc.wait(10)
+        executor.shutdown(timeout_sec=0.0)
+        node.destroy_node()
+    return answered
 
 
 def test_lockstep_bar_commands_move_depth_and_pitch_as_offline(
@@ -347,7 +378,6 @@ def test_lockstep_answer_given_while_the_simulator_waits_for_a_recorder_is_taken
     node.create_publisher(Time, '/auv/recorder/progress', 10)
     ctrl_ns = round(CONTROL_PERIOD * NS)
     pending: list[int] = []
-    answered: list[int] = []
 
     def on_state(msg: VehicleState) -> None:
         ns = stamp_to_ns(msg.header.stamp)
@@ -364,25 +394,8 @@ def test_lockstep_answer_given_while_the_simulator_waits_for_a_recorder_is_taken
                             str(CONTROL_PERIOD), '--lockstep-timeout', '10',
                             '--lockstep-startup-timeout', '30', '--stop-time', '12',
                             '--start-subscribers', '1'], log)
-    try:
-        deadline = time.monotonic() + 60.0
-        while proc.poll() is None:
-            assert time.monotonic() < deadline, log.read_text()
-            executor.spin_once(timeout_sec=0.01)
-            if pending and bar_pub.get_subscription_count() > 0:
-                for ns in pending:
-                    msg = ActuatorSetpoint()
-                    msg.header.stamp = stamp_from_ns(ns)
-                    msg.value = trim_bar
-                    bar_pub.publish(msg)
-                    answered.append(ns)
-                pending.clear()
-    finally:
-        if proc.poll() is None:
-            proc.terminate()
-            proc.wait(10)
-        executor.shutdown(timeout_sec=0.0)
-        node.destroy_node()
+    answered = answer_until_exit(proc, log, node, executor, bar_pub, pending, stamp_from_ns,
+                                 trim_bar, 60.0)
     text = log.read_text()
     assert proc.returncode == 0, text
     assert 10 * NS in answered
@@ -410,35 +423,20 @@ def test_lockstep_takes_answers_stamped_in_floating_point_and_reports(
     def on_state(msg: VehicleState) -> None:
         ns = stamp_to_ns(msg.header.stamp)
         if ns % round(CONTROL_PERIOD * NS) == 0:
-            pending.append(round(ns / (CONTROL_PERIOD * NS)))
+            pending.append(ns)
 
     node.create_subscription(VehicleState, '/auv/state', on_state, QOS)
     bar_pub = node.create_publisher(ActuatorSetpoint, '/auv/bar_command', QOS)
     trim_bar = float(build_setup(SimSettings()).x0[12])
-    answered: list[int] = []
     proc = start_node(env, ['--lockstep', '--real-time-factor', '0', '--control-period',
                             str(CONTROL_PERIOD), '--lockstep-timeout', '30',
                             '--lockstep-startup-timeout', '60', '--stop-time', '9',
                             '--report-file', str(report)], log)
-    try:
-        deadline = time.monotonic() + 120.0
-        while proc.poll() is None:
-            assert time.monotonic() < deadline, log.read_text()
-            executor.spin_once(timeout_sec=0.01)
-            if pending and bar_pub.get_subscription_count() > 0:
-                for k in pending:
-                    msg = ActuatorSetpoint()
-                    msg.header.stamp = Time(seconds=5 * k * 0.02).to_msg()
-                    msg.value = trim_bar
-                    bar_pub.publish(msg)
-                    answered.append(stamp_to_ns(msg.header.stamp))
-                pending.clear()
-    finally:
-        if proc.poll() is None:
-            proc.terminate()
-            proc.wait(10)
-        executor.shutdown(timeout_sec=0.0)
-        node.destroy_node()
+    # the instant k * 0.1 s stamped as the 50 Hz sample 5 k, in floating point
+    answered = answer_until_exit(
+        proc, log, node, executor, bar_pub, pending,
+        lambda ns: Time(seconds=5 * round(ns / (CONTROL_PERIOD * NS)) * 0.02).to_msg(),
+        trim_bar, 120.0)
     text = log.read_text()
     assert proc.returncode == 0, text
     early = [ns for ns in answered if ns % round(CONTROL_PERIOD * NS)]  # a nanosecond off

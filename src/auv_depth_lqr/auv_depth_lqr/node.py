@@ -595,17 +595,21 @@ class DepthPilotNode(Node):
         self.published[topic] = self.published.get(topic, 0) + 1
 
     def _await_subscribers(self) -> None:
-        """Before the first command: wait, at most ``startup_timeout`` wall seconds, until
-        ``bar_command`` has ``start_subscribers`` matched subscriptions (DDS matches each
-        subscription on its own; a command published before is lost to it)."""
+        """Before the first command: wait until ``bar_command`` has ``start_subscribers``
+        matched subscriptions (DDS matches each subscription on its own; a command published
+        before is lost to it)."""
         self._subscribers_awaited = True
+        self._await_matched(self.pub, self.start_subscribers)
+
+    def _await_matched(self, publisher: Any, wanted: int) -> None:
+        """Wait, at most ``startup_timeout`` wall seconds, until ``publisher`` has ``wanted``
+        matched subscriptions; then publish anyway, with a warning."""
         deadline = time.monotonic() + self.startup_timeout
-        while self.pub.get_subscription_count() < self.start_subscribers:
+        while publisher.get_subscription_count() < wanted:
             if time.monotonic() >= deadline:
                 self.get_logger().warning(
-                    f'{self.pub.get_subscription_count()} of {self.start_subscribers} '
-                    f'bar_command subscribers after {self.startup_timeout:g} s; publishing '
-                    'anyway')
+                    f'{publisher.get_subscription_count()} of {wanted} {publisher.topic_name} '
+                    f'subscribers after {self.startup_timeout:g} s; publishing anyway')
                 return
             time.sleep(0.005)
 
@@ -660,7 +664,9 @@ class DepthPilotNode(Node):
         """The pilot's DiagnosticStatus (depth control) and its plane authority on
         ``/diagnostics`` (ROS convention)."""
         if not self._diagnostics_awaited:
-            self._await_diagnostics_subscribers()
+            # before the first status: the subscribers of the graph (a recorder) matched
+            self._diagnostics_awaited = True
+            self._await_matched(self.pub_diagnostics, self.diagnostics_subscribers)
         pilot = self.pilot
         status = pilot.status
         verdict = pilot.verdict
@@ -693,21 +699,6 @@ class DepthPilotNode(Node):
         array.status = [out, self._authority_status()]
         self._count(self.pub_diagnostics)
         self.pub_diagnostics.publish(array)
-
-    def _await_diagnostics_subscribers(self) -> None:
-        """Before the first status: wait, at most ``startup_timeout`` wall seconds, until
-        ``/diagnostics`` has ``diagnostics_subscribers`` matched subscriptions (a recorder
-        started with the graph)."""
-        self._diagnostics_awaited = True
-        deadline = time.monotonic() + self.startup_timeout
-        while self.pub_diagnostics.get_subscription_count() < self.diagnostics_subscribers:
-            if time.monotonic() >= deadline:
-                self.get_logger().warning(
-                    f'{self.pub_diagnostics.get_subscription_count()} of '
-                    f'{self.diagnostics_subscribers} /diagnostics subscribers after '
-                    f'{self.startup_timeout:g} s; publishing anyway')
-                return
-            time.sleep(0.005)
 
     def wait_for_acknowledgements(self, timeout: float = ACK_TIMEOUT) -> list[str]:
         """Wait (``timeout`` wall s in all) until every reliable subscriber acknowledged what
