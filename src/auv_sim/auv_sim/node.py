@@ -50,7 +50,7 @@ makes a graph run deterministic and as fast as the processes allow:
    does not advance past ``t_k`` until it has received, on every channel of
    ``lockstep_channels`` (``bar_command`` by default), a command whose ``header.stamp`` is
    ``t_k`` within :data:`LOCKSTEP_TOLERANCE_NS` (1 us: a stamp computed as a float,
-   ``Time(seconds=k * 0.1)``, is a nanosecond off at some instants). That command is applied
+   ``Time(seconds=j * 0.02)``, is a nanosecond off at some instants). That command is applied
    at ``t_k`` and held (zero-order hold) until the next instant's command. A NaN or
    out-of-range answer is rejected as usual (the last valid command stays) but still releases
    the wait.
@@ -75,9 +75,9 @@ such a publisher is matched, the simulator does not run more than half its outpu
 (``STREAM_QOS`` depth / 2 publish periods, 10 s at 50 Hz) ahead of that stamp, so a recorder
 starved of CPU slows the run instead of losing samples; at ``stop_time`` it also waits until
 the recorder has written the last instant of every stream, since samples still on their way
-die with their publishers' processes. It waits at most ``_RECORDER_TIMEOUT`` wall seconds,
-(``recorder_timeout``, 5 s by default; ``auv launch`` gives 120 s), then says so, stops waiting
-for that run and records the fact in its ``report_file``; a recorder whose progress publisher
+die with their publishers' processes. It waits at most ``recorder_timeout`` wall seconds
+without progress (5 s by default; ``auv launch`` gives 120 s, with a warning every 10 s), then
+says so, stops waiting for that run and records the fact in its ``report_file``; a recorder whose progress publisher
 leaves the graph ends the wait at once. With ``await_recorder`` it waits (start-up timeout)
 for the recorder's progress publisher before ``t = 0``, so the first samples are paced too.
 Pacing changes wall time only, never the numbers:
