@@ -77,10 +77,10 @@ starved of CPU slows the run instead of losing samples; at ``stop_time`` it also
 the recorder has written the last instant of every stream, since samples still on their way
 die with their publishers' processes. It waits at most ``recorder_timeout`` wall seconds
 without progress (5 s by default; ``auv launch`` gives 120 s, with a warning every 10 s), then
-says so, stops waiting for that run and records the fact in its ``report_file``; a recorder whose progress publisher
-leaves the graph ends the wait at once. With ``await_recorder`` it waits (start-up timeout)
-for the recorder's progress publisher before ``t = 0``, so the first samples are paced too.
-Pacing changes wall time only, never the numbers:
+says so, stops waiting for that run and records the fact in its ``report_file``; a recorder
+whose progress publisher leaves the graph ends the wait at once. With ``await_recorder`` it
+waits (start-up timeout) for the recorder's progress publisher before ``t = 0``, so the first
+samples are paced too. Pacing changes wall time only, never the numbers:
 the pilot's answer to a control instant is taken from the moment that state is published, also
 while the simulator waits for the recorder.
 
