@@ -277,18 +277,44 @@ def run_completeness(env: dict[str, str], loads: tuple[str, ...] = LOADS,
 
 
 # -- start to first plane command --------------------------------------------------------------
-def _first_command(env: dict[str, str], tmp: pathlib.Path, i: int) -> float | None:
+def _cpu_seconds(pid: int) -> float:
+    """CPU seconds (user + system) process ``pid`` has used so far (Linux ``/proc``)."""
+    fields = pathlib.Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
+def _node_cpu(launch_pid: int) -> dict[str, float]:
+    """CPU seconds used so far by the launcher and each node it started (by module name)."""
+    out = {'launcher': _cpu_seconds(launch_pid)}
+    for stat in pathlib.Path('/proc').glob('[0-9]*/stat'):
+        try:
+            ppid = int(stat.read_text().rsplit(')', 1)[1].split()[1])
+            if ppid != launch_pid:
+                continue
+            cmd = (stat.parent / 'cmdline').read_bytes().split(b'\0')
+            name = next((c.decode() for c in cmd if c.startswith(b'auv_')), '?')
+            out[name] = _cpu_seconds(int(stat.parent.name))
+        except (OSError, ValueError, IndexError):
+            continue
+    return out
+
+
+def _first_command(env: dict[str, str], tmp: pathlib.Path,
+                   i: int) -> tuple[float | None, dict[str, float]]:
     """Wall s from starting a plain ``auv launch`` (real time) to the first BAR command a
-    subscriber that was listening before receives; None if none within 60 s."""
+    subscriber that was listening before receives (None if none within 60 s), and the CPU
+    seconds the launcher and each node had used by then."""
     import rclpy
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.signals import SignalHandlerOptions
 
     from auv_msgs.msg import ActuatorSetpoint
 
     context = Context()
-    rclpy.init(context=context, domain_id=int(env['ROS_DOMAIN_ID']))
+    rclpy.init(context=context, domain_id=int(env['ROS_DOMAIN_ID']),
+               signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = rclpy.create_node('first_command_probe', context=context)
         got: list[float] = []
@@ -306,9 +332,12 @@ def _first_command(env: dict[str, str], tmp: pathlib.Path, i: int) -> float | No
                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         while not got and time.monotonic() - start < 60.0:
             executor.spin_once(timeout_sec=0.01)
+        cpu = _node_cpu(launch.pid)
         launch.send_signal(signal.SIGINT)
         launch.wait(60)
-        return got[0] - start if got else None
+        executor.shutdown()
+        node.destroy_node()
+        return (got[0] - start if got else None), cpu
     finally:
         context.try_shutdown()
 
@@ -323,11 +352,22 @@ def run_startup(env: dict[str, str], loads: tuple[str, ...] = LOADS,
             tmp.mkdir()
             with Load(kind, env, tmp):
                 load = os.getloadavg()[0]
-                times = [_first_command(env, tmp, i) for i in range(repeats)]
+                runs = [_first_command(env, tmp, i) for i in range(repeats)]
+            times = [t for t, _ in runs]
             ok = [t for t in times if t is not None]
+            cpu = {name: float(np.median([c.get(module, np.nan) for _, c in runs]))
+                   for name, module in (('launcher', 'launcher'),
+                                        ('pilot', 'auv_depth_lqr.node'),
+                                        ('simulator', 'auv_sim.node'))}
             out[kind] = {'seconds': times, 'median_s': float(np.median(ok)) if ok else None,
                          'max_s': max(ok) if ok else None,
-                         'load_average_1min_before': load}
+                         'load_average_1min_before': load,
+                         # CPU s each process used before the first command (median): what
+                         # the start costs whatever the load; on two idle cores the pilot and
+                         # the simulator start side by side after the launcher's checks
+                         'cpu_s_before_first_command': cpu,
+                         'cpu_s_critical_path': cpu['launcher'] + max(cpu['pilot'],
+                                                                      cpu['simulator'])}
     out['goal_met'] = all(out[k]['median_s'] is not None and out[k]['median_s'] < 3.0
                           for k in loads)
     return out
