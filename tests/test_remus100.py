@@ -47,7 +47,7 @@ from auv_depth_lqr.closed_loop import ClosedLoopRun, run_closed_loop
 from auv_depth_lqr.metrics import StepMetrics, step_metrics
 from auv_depth_lqr.pilot import PilotSettings, build_controller
 from auv_ident import cli
-from auv_ident.simlog import write_record
+from auv_logs.simlog import write_record
 from auv_sim.environment import Environment
 from auv_sim.errors import TrimError
 from auv_sim.missions import load_mission, run_mission
@@ -368,8 +368,8 @@ def test_free_run_window_spans_four_e_folding_times_of_the_unstable_pair(
     """Oracle: the eigenvalues of the full 6-DOF model's complex-step Jacobian (actuators
     held) restricted to w, q, theta, against the window chosen from the
     vertical plane's own linearisation; the A18M (stable) keeps 60 s."""
-    from auv_ident.gap.logs import GapLog
-    from auv_ident.gap.problem import free_run_window
+    from auv_gap.logs import GapLog
+    from auv_gap.problem import free_run_window
     from auv_sim import model
     from auv_sim.trim import VerticalPlane
 

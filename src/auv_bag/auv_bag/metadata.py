@@ -10,6 +10,8 @@ import pathlib
 from io import StringIO
 from typing import Any
 
+from auv_contract import parse_yaml
+
 from .errors import BagError
 
 __all__ = ['DEFAULT_QOS_DEPTH', 'bag_contents', 'bag_files', 'parse_yaml', 'qos_profiles_yaml',
@@ -55,18 +57,6 @@ def yaml_dump(data: Any) -> str:
     out = StringIO()
     yaml.dump(data, out)
     return out.getvalue()
-
-
-def parse_yaml(text: str) -> Any:
-    """Parse YAML text (PyYAML's C loader when present: ``metadata.yaml`` in ~1 ms)."""
-    try:
-        import yaml
-
-        return yaml.load(text, Loader=getattr(yaml, 'CSafeLoader', yaml.SafeLoader))
-    except ImportError:
-        from ruamel.yaml import YAML
-
-        return YAML(typ='safe').load(text)
 
 
 def bag_files(path: str | os.PathLike[str]) -> list[pathlib.Path]:

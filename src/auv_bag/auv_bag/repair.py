@@ -16,10 +16,12 @@ import os
 import pathlib
 from typing import NamedTuple
 
+from auv_contract import parse_yaml
+
 from .damage import Damage
 from .errors import BagError
 from .locate import ChannelInfo, publish_times
-from .metadata import bag_files, parse_yaml
+from .metadata import bag_files
 from .scan import Scanner
 from .typestore import bag_store, normalize_msgtype
 from .writer import BagWriter

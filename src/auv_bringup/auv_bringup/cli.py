@@ -41,10 +41,10 @@ SUBCOMMANDS: dict[str, Subcommand] = {
     'mission': Subcommand('auv_bringup.mission_node', 'fly a scripted mission through the graph'),
     'design': Subcommand('auv_depth_lqr.cli', 'trim, linearisation and LQR gains as JSON'),
     'ident': Subcommand('auv_ident.cli', 'identify coefficients from bags'),
-    'gap': Subcommand('auv_ident.gap_cli', 'sim-to-real gap diagnosis'),
-    'import': Subcommand('auv_ident.import_cli', 'real logs through a map -> contract bag'),
+    'gap': Subcommand('auv_gap.cli', 'sim-to-real gap diagnosis'),
+    'import': Subcommand('auv_logs.cli', 'real logs through a map -> contract bag'),
     'vehicle-init': Subcommand('auv_ident.vehicle_init', 'starting vehicle file from L, D, m'),
-    'campaign': Subcommand('auv_ident.campaign.cli', 'ident/gap over many logs, Monte Carlo'),
+    'campaign': Subcommand('auv_campaign.cli', 'ident/gap over many logs, Monte Carlo'),
     'demo': Subcommand('auv_bringup.demo', 'the end-to-end demonstration'),
 }
 

@@ -30,7 +30,7 @@ from typing import Any
 from auv_bringup.cli import CliError
 from auv_bringup.launch import namespace_path
 from auv_bringup.options import check_number
-from auv_bringup.topics import DEPTH_ANSWER_TOPIC
+from auv_bringup.topics import DEPTH_ANSWER
 
 DEPTH_TOPIC = '/auv/depth_command'
 DEPTH_TOPIC_NAME = 'depth_command'  # in the vehicle's namespace
@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     ns = namespace_path(args.namespace)
     if args.topic is None:
         args.topic = f'{ns}/{DEPTH_TOPIC_NAME}'
-    answer_topic = f'{ns}/{DEPTH_ANSWER_TOPIC}'
+    answer_topic = f'{ns}/{DEPTH_ANSWER}'
 
     import rclpy
     from diagnostic_msgs.msg import DiagnosticStatus

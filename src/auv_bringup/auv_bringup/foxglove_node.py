@@ -40,7 +40,6 @@ import argparse
 import errno
 import functools
 import math
-import pathlib
 import signal
 import socket
 import sys
@@ -52,8 +51,8 @@ from auv_bringup.cli import CliError, standalone
 from auv_bringup.errors import BridgeError
 from auv_bringup.record_node import message_class
 from auv_bringup.topics import KNOWN_TOPICS, NAMESPACE, header_stamp, known_types
+from auv_contract import config_path
 
-VEHICLE = pathlib.Path(__file__).resolve().parents[3] / 'config' / 'a18m.yaml'
 DEFAULT_PORT = 8765  # Foxglove's default WebSocket port
 DEFAULT_HOST = '127.0.0.1'
 ODOM_TOPIC = '/auv/odom'
@@ -137,7 +136,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--no-pose', action='store_true',
                         help=f'do not derive {POSE_TOPIC}, {TF_TOPIC} and {HULL_TOPIC} from '
                              f'{ODOM_TOPIC}')
-    parser.add_argument('--vehicle', default=str(VEHICLE),
+    parser.add_argument('--vehicle', default=str(config_path('a18m.yaml')),
                         help='vehicle file: the hull drawn in 3D (default: %(default)s)')
 
 

@@ -60,9 +60,9 @@ from collections.abc import Callable, Iterator, Sequence
 
 from auv_bringup.errors import LaunchError
 from auv_bringup.options import check_number
-from auv_bringup.topics import DEFAULT_TOPICS, topic_basename
+from auv_bringup.topics import DEFAULT_TOPICS
+from auv_contract import config_path, topic_basename
 
-ROOT = pathlib.Path(__file__).resolve().parents[3]
 STOP_DEADLINE = 10.0  # s a node gets to exit after its signal
 PR_SET_PDEATHSIG = 1  # prctl(2) option: signal sent to this process when its parent dies
 #: Wall s a launched node waits for its subscribers or its controller at start: long, since on
@@ -76,10 +76,10 @@ LOCKSTEP_TIMEOUT = 60.0
 RECORDER_TIMEOUT = 120.0
 LOCK_DIR = pathlib.Path(tempfile.gettempdir()) / 'auv-launch'
 FOXGLOVE_APP = 'https://app.foxglove.dev/?ds=foxglove-websocket&ds.url=ws%3A%2F%2F{host}%3A{port}'
-LAYOUT = ROOT / 'config' / 'foxglove' / 'auv_graph_layout.json'
+LAYOUT = config_path('foxglove', 'auv_graph_layout.json')
 #: Fast DDS profile of the graph's nodes (reliable writers' heartbeat every 100 ms: a lost
 #: sample is repaired, and a node's last samples acknowledged at exit, within about 0.1 s).
-DDS_PROFILE = ROOT / 'config' / 'dds' / 'fastdds.xml'
+DDS_PROFILE = config_path('dds', 'fastdds.xml')
 _ERROR_LINE = re.compile(r'^(error: |\[ERROR\]|\w+(Error|Exception)\b)')
 
 
@@ -199,7 +199,7 @@ def ros_params(**params: object) -> list[str]:
 class GraphConfig:
     """What to launch; times in seconds, depths in metres, speed in m/s."""
 
-    vehicle: str = str(ROOT / 'config' / 'a18m.yaml')
+    vehicle: str = str(config_path('a18m.yaml'))
     effects: str = ''
     lockstep: bool = False
     real_time_factor: float = 1.0
@@ -545,7 +545,7 @@ def _check_run(cfg: GraphConfig, nodes: list[NodeProcess]) -> None:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument('--vehicle', default=str(ROOT / 'config' / 'a18m.yaml'),
+    parser.add_argument('--vehicle', default=str(config_path('a18m.yaml')),
                         help='vehicle file (default config/a18m.yaml)')
     parser.add_argument('--effects', default='', help='effects file for the simulated vehicle')
     parser.add_argument('--lockstep', action='store_true',

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import pathlib
 import signal
 import sys
 import time
@@ -27,21 +26,20 @@ from types import FrameType
 from typing import Any
 
 from auv_bringup.cli import CliError
+from auv_contract import CHANNELS, config_path
 from auv_sim.missions import events_array, load_mission
 from auv_sim.node_report import write_report
 from auv_sim.params import load_vehicle
 from auv_sim.sim_settings import NS_PER_S, control_instant
-from auv_sim.simulator import CHANNELS
 from auv_sim.trim import VerticalPlane
 
-ROOT = pathlib.Path(__file__).resolve().parents[3]
 NAMESPACE = '/auv'
 ACK_TIMEOUT = 2.0  # wall s, longest wait at exit for the subscribers' acknowledgements
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('mission', help='surge, pitch, yaw or a mission file')
-    parser.add_argument('--vehicle', default=str(ROOT / 'config' / 'a18m.yaml'),
+    parser.add_argument('--vehicle', default=str(config_path('a18m.yaml')),
                         help='vehicle file (default: config/a18m.yaml)')
     parser.add_argument('--timeout', type=float, default=30.0,
                         help='wall seconds to wait for the first state')

@@ -12,24 +12,22 @@ from __future__ import annotations
 
 import argparse
 import json
-import pathlib
 import sys
 
 from auv_bringup.errors import RunError
 from auv_bringup.options import check_number
+from auv_contract import config_path
 from auv_depth_lqr.closed_loop import run_closed_loop
 from auv_depth_lqr.metrics import step_metrics
 from auv_depth_lqr.pilot import PilotSettings
-from auv_ident.simlog import SensorNoise, write_record
+from auv_logs.simlog import SensorNoise, write_record
 from auv_sim.environment import load_environment
 from auv_sim.missions import load_mission, run_mission
 from auv_sim.params import load_vehicle
 
-ROOT = pathlib.Path(__file__).resolve().parents[3]
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument('--vehicle', default=str(ROOT / 'config' / 'a18m.yaml'),
+    parser.add_argument('--vehicle', default=str(config_path('a18m.yaml')),
                         help='vehicle file of the simulated vehicle and of the pilot '
                              '(default: config/a18m.yaml)')
     parser.add_argument('--effects', default=None, help='effects file of the "real" vehicle')

@@ -82,7 +82,6 @@ import functools
 import gc
 import math
 import os
-import pathlib
 import signal
 import sys
 import time
@@ -116,6 +115,7 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.timer import Timer, TimerInfo
 from std_msgs.msg import Float64
 
+from auv_contract import DEPTH_ANSWER_TOPIC, config_path, topic_basename
 from auv_depth_lqr.authority import LOW, UNKNOWN
 from auv_depth_lqr.command_intake import (
     ACCEPTED,
@@ -169,7 +169,7 @@ _SEEN_COMMANDS = 64  # depth-command samples remembered to apply each once
 LATCHED_WINDOW = 10.0
 _DEPARTURE_SETTLE = 0.5  # wall s after a publisher left before the graph is looked at
 _NEAR_INSTANT_NS = 1_000_000  # a state this close to a control instant was meant as one
-ANSWER_TOPIC = 'depth_command_answer'  # relative: /auv/depth_command_answer by default
+ANSWER_TOPIC = topic_basename(DEPTH_ANSWER_TOPIC)  # relative: /auv/depth_command_answer
 #: The answers: reliable, transient local (a waiting ``auv depth`` that matches late still
 #: gets its answer), last 20.
 ANSWER_QOS = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE,
@@ -203,10 +203,8 @@ _FLAGS: dict[str, bool] = {'lockstep': False, 'recovery': True}
 
 
 def default_vehicle_file() -> str:
-    """``config/a18m.yaml`` of the workspace (``AUV_ROOT``) or of the source tree."""
-    root = os.environ.get('AUV_ROOT')
-    base = pathlib.Path(root) if root else pathlib.Path(__file__).resolve().parents[3]
-    return str(base / 'config' / 'a18m.yaml')
+    """The shipped ``a18m.yaml`` (:func:`auv_contract.config_path`)."""
+    return str(config_path('a18m.yaml'))
 
 
 def checked_values(values: dict[str, Any]) -> dict[str, Any]:

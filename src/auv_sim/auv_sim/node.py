@@ -124,6 +124,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 
+from auv_contract import CHANNELS
 from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
 from auv_sim.errors import AuvSimError, DivergenceError, GraphConflictError, ParameterError
 from auv_sim.frames import state_to_odometry
@@ -142,7 +143,7 @@ from auv_sim.sim_settings import (
     next_multiple,
     whole_steps,
 )
-from auv_sim.simulator import CHANNELS, CommandError
+from auv_sim.simulator import CommandError
 
 NODE_NAME = 'simulator'
 DEFAULT_NAMESPACE = '/auv'

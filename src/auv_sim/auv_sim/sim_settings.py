@@ -17,14 +17,14 @@ from typing import Any
 
 import numpy as np
 
+from auv_contract import CHANNELS, config_dir
 from auv_sim.environment import Environment, load_environment
 from auv_sim.errors import ParameterError, TrimError
 from auv_sim.params import VehicleParams, load_vehicle
-from auv_sim.simulator import CHANNELS, Simulator, initial_state
+from auv_sim.simulator import Simulator, initial_state
 from auv_sim.trim import VerticalPlane
 
 #: Repository root when running from the source tree (src/auv_sim/auv_sim/ -> root).
-SOURCE_ROOT = pathlib.Path(__file__).resolve().parents[3]
 NS_PER_S = 1_000_000_000
 _GRID_TOL = 1e-6  # relative tolerance for "a whole number of steps" checks
 #: Largest distance [ns] between a command's stamp and a control instant for which it stands
@@ -163,8 +163,10 @@ def lockstep_channels(s: SimSettings) -> tuple[str, ...]:
 
 
 def resolve_file(name: str, what: str) -> pathlib.Path:
-    """Find a file given absolute, or relative to the working directory, ``$AUV_ROOT`` or
-    the source tree's root, in that order; ParameterError listing where it looked."""
+    """Find a file given absolute, or relative to the working directory, ``$AUV_ROOT``, the
+    shipped configuration's parent (``config/a18m.yaml``) or the shipped configuration itself
+    (``a18m.yaml``), in that order (:func:`auv_contract.config_dir`); ParameterError listing
+    where it looked."""
     path = pathlib.Path(name).expanduser()
     if path.is_absolute():
         candidates = [path]
@@ -172,7 +174,8 @@ def resolve_file(name: str, what: str) -> pathlib.Path:
         roots = [pathlib.Path.cwd()]
         if os.environ.get('AUV_ROOT'):
             roots.append(pathlib.Path(os.environ['AUV_ROOT']))
-        roots.append(SOURCE_ROOT)
+        shipped = config_dir()
+        roots += [shipped.parent, shipped]
         candidates = list(dict.fromkeys(root / path for root in roots))
     for candidate in candidates:
         if candidate.is_file():
