@@ -64,6 +64,30 @@ ROWS: list[tuple[str, str, str]] = [
      '{closed_loop:all_pass_default}', 'True'),
     ('lockstep graph real-time factor (3 processes; the recorder keeps every message)',
      '{graph:lockstep.real_time_factor:.1f}', '>= 20'),
+    ('README recipes in lockstep (`launch --lockstep --real-time-factor 0 --record`, '
+     '`--mission pitch --real-time-factor 0 --record`, the demo): messages recorded / '
+     'published, lowest topic; machine as it is / two CPU-bound processes beside / another '
+     'node graph and a test file beside (load average)',
+     '{graph:completeness.lockstep_min_ratio_by_load.idle:.3f} / '
+     '{graph:completeness.lockstep_min_ratio_by_load.cpu2:.3f} / '
+     '{graph:completeness.lockstep_min_ratio_by_load.graph_and_tests:.3f} '
+     '(load {graph:completeness.idle.mission_pitch.load_average_1min_before:.0f} / '
+     '{graph:completeness.cpu2.mission_pitch.load_average_1min_before:.0f} / '
+     '{graph:completeness.graph_and_tests.mission_pitch.load_average_1min_before:.0f})',
+     '1.000'),
+    ('the same, real time (`launch --depth 10 --record`, 30 s)',
+     '{graph:completeness.realtime_min_ratio_by_load.idle:.3f} / '
+     '{graph:completeness.realtime_min_ratio_by_load.cpu2:.3f} / '
+     '{graph:completeness.realtime_min_ratio_by_load.graph_and_tests:.3f}', ''),
+    ('start to first plane command, plain `auv launch`, median of 5: as it is / two CPU-bound '
+     'beside / another graph and tests beside (load average); CPU s before it, launcher + '
+     'max(pilot, simulator)',
+     '{graph:startup.idle.median_s:.1f} / {graph:startup.cpu2.median_s:.1f} / '
+     '{graph:startup.graph_and_tests.median_s:.1f} s '
+     '(load {graph:startup.idle.load_average_1min_before:.0f} / '
+     '{graph:startup.cpu2.load_average_1min_before:.0f} / '
+     '{graph:startup.graph_and_tests.load_average_1min_before:.0f}); '
+     '{graph:startup.idle.cpu_s_critical_path:.1f} s', '< 3 s'),
     ('pilot publish period, wall clock, DDS source stamps: median, p99 jitter '
      '(as received by the recorder)',
      '{graph:timer.period_median_ms:.2f} ms, {graph:timer.jitter_p99_ms:.2f} ms '
@@ -183,6 +207,10 @@ KEY_ROWS = {
     'single-vehicle RK4 step (4 model evaluations)',
     '40 m -> 10 m at 2 m/s: settling to +-0.1 m',
     'lockstep graph real-time factor (3 processes; the recorder keeps every message)',
+    'README recipes in lockstep (`launch --lockstep --real-time-factor 0 --record`, '
+    '`--mission pitch --real-time-factor 0 --record`, the demo): messages recorded / '
+    'published, lowest topic; machine as it is / two CPU-bound processes beside / another '
+    'node graph and a test file beside (load average)',
     'identification, one hour of 50 Hz data: from forces / from motion',
     'gap diagnosis, 20-minute 50 Hz log',
     'REMUS 100 at 1.5 m/s, 20 -> 10 / 10 -> 30 / 5 -> 40 m: settling over the time-optimal bound',

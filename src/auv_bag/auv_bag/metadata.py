@@ -86,7 +86,7 @@ def bag_contents(path: str | os.PathLike[str]) -> tuple[list[pathlib.Path], dict
             storage = info.get('storage_identifier', 'mcap')
             names = list(info['relative_file_paths'])
         except Exception as exc:
-            raise BagError(f'bag metadata {meta} is unreadable: {exc}') from None
+            raise BagError(f'bag metadata {meta} is unreadable: {_one_line(exc)}') from None
         if storage != 'mcap':
             raise BagError(f'bag {p} uses {storage} storage; only mcap is supported')
         files = [p / name for name in names]
@@ -116,5 +116,11 @@ def topics_from_metadata(meta: pathlib.Path) -> dict[str, str]:
         info = parse_yaml(meta.read_text())['rosbag2_bagfile_information']
         return {t['topic_metadata']['name']: str(t['topic_metadata']['type'])
                 for t in info['topics_with_message_count']}
-    except (KeyError, TypeError) as exc:
-        raise BagError(f'bag metadata {meta} is unreadable: {exc}') from None
+    except Exception as exc:  # YAML, I/O, encoding and layout errors alike: one line
+        raise BagError(f'bag metadata {meta} is unreadable: {_one_line(exc)}') from None
+
+
+def _one_line(exc: BaseException) -> str:
+    """An exception's text on one line (YAML parser errors span several)."""
+    text = ' '.join(str(exc).split())
+    return text if len(text) <= 200 else text[:197] + '...'

@@ -34,7 +34,9 @@ SUBCOMMANDS: dict[str, Subcommand] = {
     'record': Subcommand('auv_bringup.record_node', 'record topics to an MCAP bag'),
     'foxglove': Subcommand('auv_bringup.foxglove_node', 'live topics on a Foxglove WebSocket'),
     'play': Subcommand('auv_bringup.play_node', 'replay a bag on its topics'),
-    'depth': Subcommand('auv_bringup.depth', 'publish one depth command (m, positive down)'),
+    'bag': Subcommand('auv_bringup.bag_cli', 'look at a bag; repair a damaged one'),
+    'depth': Subcommand('auv_bringup.depth', "command a depth (m, positive down), wait for "
+                        "the pilot's answer"),
     'run': Subcommand('auv_bringup.run', 'offline batch run written as a bag'),
     'mission': Subcommand('auv_bringup.mission_node', 'fly a scripted mission through the graph'),
     'design': Subcommand('auv_depth_lqr.cli', 'trim, linearisation and LQR gains as JSON'),

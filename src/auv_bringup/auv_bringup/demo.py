@@ -29,6 +29,7 @@ import numpy as np
 from auv_bag import read_arrays
 from auv_bringup.errors import RunError
 from auv_bringup.launch import GraphConfig, run_graph
+from auv_bringup.options import check_number
 from auv_bringup.plots import plot_depth_run
 from auv_contract import STATE_FIELDS, config_path
 from auv_depth_lqr.closed_loop import run_closed_loop
@@ -75,6 +76,9 @@ def graph_run(args: argparse.Namespace, out: pathlib.Path) -> dict[str, np.ndarr
 
 
 def run(args: argparse.Namespace) -> int:
+    check_number('--from-depth', args.from_depth, unit='m')
+    check_number('--to-depth', args.to_depth, unit='m')
+    check_number('--duration', args.duration, above=0.0, unit='s')
     out = pathlib.Path(args.out)
     if out.exists():
         shutil.rmtree(out)

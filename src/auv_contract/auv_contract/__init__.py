@@ -13,6 +13,7 @@ from auv_contract.state import CHANNELS, STATE_FIELDS, STATE_UNITS
 from auv_contract.topics import (
     CLOCK_TOPIC,
     COMMAND_TOPICS,
+    DEPTH_ANSWER_TOPIC,
     DEPTH_COMMAND_TOPIC,
     DIAGNOSTICS_TOPIC,
     FORCES_TOPIC,
@@ -24,7 +25,8 @@ from auv_contract.topics import (
     topic_basename,
 )
 
-__all__ = ['CHANNELS', 'CLOCK_TOPIC', 'COMMAND_TOPICS', 'DEPTH_COMMAND_TOPIC',
-           'DIAGNOSTICS_TOPIC', 'FORCES_TOPIC', 'MEASURED_TOPICS', 'MESSAGE_TYPES', 'NAMESPACE',
-           'ODOM_TOPIC', 'STATE_FIELDS', 'STATE_TOPIC', 'STATE_UNITS', 'YamlError', 'config_dir',
-           'config_path', 'parse_yaml', 'read_yaml', 'topic_basename']
+__all__ = ['CHANNELS', 'CLOCK_TOPIC', 'COMMAND_TOPICS', 'DEPTH_ANSWER_TOPIC',
+           'DEPTH_COMMAND_TOPIC', 'DIAGNOSTICS_TOPIC', 'FORCES_TOPIC', 'MEASURED_TOPICS',
+           'MESSAGE_TYPES', 'NAMESPACE', 'ODOM_TOPIC', 'STATE_FIELDS', 'STATE_TOPIC',
+           'STATE_UNITS', 'YamlError', 'config_dir', 'config_path', 'parse_yaml', 'read_yaml',
+           'topic_basename']

@@ -6,9 +6,9 @@ namespace uses :func:`topic_basename` of these names.
 """
 from __future__ import annotations
 
-__all__ = ['CLOCK_TOPIC', 'COMMAND_TOPICS', 'DEPTH_COMMAND_TOPIC', 'DIAGNOSTICS_TOPIC',
-           'FORCES_TOPIC', 'MEASURED_TOPICS', 'MESSAGE_TYPES', 'NAMESPACE', 'ODOM_TOPIC',
-           'STATE_TOPIC', 'topic_basename']
+__all__ = ['CLOCK_TOPIC', 'COMMAND_TOPICS', 'DEPTH_ANSWER_TOPIC', 'DEPTH_COMMAND_TOPIC',
+           'DIAGNOSTICS_TOPIC', 'FORCES_TOPIC', 'MEASURED_TOPICS', 'MESSAGE_TYPES', 'NAMESPACE',
+           'ODOM_TOPIC', 'STATE_TOPIC', 'topic_basename']
 
 NAMESPACE = '/auv'
 """Default namespace of the vehicle's topics."""
@@ -31,6 +31,9 @@ CLOCK_TOPIC = '/clock'
 """``rosgraph_msgs/msg/Clock``: simulated time, when the graph runs on it."""
 DIAGNOSTICS_TOPIC = '/diagnostics'
 """``diagnostic_msgs/msg/DiagnosticArray``: the nodes' status."""
+DEPTH_ANSWER_TOPIC = '/auv/depth_command_answer'
+"""``diagnostic_msgs/msg/DiagnosticStatus``: the depth pilot's answer to each depth command
+(accepted, clamped or refused; reliable, transient local)."""
 
 MESSAGE_TYPES = {
     STATE_TOPIC: 'auv_msgs/msg/VehicleState',
@@ -41,6 +44,7 @@ MESSAGE_TYPES = {
     **{topic: 'auv_msgs/msg/ActuatorSetpoint' for topic in MEASURED_TOPICS.values()},
     CLOCK_TOPIC: 'rosgraph_msgs/msg/Clock',
     DIAGNOSTICS_TOPIC: 'diagnostic_msgs/msg/DiagnosticArray',
+    DEPTH_ANSWER_TOPIC: 'diagnostic_msgs/msg/DiagnosticStatus',
 }
 """Topic -> message type name, as rosbag2 and rosbags spell it."""
 
