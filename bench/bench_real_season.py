@@ -1,7 +1,7 @@
 """Benchmark: a season of real-looking logs through `auv import`, `auv gap` and
 `auv campaign gap`.
 
-The logs are stand-ins for what real vehicles log (:mod:`auv_ident.campaign.season`): a small
+The logs are stand-ins for what real vehicles log (:mod:`auv_campaign.season`): a small
 AUV from ``auv vehicle-init`` porpoising between the surface and 2-5 m, logged by a vendor's
 text logger at 2 Hz with rows 0.39 and 0.61 s apart, a 1 Hz DVL repeated on the rows, depth in
 0.1 m steps, cut-off rows, ``nan`` values, empty logs and logs with surface data only,
@@ -18,11 +18,11 @@ Counted (goals in brackets):
   exception rather than the tool's one-line refusal;
 * ``confident_wrong`` (0): an ``explained`` verdict naming an effect not flown, or a
   significant finding (of a coast or surface pass) of an effect not flown or of the wrong sign
-  (:func:`auv_ident.campaign.season.wrong_claims`);
+  (:func:`auv_campaign.season.wrong_claims`);
 * ``hand_named`` of ``hand_total`` (all): the effects a hand analysis of each log finds (a
   coast: buoyancy and the centre of gravity; a surface pass: the depth sensor's zero; a fin
   zero error, a buoyancy error, a current where the log shows them) named with the right sign
-  (:func:`auv_ident.campaign.season.named`);
+  (:func:`auv_campaign.season.named`);
 * ``campaign_failed_other`` (0): campaign tasks failed other than by an honest refusal (an
   empty log, a log without a usable segment);
 * ``season_wall_s`` (< 120 s): the 26 logs through ``auv campaign gap`` on 2 local workers,
@@ -63,7 +63,7 @@ def _crashed(proc: subprocess.CompletedProcess[str]) -> bool:
 
 
 def _score(report: dict[str, Any], case: Any, hand: Any) -> dict[str, Any]:
-    from auv_ident.campaign.season import named, wrong_claims
+    from auv_campaign.season import named, wrong_claims
 
     found = {}
     for effect, param, sign in hand:
@@ -93,9 +93,9 @@ def run_import(case: Any, out: pathlib.Path) -> dict[str, Any]:
 
 def run_campaign(case: Any, out: pathlib.Path, workers: int) -> dict[str, Any]:
     """The season through `auv campaign gap` on ``workers`` local workers."""
-    from auv_ident.campaign.season import season_expectations
-
     import resource
+
+    from auv_campaign.season import season_expectations
 
     load = os.getloadavg()
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -168,7 +168,7 @@ def run_case(case: Any, out: pathlib.Path) -> dict[str, Any]:
 def _reuse(directory: pathlib.Path, count: int) -> Any:
     """The season kept in ``directory`` by an earlier run with ``--keep`` (the logs are
     seeded: the same code writes the same logs), or None."""
-    from auv_ident.campaign.season import COAST_HAND, SMALL_TRUTH, SURFACE_HAND, Case
+    from auv_campaign.season import COAST_HAND, SMALL_TRUTH, SURFACE_HAND, Case
 
     kinds = directory / 'season.json'
     if not kinds.is_file() or len(json.loads(kinds.read_text())) != count:
@@ -186,7 +186,7 @@ def main() -> None:
     parser.add_argument('--skip-panel', action='store_true')
     parser.add_argument('--keep', default=None, help='write the logs here and keep them')
     args = parser.parse_args()
-    from auv_ident.campaign.season import write_panel, write_season
+    from auv_campaign.season import write_panel, write_season
 
     tmp = tempfile.TemporaryDirectory(prefix='real_season_')
     base = pathlib.Path(args.keep or tmp.name)

@@ -15,14 +15,14 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from auv_ident.errors import GapError
-from auv_ident.gap.catalogue import CATALOGUE, Envelope, manoeuvre
-from auv_ident.gap.fit import cluster_covariance
-from auv_ident.gap.logs import from_arrays, log_period
-from auv_ident.gap.problem import Problem, data_window, window_starts
-from auv_ident.gap.ranges import default_ranges, load_ranges
-from auv_ident.gap.static import surface_finding
-from auv_ident.gap.wording import interval
+from auv_gap.catalogue import CATALOGUE, Envelope, manoeuvre
+from auv_gap.errors import GapError
+from auv_gap.fit import cluster_covariance
+from auv_gap.logs import from_arrays, log_period
+from auv_gap.problem import Problem, data_window, window_starts
+from auv_gap.ranges import default_ranges, load_ranges
+from auv_gap.static import surface_finding
+from auv_gap.wording import interval
 from auv_sim.params import load_vehicle
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -86,7 +86,7 @@ def test_short_pieces_in_any_order_do_not_break_the_spectrum() -> None:
     """The crash of a log whose first piece is short ("operands could not be broadcast
     together with shapes (41,) (38,)"): the noise spectrum was simulated at the first piece's
     length. Now any order gives the same band and no error."""
-    from auv_ident.gap.analysis import band
+    from auv_gap.analysis import band
 
     vehicle = load_vehicle(A18M)
     rng = np.random.default_rng(1)
@@ -182,12 +182,12 @@ def test_the_period_of_jittered_rows() -> None:
 
 @pytest.fixture(scope='module')
 def coasting(tmp_path_factory):  # type: ignore[no-untyped-def]
-    """The first log of the small AUV's season (:func:`auv_ident.campaign.season.
+    """The first log of the small AUV's season (:func:`auv_campaign.season.
     write_season`, seed 0; the worked example of docs/real-logs.md): porpoising at 1.5 m/s
     with thruster-off coasts, 2 N buoyant, its centre of gravity 5 mm forward of the file's,
     its depth sensor reading 0.085 m at the surface, written as the vendor's 2 Hz jittered
     text log (the second log of a season of two is empty)."""
-    from auv_ident.campaign import season
+    from auv_campaign import season
 
     out = tmp_path_factory.mktemp('coasting')
     case = season.write_season(out, 2, seed=0)
@@ -205,7 +205,7 @@ def test_a_diverging_model_is_reported_and_the_coasts_name_what_a_hand_analysis_
     import argparse
     import json
 
-    from auv_ident import gap_cli
+    from auv_gap import cli as gap_cli
 
     log, map_path, vpath = coasting
     out = log.parent / 'gap'

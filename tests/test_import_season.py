@@ -17,13 +17,13 @@ import numpy as np
 import pytest
 
 from auv_ident.errors import IdentificationError
-from auv_ident.realog.errors import LogReadError, MapError, NoSegmentError
-from auv_ident.realog.importer import import_log, import_logs
-from auv_ident.realog.mapping import load_map
-from auv_ident.realog.plausibility import Envelope, PlausibilityError, envelope_of
-from auv_ident.realog.quality import quantisation_sigma
-from auv_ident.realog.readers import file_time
-from auv_ident.realog.segments import spacing_jitter
+from auv_logs.errors import LogReadError, MapError, NoSegmentError
+from auv_logs.importer import import_log, import_logs
+from auv_logs.mapping import load_map
+from auv_logs.plausibility import Envelope, PlausibilityError, envelope_of
+from auv_logs.quality import quantisation_sigma
+from auv_logs.readers import file_time
+from auv_logs.segments import spacing_jitter
 from auv_sim.params import load_vehicle
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
