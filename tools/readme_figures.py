@@ -111,6 +111,13 @@ ROWS: list[tuple[str, str, str]] = [
      '(cannot be seen at that rate, said so); missed; wrong',
      '{poor_data:right}; {poor_data:honest}; {poor_data:missed}; {poor_data:wrong} '
      '(of {poor_data:text_cases})', '0 wrong'),
+    ('a season of real-log stand-ins (short, slow, quantised, cut-off logs; 4 vehicles): '
+     'crashes; confident wrong answers; effects a hand analysis finds named with the right '
+     'sign; campaign tasks failed other than by an honest refusal; 26 logs through `auv '
+     'campaign gap` on 2 workers',
+     '{real_season:crashes}; {real_season:confident_wrong}; {real_season:hand_named} of '
+     '{real_season:hand_total}; {real_season:campaign_failed_other}; '
+     '{real_season:season_wall_s:.0f} s', '0; 0; all; 0; < 120 s'),
     ('import of one hour of 50 Hz Odometry + Imu + FluidPressure + fin commands: time, peak '
      'memory; rosbags per-message deserialisation of the same bag, same run',
      '{import:import_s:.2f} s, {import:import_peak_rss_mb:.0f} MB; '

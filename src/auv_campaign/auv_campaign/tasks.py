@@ -44,11 +44,25 @@ EPOCH_MIN_S = 631_152_000.0
 
 def import_span(imports: Sequence[Mapping[str, Any]]) -> tuple[float | None, float | None]:
     """First and last kept state stamps [s] of imported logs, from their import reports
-    (:func:`auv_logs.importer.import_log`: ``segments``); (None, None) if none."""
-    segs = [s for imp in imports for s in imp.get('segments') or []]
-    if not segs:
+    (:func:`auv_logs.importer.import_log`: ``segments``); (None, None) if none. A log
+    timed from its own start (stamps before :data:`EPOCH_MIN_S`) that states its start time
+    (in its name or a header comment: the report's ``start.file_time_s``) is placed on that
+    clock: its stamps plus the file's time less its first stamp."""
+    spans = []
+    for imp in imports:
+        segs = imp.get('segments') or []
+        if not segs:
+            continue
+        a, b = min(float(s['start']) for s in segs), max(float(s['end']) for s in segs)
+        start = imp.get('start') or {}
+        clock = start.get('file_time_s')
+        if a < EPOCH_MIN_S and clock is not None:
+            shift = float(clock) - float(start.get('stamp_s') or 0.0)
+            a, b = a + shift, b + shift
+        spans.append((a, b))
+    if not spans:
         return None, None
-    return min(float(s['start']) for s in segs), max(float(s['end']) for s in segs)
+    return min(a for a, _ in spans), max(b for _, b in spans)
 
 
 def _timing(start: float | None, end: float | None) -> dict[str, Any]:

@@ -32,9 +32,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='bags (among BAG...) held out whole to score the effects; '
                              'default: every third window of every bag')
     parser.add_argument('--window', type=float, default=None, metavar='S',
-                        help='free-run window [s]; runs restart from the log (default: 60, '
-                             'shorter for a vehicle unstable without feedback: 4 e-folding '
-                             'times of its fastest vertical-plane mode, at least 10)')
+                        help='window [s] the logs are cut into and held out by; free runs '
+                             'restart from the log at each (default: chosen from the data, '
+                             'the longest up to 60 s that gives 4 windows; on a vehicle '
+                             'unstable without feedback the runs restart within it every 4 '
+                             'e-folding times of its fastest vertical-plane mode)')
+    parser.add_argument('--ranges', default=None, metavar='FILE',
+                        help='typical and possible ranges of the effect parameters (default '
+                             'config/plausible_ranges.yaml; see docs/gap-diagnosis.md)')
+    parser.add_argument('--strict', action='store_true',
+                        help='with --map: refuse a row that does not parse or a log without a '
+                             'usable segment (default: leave it out and say so)')
     parser.add_argument('--effects', nargs='+', default=None, metavar='NAME',
                         help='catalogue effects to try (default: all)')
     parser.add_argument('--top', type=int, default=3,
@@ -47,6 +55,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the diagnosis; 0 on success, 1 with ``error: ...`` on stderr on bad input."""
     from auv_gap.diagnose import diagnose
     from auv_gap.logs import GapLog, from_contract_arrays, load_bag, measured_fins_vehicle
+    from auv_gap.ranges import load_ranges
     from auv_gap.report import write_report
     from auv_logs.limits import as_logged, describe
     from auv_sim.errors import ParameterError
@@ -72,16 +81,27 @@ def run(args: argparse.Namespace) -> int:
             held_bags.append(norm[key])
         if held_bags and len(set(held_bags)) == len(bags):
             raise ValueError('--holdout cannot hold out every bag')
+        ranges = load_ranges(args.ranges) if args.ranges else None
         logs: list[GapLog] = []
         held_logs: list[int] = []
         imports = []
+        skipped: list[str] = []
         for i, b in enumerate(bags):
             say(f'reading {b}')
             if args.map is not None:
-                from auv_logs.importer import contract_arrays, import_log
+                from auv_logs.importer import SKIPPABLE, contract_arrays, import_log
                 from auv_logs.mapping import load_map
+                from auv_logs.plausibility import envelope_of
 
-                imported = import_log(load_map(args.map), b)
+                try:
+                    imported = import_log(load_map(args.map), b, strict=args.strict,
+                                          envelope=envelope_of(vehicle))
+                except SKIPPABLE as exc:
+                    if args.strict or len(bags) == 1:
+                        raise
+                    skipped.append(f'{b}: left out: {str(exc).splitlines()[0]}')
+                    say(skipped[-1])
+                    continue
                 imports.append(dict(imported.report))
                 pieces = from_contract_arrays(imported.name, contract_arrays(imported),
                                               [imported.report])
@@ -96,11 +116,15 @@ def run(args: argparse.Namespace) -> int:
         for line in describe(limits):
             say(line)
         vehicle = measured_fins_vehicle(vehicle, logs)
+        if not logs:
+            raise ValueError('every log was left out: ' + '; '.join(skipped))
         diag = diagnose(vehicle, logs, window=args.window, held_out_logs=held_logs,
-                        effects=args.effects, top=args.top, progress=say)
+                        effects=args.effects, top=args.top, progress=say, ranges=ranges)
+        diag.details['skipped'] = skipped
         path = write_report(diag, args.out, plots=not args.no_plots)
         (path.parent / 'inputs.json').write_text(json.dumps(
-            {'logged_outside_limits': limits, 'imports': imports}, indent=2) + '\n')
+            {'logged_outside_limits': limits, 'imports': imports, 'skipped': skipped},
+            indent=2) + '\n')
     except (GapError, LogError, ParameterError, ValueError) as exc:
         print(f'error: {exc}', file=sys.stderr)
         return 1

@@ -489,6 +489,10 @@ def records_from_topics(arrays: Mapping[str, np.ndarray], params: VehicleParams,
                                    name if len(parts) == 1 else f'{name}#{k}', window_s,
                                    measured))
     if not records:
+        from auv_logs.segments import spacing_jitter
+
+        why = spacing_jitter(t)
         raise IdentificationError(f'{name}: no stretch of {STATE_TOPIC} is long enough for the '
-                                  f'{window_s:g} s derivative window')
+                                  f'{window_s:g} s derivative window'
+                                  + (f': {why}' if why else ''))
     return records
