@@ -53,7 +53,7 @@ from numba import njit
 from scipy.signal import savgol_coeffs, savgol_filter
 
 from auv_ident.errors import IdentificationError
-from auv_ident.identify import ForceRecord, NoisePropagation
+from auv_ident.identify import ForceRecord, LoggedRun, NoisePropagation
 from auv_sim.environment import Environment
 from auv_sim.model import NX, actuator_steps, wrench_series
 from auv_sim.params import VehicleParams, mass_matrix
@@ -359,8 +359,8 @@ def reconstruct(t: np.ndarray, state: np.ndarray,
     # the plane's wrench per unit CZbar / CMbar, as subtracted (linear in each; no thrust-line
     # term in the identification's still water)
     plane_unit = np.zeros((n, 6))
-    for axis, name in ((2, 'CZbar'), (4, 'CMbar')):
-        value = float(params.values[name])
+    for axis, coefficient in ((2, 'CZbar'), (4, 'CMbar')):
+        value = float(params.values[coefficient])
         subtracted = act_f[:, axis] if sub > 1 else np.convolve(W[:, 3, axis], kernel,
                                                                 mode='same')
         plane_unit[:, axis] = subtracted / value if value != 0.0 else np.nan
@@ -376,9 +376,11 @@ def reconstruct(t: np.ndarray, state: np.ndarray,
     saturated[:, :2] = np.abs(X[:, 12:14]) >= limits * (1.0 - 1e-3)
     saturated[:, 2] = (X[:, 14] >= params.thrust_max * (1.0 - 1e-3)) | (
         X[:, 14] <= params.thrust_min + 1e-3 * abs(params.thrust_min))
+    log = LoggedRun(t=np.asarray(t, float), state=np.asarray(state, float),
+                    commands=dict(commands), measured=dict(measured or {}))
     return ForceRecord(name=name, t=np.asarray(t, float), nu=np.asarray(nu, float), tau=tau,
                        source='motion', kernel=kernel, noise=noise, saturated=saturated,
-                       actuators=actuator_sources(measured), plane_unit=plane_unit)
+                       actuators=actuator_sources(measured), plane_unit=plane_unit, log=log)
 
 
 def _columns(arr: np.ndarray, fields: tuple[str, ...], topic: str) -> np.ndarray:
@@ -457,11 +459,39 @@ def records_from_topics(arrays: Mapping[str, np.ndarray], params: VehicleParams,
                 f'{name}: only {np.count_nonzero(match)} of {len(t)} {STATE_TOPIC} stamps have '
                 f'a {FORCES_TOPIC} message with the same stamp')
         tau = np.where(match[:, None], tau_all[idx] if len(tf) else np.nan, np.nan)
+        logged = _logged_commands(arrays, name)
         for k, sl in enumerate(parts):
+            log = None if logged is None else LoggedRun(
+                t=t[sl], state=state[sl], commands=logged[0], measured=logged[1])
             records.append(ForceRecord(name=name if len(parts) == 1 else f'{name}#{k}',
                                        t=t[sl], nu=state[sl, 6:12], tau=tau[sl],
-                                       source='forces'))
+                                       source='forces', log=log))
         return records
+    logged = _logged_commands(arrays, name)
+    if logged is None:
+        empty = next(ch for ch, tp in COMMAND_TOPICS.items() if not len(arrays[tp]))
+        raise IdentificationError(f'no {empty} command in the log: the {empty} position '
+                                  'cannot be reconstructed')
+    commands, measured = logged
+    dt = float(np.median(np.diff(t)))
+    for k, sl in enumerate(parts):
+        if sl.stop - sl.start < window_samples(dt, window_s) + 2:
+            continue
+        records.append(reconstruct(t[sl], state[sl], commands, params,
+                                   name if len(parts) == 1 else f'{name}#{k}', window_s,
+                                   measured))
+    if not records:
+        raise IdentificationError(f'{name}: no stretch of {STATE_TOPIC} is long enough for the '
+                                  f'{window_s:g} s derivative window')
+    return records
+
+
+def _logged_commands(arrays: Mapping[str, np.ndarray], name: str
+                     ) -> tuple[dict[str, Series], dict[str, Series]] | None:
+    """The command topics (channel -> (stamps [s], set-points), sorted by stamp) and the
+    measured fin positions of a log's arrays; None when a command topic is missing."""
+    if any(topic not in arrays or not len(arrays[topic]) for topic in COMMAND_TOPICS.values()):
+        return None
     commands = {}
     for ch, topic in COMMAND_TOPICS.items():
         arr = arrays[topic]
@@ -480,14 +510,4 @@ def records_from_topics(arrays: Mapping[str, np.ndarray], params: VehicleParams,
             raise IdentificationError(f'{name}: non-finite value on {tp}')
         order = np.argsort(st, kind='stable')
         measured[ch] = (st[order], va[order])
-    dt = float(np.median(np.diff(t)))
-    for k, sl in enumerate(parts):
-        if sl.stop - sl.start < window_samples(dt, window_s) + 2:
-            continue
-        records.append(reconstruct(t[sl], state[sl], commands, params,
-                                   name if len(parts) == 1 else f'{name}#{k}', window_s,
-                                   measured))
-    if not records:
-        raise IdentificationError(f'{name}: no stretch of {STATE_TOPIC} is long enough for the '
-                                  f'{window_s:g} s derivative window')
-    return records
+    return commands, measured
