@@ -82,6 +82,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--no-validation', action='store_true',
                         help='fit every sample and write without the held-out comparison '
                              'with the base file')
+    parser.add_argument('--structure', choices=('chosen', 'file'), default='chosen',
+                        help='the quadratic cross-flow structure of each equation: chosen by '
+                             'held-out prediction (default), or the file\'s as it is')
     parser.add_argument('--output-error', choices=('auto', 'always', 'never'), default='auto',
                         help='refine heave and pitch by output error (multiple shooting): '
                              'auto when the derivatives are poor (slow, quantised or '
@@ -259,7 +262,8 @@ def identify_and_report(records: Sequence[ForceRecord], base: VehicleParams, out
                         nelder_mead: bool = True, progress: Progress | None = None,
                         extra: dict[str, Any] | None = None, partial: bool = False,
                         fit_planes: bool = False, priors: bool = True,
-                        validation: bool = True, output_error: str = 'auto'
+                        validation: bool = True, output_error: str = 'auto',
+                        structures: bool = True
                         ) -> tuple[Identification, dict[str, str], Outcome]:
     """Fit, refine, validate (:func:`auv_ident.workflow.run_identification`), compare with
     Nelder-Mead (optional) and write every output into ``out`` (``partial``: see
@@ -272,7 +276,8 @@ def identify_and_report(records: Sequence[ForceRecord], base: VehicleParams, out
     outcome = run_identification(
         records, base, equations=equations, fit_offsets=fit_c0, fit_planes=fit_planes,
         bounds=None if bounds else {}, errors=errors, partial=partial, use_priors=priors,
-        hold_out=validation, output_error=output_error, progress=progress)
+        hold_out=validation, output_error=output_error, structures=structures,
+        progress=progress)
     result = outcome.result
     if progress is not None:
         progress(f'fitted in {time.perf_counter() - t0:.2f} s')
@@ -340,7 +345,7 @@ def run(args: argparse.Namespace) -> int:
         errors=args.errors, equations=args.equations, nelder_mead=not args.no_nelder_mead,
         progress=stderr_progress, extra=extra, partial=partial, fit_planes=args.fit_planes,
         priors=not args.no_priors, validation=not args.no_validation,
-        output_error=args.output_error)
+        output_error=args.output_error, structures=args.structure == 'chosen')
     out = {name: {'value': c.value, 'std_error': c.std_error, 'ci95': list(c.ci95)}
            for name, c in result.coefficients.items()}
     print(json.dumps({'source': source, 'coefficients': out, 'files': files,

@@ -44,8 +44,12 @@ WINDOWS_MIN = 6
 #: seconds of a long log are held out (every n-th window for a larger n).
 HOLD_EVERY = 3
 HOLD_MAX_S = 600.0
-#: A free run beyond these is diverged: |position| [m], |angle| [rad], |velocity| [m/s].
-DIVERGED = 1.0e4
+#: Seconds at the start of a record no window starts in: the actuators' state before the
+#: first logged command is unknown (taken as settled at it) and forgotten after 5 of their
+#: 1-s time constants.
+SETTLE_S = 5.0
+#: Longest RK4 step of the free runs [s] (see :func:`integration_step`).
+STEP_MAX = 0.05
 
 
 @njit(parallel=True, cache=True)
@@ -90,8 +94,10 @@ class Window:
     held_out: bool = False
 
 
-def window_length(base: VehicleParams, logs: Sequence[LoggedRun]) -> tuple[float, str]:
-    """The free-run window [s] for ``base`` on ``logs`` and why (module docstring)."""
+def window_length(base: VehicleParams, logs: Sequence[LoggedRun],
+                  folds: float = UNSTABLE_FOLDS) -> tuple[float, str]:
+    """The free-run window [s] for ``base`` on ``logs`` and why (module docstring):
+    ``folds`` e-folding times of an unstable vertical-plane mode at most."""
     from auv_sim.errors import TrimError
     from auv_sim.trim import VerticalPlane
 
@@ -109,8 +115,8 @@ def window_length(base: VehicleParams, logs: Sequence[LoggedRun]) -> tuple[float
         except (TrimError, np.linalg.LinAlgError, ValueError):
             lam = 0.0
         if lam > 0.0:
-            longest = UNSTABLE_FOLDS / lam
-            why = (f'{UNSTABLE_FOLDS:g} e-folding times of the base vehicle\'s unstable '
+            longest = folds / lam
+            why = (f'{folds:g} e-folding times of the base vehicle\'s unstable '
                    f'vertical-plane mode (+{lam:.3g} 1/s at {u0:.3g} m/s)')
     length = min(longest, WINDOW_MAX)
     if total / WINDOWS_MIN < length:
@@ -121,16 +127,19 @@ def window_length(base: VehicleParams, logs: Sequence[LoggedRun]) -> tuple[float
 
 def split_windows(logs: Sequence[LoggedRun], length: float, hold: bool = True
                   ) -> list[Window]:
-    """Every record cut into windows of ``length`` [s] (the remainder joins the last window
-    of a record); with ``hold``, every :data:`HOLD_EVERY`-th window from the second on is held
+    """Every record cut into windows of ``length`` [s] from :data:`SETTLE_S` after its start
+    (the remainder joins the last window of a record); with ``hold``, every :data:`HOLD_EVERY`-th window from the second on is held
     out, fewer on a long log (at most :data:`HOLD_MAX_S` seconds)."""
     out: list[Window] = []
     for k, lg in enumerate(logs):
         if len(lg.t) < 4:
             continue
-        dur = float(lg.t[-1] - lg.t[0])
+        start = float(lg.t[0]) + SETTLE_S
+        dur = float(lg.t[-1]) - start
+        if dur < min(length, WINDOW_MIN):
+            continue
         n = max(1, int(dur // length))
-        edges = np.searchsorted(lg.t, lg.t[0] + length * np.arange(n + 1), side='left')
+        edges = np.searchsorted(lg.t, start + length * np.arange(n + 1), side='left')
         edges[-1] = len(lg.t)
         for a, b in itertools.pairwise(edges):
             if b - a >= 4:
@@ -140,6 +149,23 @@ def split_windows(logs: Sequence[LoggedRun], length: float, hold: bool = True
     total = sum(float(logs[w.record].t[w.i1 - 1] - logs[w.record].t[w.i0]) for w in out)
     every = max(HOLD_EVERY, int(math.ceil(total / HOLD_MAX_S)))
     return [dataclasses.replace(w, held_out=(j % every == 1)) for j, w in enumerate(out)]
+
+
+def shooting_segments(windows: Sequence[Window], logs: Sequence[LoggedRun], length: float
+                      ) -> list[Window]:
+    """``windows`` cut into pieces of ``length`` [s] or less (at least 4 samples each)."""
+    out: list[Window] = []
+    for w in windows:
+        t = logs[w.record].t
+        start = w.i0
+        while start < w.i1:
+            stop = int(np.searchsorted(t, t[start] + length, side='left'))
+            stop = min(max(stop, start + 4), w.i1)
+            if w.i1 - stop < 4:
+                stop = w.i1
+            out.append(dataclasses.replace(w, i0=start, i1=stop))
+            start = stop
+    return out
 
 
 def use_masks(records: Sequence[ForceRecord], windows: Sequence[Window]
@@ -169,14 +195,15 @@ class FreeRuns:
     """
 
     def __init__(self, logs: Sequence[LoggedRun], windows: Sequence[Window],
-                 params: VehicleParams) -> None:
+                 params: VehicleParams, step: float | None = None) -> None:
         self.logs = list(logs)
         self.windows = list(windows)
         self.params = params
-        self.dt = float(params.dt)
         periods = [float(np.median(np.diff(lg.t))) for lg in self.logs if len(lg.t) > 1]
+        period = min(periods) if periods else float(params.dt)
+        self.dt = integration_step(params, period) if step is None else float(step)
         #: RK4 steps between two outputs (about one log period)
-        self.sub = max(1, int(round(min(periods) / self.dt))) if periods else 1
+        self.sub = max(1, int(round(period / self.dt)))
         h = self.sub * self.dt
         acts: list[np.ndarray] = []
         f0, t0, nsteps, out_base = [], [], [], []
@@ -249,6 +276,17 @@ class FreeRuns:
             else:
                 result.append(np.repeat(g[:, :1], len(ts), axis=1))
         return result
+
+
+def integration_step(params: VehicleParams, period: float) -> float:
+    """The RK4 step of the free runs [s]: the vehicle file's ``dt`` times the largest whole
+    number that keeps it within :data:`STEP_MAX` and the log period ``period`` [s] (the
+    actuator positions are prescribed, so the step needs to resolve the vehicle's own modes
+    only, below 3 rad/s on the vehicles here: RK4's error at 0.05 s is below 1e-5 of a
+    window's motion)."""
+    dt = float(params.dt)
+    k = max(1, int(math.floor(min(STEP_MAX, period) / dt + 1e-9)))
+    return k * dt
 
 
 def parameter_vector(params: VehicleParams, values: dict[str, float] | None = None

@@ -5,11 +5,13 @@ Equation error fits ``M nu_dot - tau_other`` against the model's terms. On a slo
 log (2 Hz rows, depth in 0.1 m steps, a 1 Hz DVL repeated on every row, heave and pitch rate
 derived by differencing) the derivative and the regressors carry errors that bias it (errors
 in variables) and its window removes the fast part of the manoeuvres. The simulation error
-does not differentiate: the model, run from a state at the start of each window with the
+does not differentiate: the model, run from a state at the start of each segment with the
 logged commands (:mod:`auv_ident.freerun`, the simulator's RK4 and actuator model), must
-reproduce what was measured. Multiple shooting: every window's initial state (depth, pitch,
-surge, heave and pitch rate) is fitted with the coefficients, so a window is an independent
-short free run and an unstable vehicle does not diverge.
+reproduce what was measured. Multiple shooting: the windows that are not held out are cut
+into segments of at most two e-folding times of an unstable vertical-plane mode (at most
+30 s), every segment's initial state (depth, pitch, surge, heave and pitch rate) is fitted
+with the coefficients, so a segment is an independent short free run and an unstable vehicle
+does not diverge; at most :data:`WINDOWS_MAX` segments, evenly spread, are used.
 
 Minimised (``scipy.optimize.least_squares``, trust-region reflective, inside the physical
 bounds of :mod:`auv_ident.identify.physics`)::
@@ -37,9 +39,15 @@ import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
-from scipy import optimize
+from scipy import optimize, sparse
 
-from auv_ident.freerun import FreeRuns, Window, parameter_vector
+from auv_ident.freerun import (
+    FreeRuns,
+    Window,
+    parameter_vector,
+    shooting_segments,
+    window_length,
+)
 from auv_ident.identify.covariance import correlation_time
 from auv_ident.identify.physics import constraint
 from auv_ident.identify.posterior import interval
@@ -55,6 +63,12 @@ OUTPUTS = (2, 4, 6, 8, 10)
 CHANNEL_NAMES = {2: 'z', 4: 'theta', 6: 'u', 8: 'w', 10: 'q', 5: 'psi'}
 #: Floors of the channel weights (m, rad, m/s, m/s, rad/s).
 SIGMA_FLOOR = {2: 1e-3, 4: math.radians(0.01), 6: 1e-3, 8: 1e-3, 10: math.radians(0.01)}
+#: e-folding times of an unstable mode a shooting segment spans at most (an initial-state
+#: error grows about e^2 = 7-fold over it; the validation's windows span 4).
+SHOOTING_FOLDS = 2.0
+#: Most windows an output-error fit uses (evenly spread over a long log): its cost grows
+#: with them, the coefficients' information far less once there are tens.
+WINDOWS_MAX = 60
 #: Below this log rate [Hz] the equation error's derivative window is too long.
 RATE_MIN_HZ = 5.0
 #: A channel is quantised when its smallest non-zero step is at least this many times its
@@ -181,9 +195,9 @@ class ShootingProblem:
         """The data rows of window ``j`` in the residual vector."""
         return slice(int(self.offsets[j]), int(self.offsets[j + 1]))
 
-    def jacobian(self, z: np.ndarray, r0: np.ndarray | None = None) -> np.ndarray:
-        """Forward-difference Jacobian: one run per coefficient and one per fitted initial
-        channel (all windows' at once: each window's rows depend on its own only)."""
+    def jacobian(self, z: np.ndarray, r0: np.ndarray | None = None) -> sparse.csr_matrix:
+        """Forward-difference Jacobian (sparse): one run per coefficient and one per fitted
+        initial channel (all windows' at once: each window's rows depend on its own only)."""
         m = len(FITTED_STATES)
         steps = 1e-6 * np.maximum(np.abs(z), 1e-3)
         Z = np.repeat(z[None], 1 + self.p + m, axis=0)
@@ -193,15 +207,22 @@ class ShootingProblem:
             Z[1 + self.p + c, self.p + c::m] += steps[self.p + c::m]
         R = self.residuals(Z)
         base = R[0] if r0 is None else r0
-        J = np.zeros((R.shape[1], len(z)))
+        n = R.shape[1]
+        rows, cols, vals = [], [], []
         for k in range(self.p):
-            J[:, k] = (R[1 + k] - base) / steps[k]
+            rows.append(np.arange(n))
+            cols.append(np.full(n, k))
+            vals.append((R[1 + k] - base) / steps[k])
         for c in range(m):
             d = R[1 + self.p + c] - base
             for j in range(self.nw):
-                rows = self.rows_of_window(j)
-                J[rows, self.p + j * m + c] = d[rows] / steps[self.p + j * m + c]
-        return J
+                sl = self.rows_of_window(j)
+                rows.append(np.arange(sl.start, sl.stop))
+                cols.append(np.full(sl.stop - sl.start, self.p + j * m + c))
+                vals.append(d[sl] / steps[self.p + j * m + c])
+        return sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows),
+                                                          np.concatenate(cols))),
+                                 shape=(n, len(z)))
 
 
 def refine(logs: Sequence[LoggedRun], windows: Sequence[Window], params: VehicleParams,
@@ -218,6 +239,11 @@ def refine(logs: Sequence[LoggedRun], windows: Sequence[Window], params: Vehicle
     fit_windows = [w for w in windows if not w.held_out]
     if not fit_windows:
         raise ValueError('no window of the log is left for the output-error fit')
+    shoot, _ = window_length(params, logs, folds=SHOOTING_FOLDS)
+    fit_windows = shooting_segments(fit_windows, logs, shoot)
+    if len(fit_windows) > WINDOWS_MAX:    # evenly spread over the log
+        pick = np.round(np.linspace(0, len(fit_windows) - 1, WINDOWS_MAX)).astype(int)
+        fit_windows = [fit_windows[i] for i in pick]
     outputs = [c for c in OUTPUTS if all(lg.is_measured(CHANNEL_NAMES[c]) for lg in logs)]
     if 2 not in outputs and 4 not in outputs:
         raise ValueError('output error needs the depth or the pitch measured')
@@ -245,13 +271,13 @@ def refine(logs: Sequence[LoggedRun], windows: Sequence[Window], params: Vehicle
     for _ in range(2):   # a second pass with each channel weighted by its residual rms
         res = optimize.least_squares(lambda x: prob.residuals(x[None])[0], z,
                                      jac=lambda x: prob.jacobian(x), bounds=(lo_z, hi_z),
-                                     method='trf', x_scale='jac', max_nfev=60,
-                                     xtol=1e-10, ftol=1e-10)
+                                     method='trf', x_scale='jac', max_nfev=40,
+                                     tr_solver='lsmr', xtol=1e-8, ftol=1e-8)
         z = res.x
         rms = _channel_rms(prob, z)
         prob.sigma = {c: max(rms[CHANNEL_NAMES[c]], SIGMA_FLOOR[c]) for c in outputs}
     r = prob.residuals(z[None])[0]
-    J = prob.jacobian(z, r)
+    J = prob.jacobian(z, r).toarray()
     theta = z[:len(names)]
     cov, dof = _covariance(prob, J, r)
     p = len(names)

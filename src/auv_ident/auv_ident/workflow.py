@@ -83,10 +83,11 @@ def run_identification(records: Sequence[ForceRecord], base: VehicleParams, *,
                        bounds: Mapping[str, tuple[float, float]] | None = None,
                        errors: str = 'hac', partial: bool = False, use_priors: bool = True,
                        hold_out: bool = True, output_error: str = 'auto',
+                       structures: bool = True,
                        progress: Progress | None = None) -> Outcome:
     """Identify, refine and validate (module docstring). ``output_error``: ``auto`` (when the
     derivatives are poor), ``always`` or ``never``; ``hold_out`` False fits every sample and
-    writes without validation."""
+    writes without validation; ``structures`` False keeps the file's cross-flow structure."""
     say = progress or (lambda _text: None)
     logs = [r.log for r in records]
     runnable = all(lg is not None for lg in logs)
@@ -99,7 +100,7 @@ def run_identification(records: Sequence[ForceRecord], base: VehicleParams, *,
     use = use_masks(records, windows) if windows else None
     result = identify(records, base, equations=equations, fit_offsets=fit_offsets,
                       bounds=bounds, errors=errors, partial=partial, fit_planes=fit_planes,
-                      use_priors=use_priors, use=use)
+                      use_priors=use_priors, use=use, structures=structures)
     oe_fit = None
     derivatives = ('equation error: derivatives from the force topic' if result.source ==
                    'forces' else 'equation error: Savitzky-Golay derivatives of the logged '
@@ -113,8 +114,8 @@ def run_identification(records: Sequence[ForceRecord], base: VehicleParams, *,
         names = _output_error_names(result, equations, fit_offsets, fit_planes, plain)
         if poor and names:
             say(f'output error on {", ".join(names)}: {poor}')
-            start = base.replace(**{n: result.params.values[n] for n in names})
-            oe_fit = refine(plain, windows, start, base, names, poor, bounds, use_priors)
+            oe_fit = refine(plain, windows, result.params, base, names, poor, bounds,
+                            use_priors)
             _apply(result, oe_fit, base)
             derivatives = (f'output error (multiple shooting over {oe_fit.windows} windows) '
                            f'for {", ".join(names)}: {poor}')

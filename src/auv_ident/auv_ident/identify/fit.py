@@ -184,9 +184,10 @@ def _posterior(system: LinearSystem, base: VehicleParams, errors: str,
                pri: Mapping[str, Prior], limits: Mapping[str, tuple[float, float]],
                use_priors: bool) -> tuple[Posterior, Covariance, np.ndarray]:
     """The bounded posterior of ``system`` (:mod:`auv_ident.identify.posterior`) in the
-    coefficients' own units, the data's covariance it used, and the data-only estimate;
-    the meat is evaluated at the data's estimate and, when the posterior moved away from it
-    by more than its standard error, once more at the posterior."""
+    coefficients' own units, the data's covariance it used, and the data-only estimate.
+    The data's information is the sandwich of their own estimate (the meat at its residual):
+    how precisely the data fix the coefficients; where they push one past its bound, the
+    bound holds it and the note and the equation's R^2 say what that means."""
     theta_d, _ = solve(system)
     scale = column_scale(system.A)
     names = system.names
@@ -197,17 +198,10 @@ def _posterior(system: LinearSystem, base: VehicleParams, errors: str,
     hi = np.array([limits[n][1] for n in names]) * scale
     floor = (RESIDUAL_FLOOR * math.sqrt(float(np.mean(system.measured ** 2)) + 1e-300)) ** 2
     As = system.A / scale
-    theta = theta_d
-    for _ in range(2):
-        resid = system.b - system.regressors @ theta
-        cv = coefficient_covariance(system, resid, theta, base, errors)
-        info = information(cv.bread, cv.meat, floor * (As.T @ As))
-        post = combine(theta_d * scale, info, mean, sd, lo, hi)
-        new = post.theta / scale
-        spread = np.sqrt(np.diag(post.cov)) / scale
-        if np.all(np.abs(new - theta) <= spread):
-            break
-        theta = new
+    resid = system.b - system.regressors @ theta_d
+    cv = coefficient_covariance(system, resid, theta_d, base, errors)
+    info = information(cv.bread, cv.meat, floor * (As.T @ As))
+    post = combine(theta_d * scale, info, mean, sd, lo, hi)
     return Posterior(theta=post.theta / scale, cov=post.cov / np.outer(scale, scale),
                      unbounded=post.unbounded / scale, at_bound=post.at_bound,
                      information=post.information), cv, theta_d
@@ -333,7 +327,7 @@ QUADRATIC = {'heave': 'Zww', 'pitch': 'Mqq', 'sway': 'Yvv', 'yaw': 'Nrr'}
 #: Contiguous folds of the held-out prediction that chooses the structure.
 FOLDS = 10
 #: A richer structure is chosen only if its held-out error is below the simpler one's by
-#: more than this many standard errors of the fold-wise difference, and by 1 % at least.
+#: more than this many standard errors of the folds' mean log ratio, and by 1 % at least.
 STRUCTURE_Z = 2.0
 
 
@@ -342,16 +336,23 @@ def structure_candidates(equation: Equation, base: VehicleParams
     """The structures an equation may have, simplest first: ``(label, fitted quadratic
     terms, terms set)``: ``file`` (the quadratic terms at the file's values), ``linear``
     (without quadratic terms: 0; when the file has some), ``quadratic`` (the equation's
-    quadratic cross-flow term fitted with the linear ones; the linear damping term may reach
-    0 on its bound, which is the quadratic-only structure)."""
+    quadratic cross-flow term fitted with the linear ones, its cross terms such as ``Zqq``,
+    ``Mww`` at the file's values; the linear damping term may reach 0 on its bound, which is
+    the quadratic-only structure), ``quadratic, cross terms 0`` (the same without them,
+    when the file has them) and ``quadratic, cross terms fitted`` (every quadratic term of
+    the component fitted, each held by its prior where the data say little)."""
     quad = QUADRATIC.get(equation.name)
     if quad is None:
         return [('file', (), {})]
     terms = [k for k in component_terms(equation) if k in QUADRATIC_TERMS]
+    minor = [k for k in terms if k != quad]
     out: list[tuple[str, tuple[str, ...], dict[str, float]]] = [('file', (), {})]
     if any(base.values[k] != 0.0 for k in terms):
         out.append(('linear', (), {k: 0.0 for k in terms}))
     out.append(('quadratic', (quad,), {}))
+    if any(base.values[k] != 0.0 for k in minor):
+        out.append(('quadratic, cross terms 0', (quad,), {k: 0.0 for k in minor}))
+    out.append(('quadratic, cross terms fitted', (quad, *minor), {}))
     return out
 
 
@@ -382,17 +383,27 @@ def choose_structure(records: Sequence[ForceRecord], equation: Equation, base: V
         sets[label] = values
     best = min(folds, key=lambda k: float(folds[k].sum()))
     chosen = best
+    scale = float(np.sum(system.measured ** 2)) + 1e-300
     for label, _, _ in cands:
-        d = folds[label] - folds[best]
-        total = float(folds[best].sum())
-        sd = float(np.std(d, ddof=1)) / math.sqrt(len(d)) if len(d) > 1 else 0.0
-        if label == best or float(d.sum()) <= 0.01 * total or \
-                float(d.mean()) <= STRUCTURE_Z * sd:
+        if label == best or not_worse(folds[label], folds[best], scale):
             chosen = label
             break
     scores = {'cv_rss': {k: float(v.sum()) for k, v in folds.items()}, 'folds': FOLDS,
               'set': sets[chosen]}
     return chosen, scores, systems[chosen]
+
+
+def not_worse(simple: np.ndarray, best: np.ndarray, scale: float) -> bool:
+    """Whether held-out fold errors ``simple`` are not significantly worse than ``best``:
+    the mean log ratio of the folds' errors below 1 % or below :data:`STRUCTURE_Z` of its
+    standard error, or the two equal to rounding (``1e-9`` of ``scale``, the measured
+    component's sum of squares)."""
+    if float(simple.sum() - best.sum()) <= 1e-9 * scale:
+        return True
+    ratio = np.log(np.maximum(simple, 1e-300) / np.maximum(best, 1e-300))
+    mean = float(ratio.mean())
+    se = float(np.std(ratio, ddof=1)) / math.sqrt(len(ratio)) if len(ratio) > 1 else 0.0
+    return mean <= max(0.01, STRUCTURE_Z * se)
 
 
 def held_out_error(system: LinearSystem, base: VehicleParams,
@@ -459,7 +470,7 @@ def compare_nelder_mead(records: Sequence[ForceRecord], result: Identification,
     out: dict[str, dict[str, Any]] = {}
     for name, fit in result.fits.items():
         quad = QUADRATIC.get(name)
-        free = (quad,) if fit.structure == 'quadratic' and quad else ()
+        free = (quad,) if fit.structure.startswith('quadratic') and quad else ()
         system = build_system(records, fit.equation, result.base, result.fit_offsets,
                               result.fit_planes, free=free,
                               values=fit.structures.get('set', {}), use=result.use)

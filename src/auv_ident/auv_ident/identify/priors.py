@@ -11,12 +11,17 @@ how that value was obtained (the ``source`` text of the vehicle file):
 | ``calibrated``, ``derived``, a publication's table, ``axial symmetry`` | ``published`` | 30 % |
 | ``estimated``, ``assumed``, nothing | ``estimated`` | 100 % |
 
-and never below a physical scale of the coefficient (:func:`physical_scale`), so that no
+The quadratic cross-flow terms are ``estimated``-class (100 %) unless measured or
+identified: a published value is seldom better (Prestero's ``Mqq`` of the REMUS 100 is 25
+times the strip theory of its hull, his ``Zww`` within 2 % of it), and a prior narrower than
+the spread of published values would hold the fit at a wrong file value.
+And never below a physical scale of the coefficient (:func:`physical_scale`), so that no
 prior is of zero width, not even for a file value of 0: for the quadratic cross-flow terms the
-strip-theory value of the file's hull (:func:`auv_sim.hull.crossflow_coefficients`, half of
-it for ``measured`` and ``identified`` values); for the dimensionless lift and damping
-coefficients 0.1 (0.01 for the offsets ``CZ0``, ``CM0``), assumed, about 3-20 % of the
-coefficients of the vehicles in ``config/``; for the plane, 5 % of its file value.
+strip-theory value of the file's hull (:func:`auv_sim.hull.crossflow_coefficients`); for the
+dimensionless lift and damping coefficients 0.1 (0.01 for the offsets ``CZ0``, ``CM0``),
+assumed, about 3-20 % of the coefficients of the vehicles in ``config/``; for the plane, 5 %
+of its file value; for a ``measured`` or ``identified`` value 1 % of these (its own width
+counts).
 
 The fit is the posterior of these priors and the data (:mod:`auv_ident.identify.posterior`):
 a coefficient the data do not inform stays at its prior, and the report says so.
@@ -46,6 +51,9 @@ RELATIVE_SD = {'measured': 0.10, 'published': 0.30, 'estimated': 1.00}
 DIMENSIONLESS_FLOOR = 0.1
 OFFSET_FLOOR = 0.01
 PLANE_FLOOR = 0.05
+#: The floor's share for a measured or identified value (its own width counts; the floor
+#: only keeps it above zero).
+MEASURED_FLOOR = 0.01
 CROSSFLOW = ('Yvv', 'Yrr', 'Zww', 'Zqq', 'Mww', 'Mqq', 'Nvv', 'Nrr')
 _INTERVAL = re.compile(r'\+-\s*([0-9.eE+-]+)\s*\(95 %\)')
 
@@ -91,13 +99,15 @@ def prior(name: str, base: VehicleParams) -> Prior:
     source = base.sources.get(name, '')
     kind, half = source_kind(source)
     floor = physical_scale(name, base)
-    if kind in ('measured', 'identified') and name in CROSSFLOW:
-        floor *= 0.5
+    if kind in ('measured', 'identified'):
+        floor *= MEASURED_FLOOR
     if kind == 'identified' and half is not None:
         sd = half / 1.96
         why = f'identified earlier: +-{half:.3g} (95 %) in the file'
     else:
         rel = RELATIVE_SD[kind]
+        if name in CROSSFLOW and kind == 'published':
+            rel = RELATIVE_SD['estimated']
         sd = rel * abs(mean)
         why = f'{kind} ({source[:60] or "no source"}): {rel:.0%} of the file value'
     if sd < floor:
