@@ -12,8 +12,8 @@ first state is a model of the vehicle. The predicted states are interpolated (li
 the integration grid to the log's stamps.
 
 Windows: every record of the log is cut into windows of equal length
-(:func:`window_length`: about four e-folding times of the fastest unstable vertical-plane mode
-of the base vehicle, 10-30 s; so a free run of an open-loop unstable vehicle does not diverge
+(:func:`window_length`: three e-folding times of the fastest unstable vertical-plane mode
+of the base vehicle at most, 10-30 s; so a free run of an open-loop unstable vehicle does not diverge
 from the small error of its initial state); :func:`split_windows` holds every third one out.
 
 Frames: NED world, FRD body, origin at the centre of buoyancy; SI units, radians; states in
@@ -37,7 +37,7 @@ from auv_sim.params import PARAM_NAMES, VehicleParams
 #: Longest and shortest window [s] and the e-folding times of an unstable mode it spans.
 WINDOW_MAX = 30.0
 WINDOW_MIN = 10.0
-UNSTABLE_FOLDS = 4.0
+UNSTABLE_FOLDS = 3.0
 #: Windows a log is cut into at least (a short log gets shorter windows, not fewer).
 WINDOWS_MIN = 6
 #: Every ``HOLD_EVERY``-th window is held out (from the second on); at most this many
@@ -128,8 +128,9 @@ def window_length(base: VehicleParams, logs: Sequence[LoggedRun],
 def split_windows(logs: Sequence[LoggedRun], length: float, hold: bool = True
                   ) -> list[Window]:
     """Every record cut into windows of ``length`` [s] from :data:`SETTLE_S` after its start
-    (the remainder joins the last window of a record); with ``hold``, every :data:`HOLD_EVERY`-th window from the second on is held
-    out, fewer on a long log (at most :data:`HOLD_MAX_S` seconds)."""
+    (the remainder joins the last window of a record); with ``hold``, every
+    :data:`HOLD_EVERY`-th window from the second on is held out, fewer on a long log (at most
+    :data:`HOLD_MAX_S` seconds)."""
     out: list[Window] = []
     for k, lg in enumerate(logs):
         if len(lg.t) < 4:

@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from numba import njit
@@ -242,8 +242,10 @@ def actuator_track(t: np.ndarray, commands: Mapping[str, Series], params: Vehicl
     return out
 
 
-def actuator_sources(measured: Mapping[str, Series] | None) -> dict[str, str]:
-    """Per channel, where :func:`actuator_track` takes the positions from."""
+def actuator_sources(measured: Mapping[str, Series] | None,
+                     sampled: Sequence[str] = ()) -> dict[str, str]:
+    """Per channel, where :func:`actuator_track` takes the positions from (``sampled``:
+    channels whose commands were sampled at the log's rows, see :func:`sampled_commands`)."""
     out = {}
     for ch in ('bar', 'helm', 'thrust'):
         if measured and ch in measured and len(measured[ch][0]):
@@ -251,7 +253,41 @@ def actuator_sources(measured: Mapping[str, Series] | None) -> dict[str, str]:
                        'between its samples)')
         else:
             out[ch] = 'command through the actuator model (delay-free, lag, rate and angle limits)'
+            if ch in sampled:
+                out[ch] += ('; the command was sampled at the log\'s rows and changes at most '
+                            'of them: taken as linear between rows (held, it would lag by half '
+                            'a row)')
     return out
+
+
+#: A command series counts as sampled at the log's rows when its stamps are among the state's,
+#: it has a sample on at least this share of the rows and changes value at this share of them.
+SAMPLED_SHARE = 0.5
+
+
+def sampled_commands(t: np.ndarray, commands: Mapping[str, Series], dt: float
+                     ) -> tuple[dict[str, Series], list[str]]:
+    """Commands logged as samples at the log's rows of a command that moves between them (a
+    pilot's, sent faster than the rows: :data:`SAMPLED_SHARE`) taken as linear between rows,
+    as events every ``dt`` [s] (the vehicle's step), instead of held from each row (which
+    delays them by half a row on average); other series (change events, steps) as they are.
+    Returns the commands and the channels changed."""
+    out = dict(commands)
+    changed = []
+    rows = set(np.round(np.asarray(t, float), 6).tolist())
+    for ch, (st, va) in commands.items():
+        st = np.asarray(st, float)
+        va = np.asarray(va, float)
+        if len(st) < 3 or len(st) < SAMPLED_SHARE * len(t):
+            continue
+        on_rows = np.mean([round(float(x), 6) in rows for x in st])
+        moves = float(np.mean(np.diff(va) != 0.0))
+        if on_rows < 0.9 or moves < SAMPLED_SHARE:
+            continue
+        dense = np.arange(float(st[0]), float(st[-1]) + 0.5 * dt, dt)
+        out[ch] = (dense, np.interp(dense, st, va))
+        changed.append(ch)
+    return out, changed
 
 
 def actuator_interval_means(t: np.ndarray, X: np.ndarray, commands: Mapping[str, Series],
@@ -307,7 +343,8 @@ def _interval_filter(means: np.ndarray, window: int) -> np.ndarray:
 def reconstruct(t: np.ndarray, state: np.ndarray,
                 commands: Mapping[str, tuple[np.ndarray, np.ndarray]], params: VehicleParams,
                 name: str = 'log', window_s: float = WINDOW_S,
-                measured: Mapping[str, Series] | None = None) -> ForceRecord:
+                measured: Mapping[str, Series] | None = None,
+                sampled: Sequence[str] = ()) -> ForceRecord:
     """Hydrodynamic wrench from motion for one uniformly sampled stretch.
 
     Args:
@@ -320,6 +357,8 @@ def reconstruct(t: np.ndarray, state: np.ndarray,
         window_s: Savitzky-Golay window [s].
         measured: measured fin positions ``bar``/``helm`` -> (stamps [s], angles [rad]),
             used in place of the commands run through the actuator model.
+        sampled: channels whose commands were sampled at the rows (said in the record's
+            actuator sources; see :func:`sampled_commands`).
 
     Returns:
         A ForceRecord with the filtered wrench (NaN over the first and last half window), its
@@ -380,7 +419,8 @@ def reconstruct(t: np.ndarray, state: np.ndarray,
                     commands=dict(commands), measured=dict(measured or {}))
     return ForceRecord(name=name, t=np.asarray(t, float), nu=np.asarray(nu, float), tau=tau,
                        source='motion', kernel=kernel, noise=noise, saturated=saturated,
-                       actuators=actuator_sources(measured), plane_unit=plane_unit, log=log)
+                       actuators=actuator_sources(measured, sampled), plane_unit=plane_unit,
+                       log=log)
 
 
 def _columns(arr: np.ndarray, fields: tuple[str, ...], topic: str) -> np.ndarray:
@@ -473,13 +513,14 @@ def records_from_topics(arrays: Mapping[str, np.ndarray], params: VehicleParams,
         raise IdentificationError(f'no {empty} command in the log: the {empty} position '
                                   'cannot be reconstructed')
     commands, measured = logged
+    commands, sampled = sampled_commands(t, commands, float(params.dt))
     dt = float(np.median(np.diff(t)))
     for k, sl in enumerate(parts):
         if sl.stop - sl.start < window_samples(dt, window_s) + 2:
             continue
         records.append(reconstruct(t[sl], state[sl], commands, params,
                                    name if len(parts) == 1 else f'{name}#{k}', window_s,
-                                   measured))
+                                   measured, sampled))
     if not records:
         raise IdentificationError(f'{name}: no stretch of {STATE_TOPIC} is long enough for the '
                                   f'{window_s:g} s derivative window')

@@ -283,7 +283,9 @@ def refine(logs: Sequence[LoggedRun], windows: Sequence[Window], params: Vehicle
     p = len(names)
     se = np.sqrt(np.maximum(np.diag(cov)[:p], 0.0))
     se = np.maximum(se, 1e-12 * np.maximum(np.abs(theta), 1e-300))
-    at_bound = (theta <= lo + 1e-9 * span) | (theta >= hi - 1e-9 * span)
+    near = 1e-3 * np.minimum(se, sd)     # on a bound to well within its uncertainty
+    at_bound = (theta <= lo + near) | (theta >= hi - near)
+    theta = np.where(at_bound & (theta <= lo + near), lo, np.where(at_bound, hi, theta))
     ci = {}
     for k, n in enumerate(names):
         ci[n] = interval(float(theta[k]), float(theta[k]), float(se[k]), dof,

@@ -13,18 +13,21 @@ rest: a single logged sample would start an open-loop-unstable vehicle's run fro
 (the REMUS 100's exact model, started from states with the sensor noise of a navigation-grade
 vehicle, is 0.3 m off after two e-folding times, 0.1 mm from the true states).
 
-Scored on the depth (and on the heading when sway and yaw were identified): the ratio ``R``
-of the identified model's rms error to the base's over all held-out samples, with its
-jackknife standard error over the windows. The identified model is **written** unless
+Scored on the depth (and on the heading when sway and yaw were identified): per window the
+log of the ratio of the identified model's rms error to the base's, their mean ``r`` and its
+standard error over the windows (robust to the few windows where an open-loop-unstable
+vehicle's runs grow large, which would dominate a ratio of pooled errors; ``R = e^r``). The
+identified model is **written** unless
 
 * one of its held-out runs diverges (non-finite, or beyond 1e4 in a state) where the base's
-  does not, or its error exceeds the base's tenfold and 1 m (1 rad): ``diverges``;
-* ``R > 1 + max(1 %, 2 standard errors)`` on a scored channel, and the two rms errors differ
-  by more than :data:`RESOLUTION` (5 mm of depth, 0.1 deg of heading: below that, the
+  does not, or its pooled error exceeds the base's tenfold and 1 m (1 rad): ``diverges``;
+* ``r > max(log 1.01, 2 standard errors)`` on a scored channel, and the pooled rms errors
+  differ by more than :data:`RESOLUTION` (5 mm of depth, 0.1 deg of heading: below that, the
   difference is not one a log resolves): ``worse``.
 
-Otherwise ``better`` (``R < 1 - margin``) or ``as good``. The report and the command's log
-line give the figures; a model not written leaves the base file as the answer.
+Otherwise ``better`` (``r < -max(log 1.01, 2 standard errors)``) or ``as good``. The report
+and the command's log line give the figures (the pooled rms errors, ``R`` and its margin);
+a model not written leaves the base file as the answer.
 """
 from __future__ import annotations
 
@@ -68,7 +71,7 @@ class Validation:
     verdict: str                       # better, as good, worse, diverges, not validated
     written: bool
     rms: dict[str, dict[str, float]]   # model -> channel -> rms error over held-out samples
-    ratio: dict[str, float]            # channel -> identified / base rms
+    ratio: dict[str, float]            # channel -> geometric mean of the windows' rms ratios
     margin: dict[str, float]           # channel -> margin the ratio was compared with
     windows: int
     seconds: float
@@ -148,21 +151,20 @@ def validate(logs: Sequence[LoggedRun], windows: Sequence[Window], base: Vehicle
     margin: dict[str, float] = {}
     verdict = 'as good'
     for c in channels:
-        a = np.array([float(np.sum(e ** 2)) for e in errs['identified'][c]])
-        b = np.array([float(np.sum(e ** 2)) for e in errs['base'][c]])
-        r = math.sqrt(a.sum() / b.sum()) if b.sum() > 0 else (1.0 if a.sum() == 0 else math.inf)
-        se = 0.0
-        if len(a) > 2 and b.sum() > 0:
-            jack = np.array([math.sqrt((a.sum() - a[k]) / max(b.sum() - b[k], 1e-300))
-                             for k in range(len(a))])
-            se = float(math.sqrt((len(a) - 1) / len(a) * np.sum((jack - jack.mean()) ** 2)))
-        ratio[c] = r
-        margin[c] = max(MARGIN_MIN, MARGIN_SE * se)
+        a = np.array([math.sqrt(float(np.mean(e ** 2))) for e in errs['identified'][c]])
+        b = np.array([math.sqrt(float(np.mean(e ** 2))) for e in errs['base'][c]])
+        floor = 1e-3 * RESOLUTION[c]
+        logs_ratio = np.log(np.maximum(a, floor) / np.maximum(b, floor))
+        mean = float(logs_ratio.mean())
+        se = float(np.std(logs_ratio, ddof=1)) / math.sqrt(len(a)) if len(a) > 1 else 0.0
+        ratio[c] = math.exp(mean)
+        margin[c] = math.exp(max(math.log(1.0 + MARGIN_MIN), MARGIN_SE * se)) - 1.0
     n_scored = sum(len(e) for e in errs['base']['z'])
     seconds = float(sum(logs[w.record].t[w.i1 - 1] - logs[w.record].t[w.i0] for w in held))
     diff = {c: rms['identified'][c] - rms['base'][c] for c in channels}
+    pooled = {c: rms['identified'][c] / max(rms['base'][c], 1e-300) for c in channels}
     if diverged['identified'] > diverged['base'] or any(
-            ratio[c] > DIVERGED_RATIO and rms['identified'][c] > 1.0 for c in channels):
+            pooled[c] > DIVERGED_RATIO and rms['identified'][c] > 1.0 for c in channels):
         verdict = 'diverges'
     elif any(ratio[c] > 1.0 + margin[c] and diff[c] > RESOLUTION[c] for c in channels):
         verdict = 'worse'
@@ -171,7 +173,7 @@ def validate(logs: Sequence[LoggedRun], windows: Sequence[Window], base: Vehicle
     written = verdict in ('better', 'as good')
     z_id, z_b = rms['identified']['z'], rms['base']['z']
     figures = (f'held-out depth rms {z_id:.3g} m against the base file\'s {z_b:.3g} m '
-               f'(ratio {ratio["z"]:.3g}, margin {margin["z"]:.2g}) over {len(held)} '
+               f'(window ratio {ratio["z"]:.3g}, margin {margin["z"]:.2g}) over {len(held)} '
                f'window(s), {seconds:.0f} s, {n_scored} samples')
     if 'psi' in ratio:
         figures += (f'; heading rms {math.degrees(rms["identified"]["psi"]):.3g} deg against '

@@ -36,9 +36,10 @@ from auv_ident.identify import (
     Identification,
     identify,
 )
-from auv_ident.identify.fit import QUADRATIC
+from auv_ident.identify.fit import UNINFORMED
 from auv_ident.identify.physics import at_bound_note, constraint
-from auv_ident.identify.priors import prior
+from auv_ident.identify.priors import CROSSFLOW, prior
+from auv_ident.identify.regressors import component_terms
 from auv_ident.output_error import OutputErrorFit, needs_output_error, refine
 from auv_ident.validate import Validation, not_validated, validate
 from auv_sim.params import VehicleParams
@@ -157,7 +158,7 @@ def _output_error_names(result: Identification, equations: Sequence[str] | None,
             names.append(eq.offset)
         if fit_planes and eq.plane and result.base.values[eq.plane] != 0.0:
             names.append(eq.plane)
-        names.append(QUADRATIC[eq_name])
+        names += [k for k in component_terms(eq) if k in CROSSFLOW]
     return list(dict.fromkeys(names))
 
 
@@ -167,18 +168,25 @@ def _apply(result: Identification, oe: OutputErrorFit, base: VehicleParams) -> N
     for eq_name in ('heave', 'pitch'):
         eq = EQUATIONS[eq_name]
         mine = [n for n in oe.names if n in (*eq.coefficients, eq.offset, eq.plane,
-                                              QUADRATIC[eq_name])]
+                                              *component_terms(eq))]
         if not mine:
             continue
         coefs = []
         for n in mine:
             con = constraint(n, base)
-            note = at_bound_note(n, oe.values[n], con) if oe.at_bound[n] else ''
+            pr = prior(n, base)
+            value, se, ci = oe.values[n], oe.std_error[n], oe.ci95[n]
+            note = at_bound_note(n, value, con) if oe.at_bound[n] else ''
+            if oe.informed[n] < UNINFORMED:
+                value, se, ci = pr.mean, pr.sd, (pr.mean - 1.96 * pr.sd, pr.mean + 1.96 * pr.sd)
+                share = 100 * (1 - math.sqrt(max(1.0 - oe.informed[n], 0.0)))
+                note = (f'left at its prior (the file value): the data reduced its spread by '
+                        f'{share:.0f} % only (output error); prior {pr.why}')
             coefs.append(CoefficientEstimate(
-                name=n, value=oe.values[n], std_error=oe.std_error[n], ci95=oe.ci95[n],
-                base=float(base.values[n]), at_bound=oe.at_bound[n], records=(),
-                prior_sd=prior(n, base).sd, informed=oe.informed[n], note=note,
-                bounds=(con.lo, con.hi), method='output error'))
+                name=n, value=value, std_error=se, ci95=ci,
+                base=float(base.values[n]), at_bound=oe.at_bound[n] and not note.startswith(
+                    'left at'), records=(), prior_sd=pr.sd, informed=oe.informed[n],
+                note=note, bounds=(con.lo, con.hi), method='output error'))
         old = result.fits.get(eq_name)
         if old is not None:
             kept_fixed = {k: v for k, v in old.fixed.items() if k not in mine}

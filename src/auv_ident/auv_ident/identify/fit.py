@@ -299,6 +299,8 @@ def identify(records: Sequence[ForceRecord], base: VehicleParams, *,
                                                   fit_planes, use, cache, bounds, use_priors)
                                  if structures else ('file', {}, system))
         fit = fit_equation(system, base, bounds, errors, check=False, use_priors=use_priors)
+        fit = widen_to_structures(fit, scores.pop('_systems', {}), base, bounds, errors,
+                                  use_priors)
         fit.structure = label
         fit.structures = scores
         fits[name] = fit
@@ -388,9 +390,35 @@ def choose_structure(records: Sequence[ForceRecord], equation: Equation, base: V
         if label == best or not_worse(folds[label], folds[best], scale):
             chosen = label
             break
+    plausible = [label for label, _, _ in cands
+                 if label == best or not_worse(folds[label], folds[best], scale)]
     scores = {'cv_rss': {k: float(v.sum()) for k, v in folds.items()}, 'folds': FOLDS,
-              'set': sets[chosen]}
+              'set': sets[chosen], 'plausible': plausible,
+              '_systems': {k: systems[k] for k in plausible if k != chosen}}
     return chosen, scores, systems[chosen]
+
+
+def widen_to_structures(fit: EquationFit, alternatives: Mapping[str, LinearSystem],
+                        base: VehicleParams, bounds: Mapping[str, tuple[float, float]] | None,
+                        errors: str, use_priors: bool) -> EquationFit:
+    """``fit`` with every coefficient's interval widened to cover its intervals in the
+    ``alternatives``: the structures the held-out prediction could not rule out (a
+    coefficient fixed in one, such as a quadratic term at its file value, counts with that
+    value). The structure is uncertain there, so the interval says so."""
+    if not alternatives:
+        return fit
+    coefs = {c.name: c for c in fit.coefficients}
+    lo = {n: c.ci95[0] for n, c in coefs.items()}
+    hi = {n: c.ci95[1] for n, c in coefs.items()}
+    for system in alternatives.values():
+        alt = fit_equation(system, base, bounds, errors, check=False, use_priors=use_priors)
+        found = {c.name: c.ci95 for c in alt.coefficients}
+        found.update({k: (v, v) for k, v in alt.fixed.items()})
+        for n in coefs:
+            a, b = found.get(n, (0.0, 0.0) if n in QUADRATIC_TERMS else (lo[n], hi[n]))
+            lo[n], hi[n] = min(lo[n], a), max(hi[n], b)
+    widened = tuple(c._replace(ci95=(lo[c.name], hi[c.name])) for c in fit.coefficients)
+    return dataclasses.replace(fit, coefficients=widened)
 
 
 def not_worse(simple: np.ndarray, best: np.ndarray, scale: float) -> bool:
