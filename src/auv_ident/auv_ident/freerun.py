@@ -13,8 +13,9 @@ the integration grid to the log's stamps.
 
 Windows: every record of the log is cut into windows of equal length
 (:func:`window_length`: three e-folding times of the fastest unstable vertical-plane mode
-of the base vehicle at most, 10-30 s; so a free run of an open-loop unstable vehicle does not diverge
-from the small error of its initial state); :func:`split_windows` holds every third one out.
+of the base vehicle at most, 10-30 s; so a free run of an open-loop unstable vehicle does
+not diverge from the small error of its initial state); :func:`split_windows` holds every
+third one out.
 
 Frames: NED world, FRD body, origin at the centre of buoyancy; SI units, radians; states in
 :data:`auv_sim.model.STATE_NAMES` order.

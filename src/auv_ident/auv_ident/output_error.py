@@ -250,9 +250,9 @@ def refine(logs: Sequence[LoggedRun], windows: Sequence[Window], params: Vehicle
     runs = FreeRuns(logs, fit_windows, params)
     pri = priors(list(names), base)
     limits = {n: (constraint(n, base).lo, constraint(n, base).hi) for n in names}
-    for n, (lo, hi) in (bounds or {}).items():
+    for n, (b_lo, b_hi) in (bounds or {}).items():
         if n in limits:
-            limits[n] = (max(limits[n][0], lo), min(limits[n][1], hi))
+            limits[n] = (max(limits[n][0], b_lo), min(limits[n][1], b_hi))
     mean = np.array([pri[n].mean for n in names])
     sd = np.array([pri[n].sd if use_priors else 1e12 * max(abs(pri[n].mean), 1.0)
                    for n in names])

@@ -312,7 +312,7 @@ def identify(records: Sequence[ForceRecord], base: VehicleParams, *,
     result = Identification(fits=fits, base=base, params=base, source=sources.pop(),
                             errors=errors, fit_offsets=fit_offsets, bounds=dict(bounds or {}),
                             not_identifiable=left_out, fit_planes=fit_planes,
-                            use=use,
+                            use=None if use is None else list(use),
                             method={'bounds': 'physical' if bounds is None else (
                                 'none' if len(bounds) == 0 else 'physical and given'),
                                 'priors': 'file values, width by source' if use_priors
