@@ -261,19 +261,25 @@ def actuator_sources(measured: Mapping[str, Series] | None,
 
 
 #: A command series counts as sampled at the log's rows when its stamps are among the state's,
-#: it has a sample on at least this share of the rows and changes value at this share of them.
+#: it has a sample on at least this share of the rows and changes value at this share of them,
+#: and the rows are slower than :data:`SAMPLED_RATE_HZ` (a pilot runs at 5-10 Hz: at that rate
+#: or faster, a command at every row is the pilot's own step, held).
 SAMPLED_SHARE = 0.5
+SAMPLED_RATE_HZ = 5.0
 
 
 def sampled_commands(t: np.ndarray, commands: Mapping[str, Series], dt: float
                      ) -> tuple[dict[str, Series], list[str]]:
-    """Commands logged as samples at the log's rows of a command that moves between them (a
-    pilot's, sent faster than the rows: :data:`SAMPLED_SHARE`) taken as linear between rows,
+    """Commands logged as samples at the slow rows of a log (below :data:`SAMPLED_RATE_HZ`)
+    of a command that moves between them (a pilot's, sent faster than the rows:
+    :data:`SAMPLED_SHARE`) taken as linear between rows,
     as events every ``dt`` [s] (the vehicle's step), instead of held from each row (which
     delays them by half a row on average); other series (change events, steps) as they are.
     Returns the commands and the channels changed."""
     out = dict(commands)
-    changed = []
+    changed: list[str] = []
+    if len(t) < 3 or float(np.median(np.diff(t))) < 1.0 / SAMPLED_RATE_HZ:
+        return out, changed
     rows = set(np.round(np.asarray(t, float), 6).tolist())
     for ch, (st, va) in commands.items():
         st = np.asarray(st, float)

@@ -66,6 +66,10 @@ SIGMA_FLOOR = {2: 1e-3, 4: math.radians(0.01), 6: 1e-3, 8: 1e-3, 10: math.radian
 #: e-folding times of an unstable mode a shooting segment spans at most (an initial-state
 #: error grows about e^2 = 7-fold over it; the validation's windows span 4).
 SHOOTING_FOLDS = 2.0
+#: Fewest log rows a shooting segment must hold (four per fitted initial state): fewer, and
+#: the initial states absorb what the coefficients should explain (an open-loop-unstable
+#: vehicle's short segments on a slow log).
+ROWS_MIN = 20
 #: Most windows an output-error fit uses (evenly spread over a long log): its cost grows
 #: with them, the coefficients' information far less once there are tens.
 WINDOWS_MAX = 60
@@ -74,6 +78,10 @@ RATE_MIN_HZ = 5.0
 #: A channel is quantised when its smallest non-zero step is at least this many times its
 #: white-noise level, on at least half of the samples unchanged from the last.
 QUANTISED_REPEAT = 0.3
+
+
+class OutputErrorImpossible(ValueError):
+    """The log cannot inform an output-error fit (the message says why)."""
 
 
 @dataclasses.dataclass
@@ -239,7 +247,13 @@ def refine(logs: Sequence[LoggedRun], windows: Sequence[Window], params: Vehicle
     fit_windows = [w for w in windows if not w.held_out]
     if not fit_windows:
         raise ValueError('no window of the log is left for the output-error fit')
-    shoot, _ = window_length(params, logs, folds=SHOOTING_FOLDS)
+    shoot, why_len = window_length(base, logs, folds=SHOOTING_FOLDS)
+    period = max(float(np.median(np.diff(lg.t))) for lg in logs if len(lg.t) > 1)
+    if shoot / period < ROWS_MIN:
+        raise OutputErrorImpossible(
+            f'output error needs {ROWS_MIN} rows per shooting segment for its 5 initial '
+            f'states; the {shoot:.2g} s segments ({why_len}) hold {shoot / period:.0f} at '
+            f'{1.0 / period:.3g} Hz')
     fit_windows = shooting_segments(fit_windows, logs, shoot)
     if len(fit_windows) > WINDOWS_MAX:    # evenly spread over the log
         pick = np.round(np.linspace(0, len(fit_windows) - 1, WINDOWS_MAX)).astype(int)
@@ -323,7 +337,8 @@ def _covariance(prob: ShootingProblem, J: np.ndarray, r: np.ndarray) -> tuple[np
     H = J.T @ J
     lam = np.zeros_like(H)
     lam[np.arange(p), np.arange(p)] = 1.0 / prob.prior_sd ** 2
-    Hinv = np.linalg.pinv(H)
+    ridge = 1e-12 * max(float(np.max(np.diag(H))), 1e-300)
+    Hinv = np.linalg.inv(H + ridge * np.eye(len(H)))
     G = np.zeros_like(H)
     for j in range(prob.nw):
         rows = prob.rows_of_window(j)
@@ -336,7 +351,7 @@ def _covariance(prob: ShootingProblem, J: np.ndarray, r: np.ndarray) -> tuple[np
     kappa = float(rd @ rd) / dof_res * float(np.mean(taus))
     cluster = Hinv @ (G + lam) @ Hinv.T
     model = Hinv @ (kappa * (Jd.T @ Jd) + lam) @ Hinv.T
-    sd = np.sqrt(np.maximum(np.maximum(np.diag(cluster), np.diag(model)), 0.0))
+    sd = np.sqrt(np.maximum(np.maximum(np.diag(cluster), np.diag(model)), np.diag(Hinv)))
     sd_m = np.sqrt(np.maximum(np.diag(model), 1e-300))
     cov = model / np.outer(sd_m, sd_m) * np.outer(sd, sd)
     dof = float(max(prob.nw - 1, 1))

@@ -21,11 +21,13 @@ identified model is **written** unless
 
 * one of its held-out runs diverges (non-finite, or beyond 1e4 in a state) where the base's
   does not, or its pooled error exceeds the base's tenfold and 1 m (1 rad): ``diverges``;
-* ``r > max(log 1.01, 2 standard errors)`` on a scored channel, and the pooled rms errors
-  differ by more than :data:`RESOLUTION` (5 mm of depth, 0.1 deg of heading: below that, the
-  difference is not one a log resolves): ``worse``.
+* ``r > log 1.01`` on a scored channel (the point estimate: a short log's few windows cannot
+  show significance either way, and the base file is the safe answer), and the pooled rms
+  errors differ by more than :data:`RESOLUTION` (5 mm of depth, 0.1 deg of heading: below
+  that, the difference is not one a log resolves): ``worse``.
 
-Otherwise ``better`` (``r < -max(log 1.01, 2 standard errors)``) or ``as good``. The report
+Otherwise ``better`` (``r < -max(log 1.01, 2 standard errors)``: significantly) or
+``as good``. The report
 and the command's log line give the figures (the pooled rms errors, ``R`` and its margin);
 a model not written leaves the base file as the answer.
 """
@@ -72,7 +74,7 @@ class Validation:
     written: bool
     rms: dict[str, dict[str, float]]   # model -> channel -> rms error over held-out samples
     ratio: dict[str, float]            # channel -> geometric mean of the windows' rms ratios
-    margin: dict[str, float]           # channel -> margin the ratio was compared with
+    margin: dict[str, float]           # channel -> margin of a significant improvement
     windows: int
     seconds: float
     initial_state: str
@@ -166,7 +168,7 @@ def validate(logs: Sequence[LoggedRun], windows: Sequence[Window], base: Vehicle
     if diverged['identified'] > diverged['base'] or any(
             pooled[c] > DIVERGED_RATIO and rms['identified'][c] > 1.0 for c in channels):
         verdict = 'diverges'
-    elif any(ratio[c] > 1.0 + margin[c] and diff[c] > RESOLUTION[c] for c in channels):
+    elif any(ratio[c] > 1.0 + MARGIN_MIN and diff[c] > RESOLUTION[c] for c in channels):
         verdict = 'worse'
     elif all(ratio[c] < 1.0 - margin[c] and -diff[c] > RESOLUTION[c] for c in channels):
         verdict = 'better'

@@ -40,7 +40,12 @@ from auv_ident.identify.fit import UNINFORMED
 from auv_ident.identify.physics import at_bound_note, constraint
 from auv_ident.identify.priors import CROSSFLOW, prior
 from auv_ident.identify.regressors import component_terms
-from auv_ident.output_error import OutputErrorFit, needs_output_error, refine
+from auv_ident.output_error import (
+    OutputErrorFit,
+    OutputErrorImpossible,
+    needs_output_error,
+    refine,
+)
 from auv_ident.validate import Validation, not_validated, validate
 from auv_sim.params import VehicleParams
 
@@ -115,11 +120,18 @@ def run_identification(records: Sequence[ForceRecord], base: VehicleParams, *,
         names = _output_error_names(result, equations, fit_offsets, fit_planes, plain)
         if poor and names:
             say(f'output error on {", ".join(names)}: {poor}')
-            oe_fit = refine(plain, windows, result.params, base, names, poor, bounds,
-                            use_priors)
-            _apply(result, oe_fit, base)
-            derivatives = (f'output error (multiple shooting over {oe_fit.windows} windows) '
-                           f'for {", ".join(names)}: {poor}')
+            try:
+                oe_fit = refine(plain, windows, result.params, base, names, poor, bounds,
+                                use_priors)
+            except OutputErrorImpossible as exc:
+                derivatives = (f'equation error: the derivatives are poor ({poor}), but {exc}; '
+                               'heave and pitch not refined (equation error\'s values stand '
+                               'where R^2 >= 0, the base\'s where not)')
+                say(derivatives)
+            else:
+                _apply(result, oe_fit, base)
+                derivatives = (f'output error (multiple shooting over {oe_fit.windows} '
+                               f'segments) for {", ".join(names)}: {poor}')
         elif poor:
             derivatives += f'; poor derivatives ({poor}) but no heave and pitch excitation'
     if not runnable:
