@@ -27,7 +27,7 @@ from auv_sim.params import save_vehicle
 SOURCE_TEXT = {'forces': 'forces from the /auv/hydrodynamic_forces topic',
                'motion': 'forces reconstructed from the logged motion (M nu_dot minus '
                          'Coriolis, restoring and actuator terms)'}
-_MAX_PLOT_POINTS = 20000
+_MAX_PLOT_POINTS = 6000
 
 
 def _jsonable(obj: Any) -> Any:
@@ -130,7 +130,7 @@ def plot_record(result: Identification, index: int, name: str, path: pathlib.Pat
                              sharex=True)
     for ax, fit in zip(axes[:, 0], fits):
         sel = np.flatnonzero(fit.record_index == index)
-        step = max(1, len(sel) // _MAX_PLOT_POINTS)
+        step = max(1, len(sel) // (_MAX_PLOT_POINTS // 2))
         t = fit.t[sel] - fit.t[sel[0]]
         ax.plot(t[::step], fit.measured[sel][::step], color='0.35', lw=0.8, label='measured')
         ax.plot(t[::step], fit.fitted[sel][::step], color='tab:red', lw=0.8, ls='--',

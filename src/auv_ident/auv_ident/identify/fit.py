@@ -392,9 +392,12 @@ def choose_structure(records: Sequence[ForceRecord], equation: Equation, base: V
             break
     plausible = [label for label, _, _ in cands
                  if label == best or not_worse(folds[label], folds[best], scale)]
+    # structures that predict as the chosen one to rounding have its coefficients
+    same = {k for k in plausible
+            if abs(float(folds[k].sum() - folds[chosen].sum())) <= 1e-9 * scale}
     scores = {'cv_rss': {k: float(v.sum()) for k, v in folds.items()}, 'folds': FOLDS,
               'set': sets[chosen], 'plausible': plausible,
-              '_systems': {k: systems[k] for k in plausible if k != chosen}}
+              '_systems': {k: systems[k] for k in plausible if k not in same}}
     return chosen, scores, systems[chosen]
 
 
