@@ -42,10 +42,11 @@ TARGET_S = 10.0
 def run(repeats: int = 3) -> dict[str, Any]:
     """Run the benchmark; returns the figures (seconds, counts)."""
     from auv_bag import read_arrays
+    from auv_contract import COMMAND_TOPICS
     from auv_ident.identify import compare_nelder_mead
-    from auv_ident.motion import COMMAND_TOPICS, needed_topics, records_from_topics
-    from auv_ident.simlog import SensorNoise, write_record
+    from auv_ident.motion import needed_topics, records_from_topics
     from auv_ident.workflow import run_identification
+    from auv_logs.simlog import SensorNoise, write_record
     from auv_sim.missions import load_mission, run_mission
     from auv_sim.params import load_vehicle
 

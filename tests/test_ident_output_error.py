@@ -106,7 +106,7 @@ def test_output_error_where_a_2hz_quantised_log_makes_derivatives_poor(
     and says why, and its coefficients hold the A18M's within their intervals; equation error
     on the same log misses them."""
     from auv_ident import cli
-    from auv_ident.realog import synth
+    from auv_logs import synth
 
     rec, _ = mission_log(base, 'pitch')
     meas = rec.measured.copy()

@@ -29,8 +29,8 @@ PANEL = load_bench('ident_panel')
 def flights(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
     """The plant's 5-minute log (a contract bag without forces) and an independent 5-minute
     flight."""
-    from auv_ident.gap import synth
-    from auv_ident.simlog import write_record
+    from auv_gap import synth
+    from auv_logs.simlog import write_record
 
     root = tmp_path_factory.mktemp('validation')
     plant, effects, _ = PANEL.plant_of('remus100', 'strip')

@@ -47,6 +47,7 @@ import pathlib
 import sys
 from collections.abc import Sequence
 
+from auv_contract import config_path
 from auv_ident.errors import IdentError
 from auv_sim.hull import CD_CROSSFLOW, CD_SOURCE, crossflow_coefficients
 from auv_sim.params import (
@@ -57,8 +58,6 @@ from auv_sim.params import (
     vehicle_document,
 )
 
-ROOT = pathlib.Path(__file__).resolve().parents[3]
-DEFAULT_REFERENCE = ROOT / 'config' / 'remus100.yaml'
 #: Water by kind: density [kg/m^3], kinematic viscosity [m^2/s] and the source.
 WATER = {'salt': (1025.0, 1.19e-6, 'sea water of 35 g/kg at 15 degC (UNESCO 1981; ITTC 2011 '
                                    'fresh and sea water properties)'),
@@ -199,7 +198,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--fin-area', type=float, default=None,
                         help='planform area of one fin [m^2] (with --fin-count: the plane\'s '
                              'control derivatives from the fins instead of the reference\'s)')
-    parser.add_argument('--reference', default=str(DEFAULT_REFERENCE),
+    parser.add_argument('--reference', default=str(config_path('remus100.yaml')),
                         help='vehicle file scaled from (default: config/remus100.yaml)')
     parser.add_argument('--out', required=True, help='vehicle file to write')
 
