@@ -439,7 +439,8 @@ def test_bag_cut_short_is_one_line(tmp_path: pathlib.Path) -> None:
     f.write_bytes(f.read_bytes()[: f.stat().st_size * 6 // 10])
     m = _map(tmp_path, CLOCK_MAP.format(offsets=''))
     with pytest.raises(LogReadError, match=r'is truncated at byte \d+ .*whole messages before '
-                                           r'the damage were read$'):
+                                           r'the damage were read; `auv bag repair BAG --out '
+                                           r'NEW` writes'):
         import_log(m, cut)
     bare = tmp_path / 'empty.mcap'
     bare.write_bytes(b'')

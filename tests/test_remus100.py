@@ -342,7 +342,7 @@ def test_auv_run_with_the_vehicle_speed_loop_flies_the_dive(remus: VehicleParams
     bad = _auv_run(tmp_path, '--speed-hold', '-1')
     assert bad.returncode != 0
     assert bad.stderr.strip().splitlines()[-1] == \
-        'error: --speed-hold -1.0 must be a time constant > 0 s'
+        'error: --speed-hold must be > 0 s, got -1'
 
 
 @pytest.mark.xfail(strict=True, reason=(
