@@ -10,6 +10,7 @@ the fit figures and ``report.md`` (:mod:`auv_ident.report`). Progress goes to st
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import pathlib
 import sys
@@ -22,16 +23,19 @@ from auv_ident.errors import IdentError, IdentificationError, NotIdentifiableErr
 from auv_ident.identify import (
     EQUATIONS,
     ERROR_METHODS,
-    SIGN_BOUNDS,
     ForceRecord,
     Identification,
     compare_nelder_mead,
-    identify,
 )
 from auv_ident.motion import SOURCES, WINDOW_S, choose_source, needed_topics, records_from_topics
 from auv_ident.report import write_outputs
+from auv_ident.workflow import Outcome, run_identification
 from auv_sim.cli_options import add_vehicle_option
 from auv_sim.params import VehicleParams, load_vehicle
+
+#: Exit status when the identified model is not written (it predicts held-out data worse
+#: than the base file, or diverges): not an error of the input.
+NOT_WRITTEN = 3
 
 Progress = Callable[[str], None]
 
@@ -59,8 +63,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              'part of the heave force and pitch moment (forces from motion; '
                              'default: fixed at the base values)')
     parser.add_argument('--bounds', action='store_true',
-                        help='bounded solve with physical signs (Ksh >= 0; CZuw, CMuq, CYuv, '
-                             'CNur <= 0)')
+                        help='physical bounds (the default; kept for old scripts)')
+    parser.add_argument('--unbounded', action='store_true',
+                        help='no physical bounds (default: each coefficient within the sign '
+                             'and range physics allows it, see docs/identification.md)')
+    parser.add_argument('--no-priors', action='store_true',
+                        help='the data alone (default: the posterior of the file\'s values, '
+                             'each with a width set by its source, and the data)')
+    parser.add_argument('--no-validation', action='store_true',
+                        help='fit every sample and write without the held-out comparison '
+                             'with the base file')
+    parser.add_argument('--structure', choices=('chosen', 'file'), default='chosen',
+                        help='the quadratic cross-flow structure of each equation: chosen by '
+                             'held-out prediction (default), or the file\'s as it is')
+    parser.add_argument('--output-error', choices=('auto', 'always', 'never'), default='auto',
+                        help='refine heave and pitch by output error (multiple shooting): '
+                             'auto when the derivatives are poor (slow, quantised or '
+                             'differenced logs; default), always, never')
     parser.add_argument('--source', choices=SOURCES, default='auto',
                         help='forces from the force topic, from the motion, or auto (the '
                              'topic when every bag has it)')
@@ -109,8 +128,9 @@ def load_records(bags: Sequence[str], base: VehicleParams, source: str = 'auto',
                 progress(f'reading {bag}: {pct}%')
 
         t0 = time.perf_counter()
-        measured = [tp for tp in MEASURED_TOPICS.values() if tp in have] \
-            if source == 'motion' else []
+        measured = [tp for tp in MEASURED_TOPICS.values() if tp in have]
+        if source == 'forces':   # the commands too, when logged: for the free runs
+            measured += [tp for tp in COMMAND_TOPICS.values() if tp in have]
         arrays = read_arrays(bag, topics + measured, progress=report)
         if progress is not None:
             n = sum(len(a) for a in arrays.values())
@@ -205,30 +225,58 @@ def load_records_from_map(map_path: str, logs: Sequence[str], base: VehicleParam
         if progress is not None:
             progress(f'imported {lg.name}: {len(lg.t)} state samples, '
                      f'{len(lg.segments)} segment(s)')
-        records += records_as_logged(contract_arrays(lg), base, 'motion', lg.name, window_s,
-                                      {} if limits is None else limits)
+        records += with_origins(
+            records_as_logged(contract_arrays(lg), base, 'motion', lg.name, window_s,
+                              {} if limits is None else limits), [dict(lg.report)])
     return records, [dict(lg.report) for lg in imported]
 
 
+def with_origins(records: Sequence[ForceRecord], imports: Sequence[dict[str, Any]]
+                 ) -> list[ForceRecord]:
+    """``records`` with their logs marked with the state channels the imports derived or
+    assumed (``origins`` of an import report; a channel derived by any import counts as
+    derived): free runs are not scored against them."""
+    origins: dict[str, str] = {}
+    for imp in imports:
+        for sig, how in (imp.get('origins') or {}).items():
+            if how != 'measured' or sig not in origins:
+                origins[sig] = str(how)
+    if not origins:
+        return list(records)
+    return [r if r.log is None else dataclasses.replace(
+        r, log=dataclasses.replace(r.log, origins=dict(origins))) for r in records]
+
+
 def identify_and_report(records: Sequence[ForceRecord], base: VehicleParams, out: str,
-                        bags: Sequence[str], *, fit_c0: bool = False, bounds: bool = False,
+                        bags: Sequence[str], *, fit_c0: bool = False, bounds: bool = True,
                         errors: str = 'hac', equations: Sequence[str] | None = None,
                         nelder_mead: bool = True, progress: Progress | None = None,
                         extra: dict[str, Any] | None = None, partial: bool = False,
-                        fit_planes: bool = False) -> tuple[Identification, dict[str, str]]:
-    """Fit, compare with Nelder-Mead (optional) and write every output into ``out``
-    (``partial``: see :func:`auv_ident.identify.identify`)."""
+                        fit_planes: bool = False, priors: bool = True,
+                        validation: bool = True, output_error: str = 'auto',
+                        structures: bool = True
+                        ) -> tuple[Identification, dict[str, str], Outcome]:
+    """Fit, refine, validate (:func:`auv_ident.workflow.run_identification`), compare with
+    Nelder-Mead (optional) and write every output into ``out`` (``partial``: see
+    :func:`auv_ident.identify.identify`; ``bounds`` False: no physical bounds; ``priors``
+    False: the data alone). ``vehicle.yaml`` is written only when the validation passes."""
     if progress is not None:
         progress(f'fitting {", ".join(equations or EQUATIONS)} on {len(records)} record(s), '
                  f'{sum(len(r.t) for r in records)} samples')
     t0 = time.perf_counter()
-    result = identify(records, base, equations=equations, fit_offsets=fit_c0,
-                      bounds=SIGN_BOUNDS if bounds else None, errors=errors, partial=partial,
-                      fit_planes=fit_planes)
+    outcome = run_identification(
+        records, base, equations=equations, fit_offsets=fit_c0, fit_planes=fit_planes,
+        bounds=None if bounds else {}, errors=errors, partial=partial, use_priors=priors,
+        hold_out=validation, output_error=output_error, structures=structures,
+        progress=progress)
+    result = outcome.result
     if progress is not None:
         progress(f'fitted in {time.perf_counter() - t0:.2f} s')
         for eq, why in result.not_identifiable.items():
             progress(f'{eq} left out: {why}')
+        for c in result.coefficients.values():
+            if c.note:
+                progress(f'{c.name}: {c.note}')
     extra = dict(extra or {})
     if result.not_identifiable:
         extra['not_identifiable'] = {**result.not_identifiable,
@@ -236,14 +284,16 @@ def identify_and_report(records: Sequence[ForceRecord], base: VehicleParams, out
     sources = {ch: src for r in records for ch, src in r.actuators.items()}
     if sources:
         extra['actuators'] = sources
+    extra.update(outcome.report())
     nm = None
     if nelder_mead:
         t0 = time.perf_counter()
         nm = compare_nelder_mead(records, result)
         if progress is not None:
             progress(f'Nelder-Mead comparison in {time.perf_counter() - t0:.2f} s')
-    files = write_outputs(result, out, bags, nm, extra)
-    return result, files
+    files = write_outputs(result, out, bags, nm, extra, written=outcome.validation.written,
+                          records=records)
+    return result, files, outcome
 
 
 def run(args: argparse.Namespace) -> int:
@@ -271,6 +321,7 @@ def run(args: argparse.Namespace) -> int:
         if imports:   # bags `auv import` wrote: what their imports derived or assumed
             partial = args.partial or args.equations is None
             extra['imports'] = imports
+            records = with_origins(records, imports)
             args.equations, extra['not_identifiable'] = unsupported_equations(
                 imports, args.equations)
             for eq, why in extra['not_identifiable'].items():
@@ -280,14 +331,18 @@ def run(args: argparse.Namespace) -> int:
     for line in describe(limits):
         stderr_progress(line)
     extra['logged_outside_limits'] = limits
-    result, files = identify_and_report(
-        records, base, args.out, args.bags, fit_c0=args.fit_c0, bounds=args.bounds,
+    result, files, outcome = identify_and_report(
+        records, base, args.out, args.bags, fit_c0=args.fit_c0, bounds=not args.unbounded,
         errors=args.errors, equations=args.equations, nelder_mead=not args.no_nelder_mead,
-        progress=stderr_progress, extra=extra, partial=partial, fit_planes=args.fit_planes)
+        progress=stderr_progress, extra=extra, partial=partial, fit_planes=args.fit_planes,
+        priors=not args.no_priors, validation=not args.no_validation,
+        output_error=args.output_error, structures=args.structure == 'chosen')
     out = {name: {'value': c.value, 'std_error': c.std_error, 'ci95': list(c.ci95)}
            for name, c in result.coefficients.items()}
-    print(json.dumps({'source': source, 'coefficients': out, 'files': files}, indent=2))
-    return 0
+    print(json.dumps({'source': source, 'coefficients': out, 'files': files,
+                      'validation': outcome.validation.verdict,
+                      'written': outcome.validation.written}, indent=2))
+    return 0 if outcome.validation.written else NOT_WRITTEN
 
 
 def main(argv: Sequence[str] | None = None) -> int:

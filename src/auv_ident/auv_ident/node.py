@@ -16,9 +16,9 @@ their contract topics had been received, then goes on accumulating live topics.
 
 Parameters: ``vehicle_file`` (the vehicle file the identified values replace), ``out``
 (output directory), ``source`` (auto|forces|motion), ``fit_c0``, ``fit_planes`` (the dive
-plane's CZbar and CMbar too, forces from motion), ``bounds``, ``errors``
-(hac|ess|iid), ``equations`` (list; empty: all), ``window`` [s], ``estimate_period`` [s],
-``qos_depth`` (messages).
+plane's CZbar and CMbar too, forces from motion), ``bounds`` (the physical bounds, default
+true), ``errors`` (hac|ess|iid), ``equations`` (list; empty: all), ``window`` [s],
+``estimate_period`` [s], ``qos_depth`` (messages).
 """
 from __future__ import annotations
 
@@ -89,8 +89,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='fit CZ0 and CM0 too (default: fixed at the vehicle file values)')
     parser.add_argument('--fit-planes', action='store_true',
                         help='fit the dive plane\'s CZbar and CMbar too (forces from motion)')
-    parser.add_argument('--bounds', action='store_true',
-                        help='bounded solve with the physical signs of the coefficients')
+    parser.add_argument('--unbounded', action='store_true',
+                        help='no physical bounds on the coefficients (default: bounded)')
     parser.add_argument('--errors', choices=ERROR_METHODS, default='hac',
                         help='covariance estimator of the intervals (default: %(default)s)')
     parser.add_argument('--equations', nargs='+', choices=list(EQUATIONS), default=[],
@@ -136,7 +136,7 @@ def _make_node(overrides: dict[str, Any]) -> Any:
             self.declare_parameter('source', 'auto')
             self.declare_parameter('fit_c0', False)
             self.declare_parameter('fit_planes', False)
-            self.declare_parameter('bounds', False)
+            self.declare_parameter('bounds', True)
             self.declare_parameter('errors', 'hac')
             self.declare_parameter('equations', [''])
             self.declare_parameter('window', WINDOW_S)
@@ -256,13 +256,15 @@ def _make_node(overrides: dict[str, Any]) -> Any:
             def log_info(text: str) -> None:
                 self.get_logger().info(text)
 
-            result, files = self._identify_and_report(
+            result, files, outcome = self._identify_and_report(
                 records, self.base, p['out'], ['live topics'], fit_c0=p['fit_c0'],
                 bounds=p['bounds'], errors=p['errors'], equations=equations,
                 nelder_mead=nelder_mead, progress=log_info,
                 partial=bool(self.imports) and not any(p['equations'] or []),
                 fit_planes=bool(p['fit_planes']))
             return {'source': result.source, 'files': files,
+                    'validation': outcome.validation.verdict,
+                    'written': outcome.validation.written,
                     'coefficients': {n: {'value': c.value, 'std_error': c.std_error,
                                          'ci95': list(c.ci95)}
                                      for n, c in result.coefficients.items()},
@@ -308,7 +310,7 @@ def run(args: argparse.Namespace, ros_args: Sequence[str] | None = None) -> int:
     overrides: dict[str, Any] = {'out': args.out, 'source': args.source,
                                  'fit_c0': bool(args.fit_c0),
                                  'fit_planes': bool(args.fit_planes),
-                                 'bounds': bool(args.bounds),
+                                 'bounds': not bool(args.unbounded),
                                  'errors': args.errors,
                                  'equations': list(args.equations) or [''],
                                  'window': float(args.window),

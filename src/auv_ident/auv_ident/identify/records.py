@@ -35,6 +35,38 @@ class NoisePropagation:
     derivative_kernel: np.ndarray
 
 
+#: Logged state channels (NED/FRD) in the order of ``/auv/state``.
+STATE_NAMES = ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r')
+Series = tuple[np.ndarray, np.ndarray]
+
+
+@dataclasses.dataclass(frozen=True)
+class LoggedRun:
+    """What a free run of a model against one stretch of a log needs: the logged state,
+    the commands (and measured fin positions) that drive the actuators, and which state
+    channels were measured (the others were derived from them or assumed by an import, and
+    are not scored against).
+
+    Attributes:
+        t: stamps (N,) [s].
+        state: (N, 12) ``x, y, z [m] NED, phi, theta, psi [rad], u, v, w [m/s], p, q, r
+            [rad/s]`` body FRD, as logged.
+        commands: ``bar``/``helm``/``thrust`` -> (stamps [s], set-points [rad, rad, N]).
+        measured: measured fin positions ``bar``/``helm`` -> (stamps [s], angles [rad]).
+        origins: state channel -> ``measured``, ``derived`` or ``assumed``.
+    """
+
+    t: np.ndarray
+    state: np.ndarray
+    commands: dict[str, Series]
+    measured: dict[str, Series] = dataclasses.field(default_factory=dict)
+    origins: dict[str, str] = dataclasses.field(default_factory=dict)
+
+    def is_measured(self, channel: str) -> bool:
+        """The channel was logged by a sensor (not derived, not assumed)."""
+        return self.origins.get(channel, 'measured') == 'measured'
+
+
 @dataclasses.dataclass(frozen=True)
 class ForceRecord:
     """One continuous, uniformly sampled stretch of a log, ready for the regressions.
@@ -73,6 +105,9 @@ class ForceRecord:
     #: M [N m]; zero elsewhere), filtered like ``tau``, which excludes the plane's wrench
     #: (forces from motion); None: not available (the force topic)
     plane_unit: np.ndarray | None = None
+    #: the logged state and commands of the record, for free runs (validation, output
+    #: error); None: the log had no commands
+    log: LoggedRun | None = None
 
 
 def check_record(rec: ForceRecord) -> None:
