@@ -288,11 +288,15 @@ def test_ident_campaign_pitch_coefficients(logs: tuple[pathlib.Path, list[Any]],
     assert doc['counts'] == {'missions': 2, 'ok': 2, 'failed': 0, 'cached': 0,
                              'rerun_tasks': 0}
     truth = load_vehicle(A18M)
+    linear = {'CZuw', 'CZuq', 'CMuw', 'CMuq'}
+    # the quadratic cross-flow terms of heave and pitch, where the structure chosen by
+    # held-out prediction holds them
+    quadratic = {'Zww', 'Zqq', 'Mww', 'Mqq'}
     for m in doc['missions']:
-        assert set(m['quantities']) == {'CZuw', 'CZuq', 'CMuw', 'CMuq'}
+        assert linear <= set(m['quantities']) <= linear | quadratic, m['quantities']
         for name in ('CMuw', 'CMuq'):
             assert _inside(m['quantities'][name], truth.values[name]), (m['name'], name)
-    assert set(doc['trends']) == {'CZuw', 'CZuq', 'CMuw', 'CMuq'}
+    assert linear <= set(doc['trends']) <= linear | quadratic
     assert all(t['verdict'] == 'too_few' for t in doc['trends'].values())   # 2 missions
 
 

@@ -5,7 +5,7 @@ are reconstructed from the motion) and the actuator commands ``/auv/bar_command`
 ``/auv/helm_command``, ``/auv/thrust_command`` (reliable, deep queues), stores every message's
 fields in growing numpy buffers keyed by the message *header stamp* (not the arrival time),
 and on request (service ``~/identify``, std_srvs/Trigger) and on shutdown runs the same
-identification as ``auv ident`` (:func:`auv_ident.cli.identify_and_report`), writing the same
+identification as ``auv ident`` (:func:`auv_ident.job.identify_and_report`), writing the same
 outputs into the ``out`` directory. Fed the messages of a bag, it gives the offline command's
 coefficients. With ``estimate_period > 0`` it publishes the running estimate as JSON
 (std_msgs/String on ``~/estimate``) every so many seconds.
@@ -117,7 +117,7 @@ def _make_node(overrides: dict[str, Any]) -> Any:
     from std_srvs.srv import Trigger
 
     from auv_contract import config_path
-    from auv_ident.cli import (
+    from auv_ident.job import (
         identify_and_report,
         records_as_logged,
         unsupported_equations,
