@@ -19,8 +19,8 @@ the sandwich covariance. ``S`` is floored at a residual of ``1e-10`` of the meas
 rms (rounding), so exact data give the data's estimate and an interval of finite width.
 
 Intervals: Student's t with the covariance's degrees of freedom; for a coefficient stopped on
-a bound, the central 95 % of its marginal posterior truncated to the allowed side (never of
-zero width).
+a bound, the highest-density 95 % of its marginal posterior truncated to the allowed side:
+from the bound, where the estimate is, inwards (never of zero width).
 """
 from __future__ import annotations
 
@@ -83,20 +83,20 @@ def combine(theta_d: np.ndarray, info: np.ndarray, prior_mean: np.ndarray,
 def interval(value: float, unbounded: float, sd: float, dof: float, lo: float, hi: float,
              at_bound: bool) -> tuple[float, float]:
     """95 % interval: ``value +- t_0.975(dof) sd``, or for a coefficient on a bound the
-    central 95 % of ``N(unbounded, sd^2)`` truncated to ``[lo, hi]`` (module docstring)."""
+    highest-density 95 % of ``N(unbounded, sd^2)`` truncated to ``[lo, hi]``: from the bound
+    (the estimate) inwards, so that it holds the estimate (module docstring)."""
     sd = max(float(sd), 1e-300)
-    if not at_bound:
+    if not at_bound or lo < unbounded < hi:
         tq = float(stats.t.ppf(0.975, max(dof, 1.0)))
         return value - tq * sd, value + tq * sd
     a, b = (lo - unbounded) / sd, (hi - unbounded) / sd
     dist = stats.truncnorm(a, b, loc=unbounded, scale=sd)
-    q_lo, q_hi = float(dist.ppf(0.025)), float(dist.ppf(0.975))
-    if not (math.isfinite(q_lo) and math.isfinite(q_hi)) or q_hi <= q_lo:
+    # the density rises towards the bound it is stopped on: the shortest 95 % ends there
+    q = float(dist.ppf(0.05 if unbounded >= hi else 0.95))
+    if not math.isfinite(q) or (q >= hi if unbounded >= hi else q <= lo):
         # far past the bound: the truncated normal is an exponential tail of scale
-        # sd^2 / distance from the bound
-        d = max(abs(unbounded - (hi if unbounded > hi else lo)), sd)
-        scale = sd * sd / d
-        if unbounded > hi:
-            return hi - 3.689 * scale, hi - 0.0253 * scale
-        return lo + 0.0253 * scale, lo + 3.689 * scale
-    return q_lo, q_hi
+        # sd^2 / distance from the bound, whose 95 % lie within -ln(0.05) scales of it
+        d = max(abs(unbounded - (hi if unbounded >= hi else lo)), sd)
+        q = (hi - math.log(20.0) * sd * sd / d if unbounded >= hi
+             else lo + math.log(20.0) * sd * sd / d)
+    return (q, hi) if unbounded >= hi else (lo, q)
