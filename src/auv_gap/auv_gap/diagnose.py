@@ -622,20 +622,30 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | 
              ranges: Ranges | None = None) -> Diagnosis:
     """Diagnose the gap between ``vehicle`` (the nominal model) and ``logs``.
 
-    Args:
-        vehicle: nominal vehicle parameters.
-        logs: log pieces (:func:`auv_gap.logs.load_bag`).
-        window: window [s] the data is cut into (held out whole); free runs restart at each
-            window, and within it every four e-folding times on a vehicle unstable without
-            feedback. None: chosen from the data
-            (:func:`auv_gap.problem.data_window`).
-        held_out_logs: indices of logs held out whole; default every third window.
-        effects: catalogue effects to try (default: all registered).
-        top: effects refined by free-run error and tried in combinations.
-        max_effects: largest combination.
-        progress: called with a line of text at each stage.
-        ranges: typical and possible parameter ranges (default: the ranges file,
-            :mod:`auv_gap.ranges`).
+    Parameters
+    ----------
+    vehicle
+        nominal vehicle parameters.
+    logs
+        log pieces (:func:`auv_gap.logs.load_bag`).
+    window
+        window [s] the data is cut into (held out whole); free runs restart at each
+        window, and within it every four e-folding times on a vehicle unstable without
+        feedback. None: chosen from the data
+        (:func:`auv_gap.problem.data_window`).
+    held_out_logs
+        indices of logs held out whole; default every third window.
+    effects
+        catalogue effects to try (default: all registered).
+    top
+        effects refined by free-run error and tried in combinations.
+    max_effects
+        largest combination.
+    progress
+        called with a line of text at each stage.
+    ranges
+        typical and possible parameter ranges (default: the ranges file,
+        :mod:`auv_gap.ranges`).
     """
     say = progress or (lambda _msg: None)
     names = list(effects) if effects is not None else list(CATALOGUE)

@@ -197,27 +197,39 @@ class EffectSet:
 class Problem:
     """Logs, windows and the model of one vehicle, ready for free runs and equation errors.
 
-    Args:
-        vehicle: the nominal model.
-        logs: log pieces (see :mod:`auv_gap.logs`).
-        window: window length [s] (the unit held out whole); None: chosen from the data,
-            :func:`data_window` (kept with its reason in ``window`` and ``window_why``). On
-            a vehicle unstable without feedback the free runs restart within each window
-            every :func:`free_run_window` seconds (``run``, ``run_why``).
-        held_out_logs: indices of logs held out entirely; if empty, every third window
-            (the 2nd, 5th, ...) is held out.
-        eq_period: spacing of equation-error samples [s].
-        smooth_window: Savitzky-Golay window [s] for states and derivatives.
-        cost_period: spacing of the free-run samples compared with the log [s].
-        max_step: largest integration step of the vehicle [s]; the actuators are integrated
-            apart on a finer grid, so the step only has to resolve the vehicle's own motion.
-        left_out: equations (of :data:`EQUATIONS`) left out of the fits and tests (their
-            noise set to infinity: weight zero), e.g. the depth kinematics when ``w`` was
-            derived from the depth.
-        fitted_initial: derived rates (``w``, ``q``) whose initial values every free run
-            fits to the measured depth and pitch (:meth:`estimate_initial`).
-        ranges: the typical and possible ranges of the effects' parameters
-            (:mod:`auv_gap.ranges`; default the ranges file).
+    Parameters
+    ----------
+    vehicle
+        the nominal model.
+    logs
+        log pieces (see :mod:`auv_gap.logs`).
+    window
+        window length [s] (the unit held out whole); None: chosen from the data,
+        :func:`data_window` (kept with its reason in ``window`` and ``window_why``). On
+        a vehicle unstable without feedback the free runs restart within each window
+        every :func:`free_run_window` seconds (``run``, ``run_why``).
+    held_out_logs
+        indices of logs held out entirely; if empty, every third window
+        (the 2nd, 5th, ...) is held out.
+    eq_period
+        spacing of equation-error samples [s].
+    smooth_window
+        Savitzky-Golay window [s] for states and derivatives.
+    cost_period
+        spacing of the free-run samples compared with the log [s].
+    max_step
+        largest integration step of the vehicle [s]; the actuators are integrated
+        apart on a finer grid, so the step only has to resolve the vehicle's own motion.
+    left_out
+        equations (of :data:`EQUATIONS`) left out of the fits and tests (their
+        noise set to infinity: weight zero), e.g. the depth kinematics when ``w`` was
+        derived from the depth.
+    fitted_initial
+        derived rates (``w``, ``q``) whose initial values every free run
+        fits to the measured depth and pitch (:meth:`estimate_initial`).
+    ranges
+        the typical and possible ranges of the effects' parameters
+        (:mod:`auv_gap.ranges`; default the ranges file).
     """
 
     def __init__(self, vehicle: VehicleParams, logs: Sequence[GapLog],

@@ -112,9 +112,11 @@ def _pair(raw: Any, where: str) -> tuple[float, float] | None:
 def parse_ranges(doc: Any, path: str) -> Ranges:
     """Validate a loaded ranges document.
 
-    Raises:
-        GapError: one line naming the file and the key (unknown effect, parameter or key,
-            a range that is not [lo, hi], a typical range outside the possible one).
+    Raises
+    ------
+    GapError
+        one line naming the file and the key (unknown effect, parameter or key,
+        a range that is not [lo, hi], a typical range outside the possible one).
     """
     if not isinstance(doc, Mapping) or doc.get('format') != FORMAT:
         raise GapError(f'{path}: not a ranges file (format: {FORMAT} expected)')
@@ -165,8 +167,10 @@ def parse_ranges(doc: Any, path: str) -> Ranges:
 def load_ranges(path: str | pathlib.Path) -> Ranges:
     """Read a ranges file (see the module docstring).
 
-    Raises:
-        GapError: a missing or invalid file, one line.
+    Raises
+    ------
+    GapError
+        a missing or invalid file, one line.
     """
     p = pathlib.Path(path)
     try:

@@ -189,11 +189,15 @@ def use_masks(records: Sequence[ForceRecord], windows: Sequence[Window]
 class FreeRuns:
     """The windows of a log prepared for fast free runs of any number of model variants.
 
-    Args:
-        logs: the logged runs (one per record).
-        windows: the windows to run.
-        params: the vehicle whose actuator model rebuilds the actuator positions (its ``dt``
-            is the integration step).
+    Parameters
+    ----------
+    logs
+        the logged runs (one per record).
+    windows
+        the windows to run.
+    params
+        the vehicle whose actuator model rebuilds the actuator positions (its ``dt``
+        is the integration step).
     """
 
     def __init__(self, logs: Sequence[LoggedRun], windows: Sequence[Window],

@@ -354,23 +354,33 @@ def reconstruct(t: np.ndarray, state: np.ndarray,
                 sampled: Sequence[str] = ()) -> ForceRecord:
     """Hydrodynamic wrench from motion for one uniformly sampled stretch.
 
-    Args:
-        t: stamps (N,) [s], uniformly spaced.
-        state: (N, 12) ``x, y, z [m] NED, phi, theta, psi [rad], u, v, w [m/s], p, q, r
-            [rad/s]`` body FRD, as logged.
-        commands: ``bar``/``helm``/``thrust`` -> (stamps [s], set-points [rad, rad, N]).
-        params: the base vehicle (mass, added mass, restoring, actuators).
-        name: record name.
-        window_s: Savitzky-Golay window [s].
-        measured: measured fin positions ``bar``/``helm`` -> (stamps [s], angles [rad]),
-            used in place of the commands run through the actuator model.
-        sampled: channels whose commands were sampled at the rows (said in the record's
-            actuator sources; see :func:`sampled_commands`).
+    Parameters
+    ----------
+    t
+        stamps (N,) [s], uniformly spaced.
+    state
+        (N, 12) ``x, y, z [m] NED, phi, theta, psi [rad], u, v, w [m/s], p, q, r
+        [rad/s]`` body FRD, as logged.
+    commands
+        ``bar``/``helm``/``thrust`` -> (stamps [s], set-points [rad, rad, N]).
+    params
+        the base vehicle (mass, added mass, restoring, actuators).
+    name
+        record name.
+    window_s
+        Savitzky-Golay window [s].
+    measured
+        measured fin positions ``bar``/``helm`` -> (stamps [s], angles [rad]),
+        used in place of the commands run through the actuator model.
+    sampled
+        channels whose commands were sampled at the rows (said in the record's
+        actuator sources; see :func:`sampled_commands`).
 
-    Returns:
-        A ForceRecord with the filtered wrench (NaN over the first and last half window), its
-        kernel (so the regressors get the same filter) and how sensor noise propagates into
-        it (noise levels estimated from ``state``).
+    Returns
+    -------
+    A ForceRecord with the filtered wrench (NaN over the first and last half window), its
+    kernel (so the regressors get the same filter) and how sensor noise propagates into
+    it (noise levels estimated from ``state``).
     """
     n = len(t)
     dt = float(np.median(np.diff(t))) if n > 1 else math.nan
@@ -464,9 +474,11 @@ def records_from_topics(arrays: Mapping[str, np.ndarray], params: VehicleParams,
     The log is split into uniformly sampled stretches (see :func:`segments`); stretches too
     short for the derivative window are left out.
 
-    Raises:
-        IdentificationError: a needed topic is missing or empty, stamps go back, the force
-            stamps do not match the state stamps, a value is not finite.
+    Raises
+    ------
+    IdentificationError
+        a needed topic is missing or empty, stamps go back, the force
+        stamps do not match the state stamps, a value is not finite.
     """
     source = choose_source(set(arrays), source)
     for topic in needed_topics(source):

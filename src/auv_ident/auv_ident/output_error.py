@@ -241,8 +241,10 @@ def refine(logs: Sequence[LoggedRun], windows: Sequence[Window], params: Vehicle
     held out (module docstring), starting from ``params`` (the equation error's values);
     ``base`` gives the priors and the signs.
 
-    Raises:
-        ValueError: no window to fit, or no measured output channel.
+    Raises
+    ------
+    ValueError
+        no window to fit, or no measured output channel.
     """
     fit_windows = [w for w in windows if not w.held_out]
     if not fit_windows:

@@ -267,8 +267,9 @@ def write_outputs(result: Identification, out_dir: str | pathlib.Path, bags: Seq
     ``vehicle.rejected.yaml`` for inspection and no ``vehicle.yaml`` is written (one left
     from an earlier run is removed). ``records``: one figure per record.
 
-    Returns:
-        name -> path of every file written.
+    Returns
+    -------
+    name -> path of every file written.
     """
     out = pathlib.Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

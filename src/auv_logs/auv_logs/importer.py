@@ -672,11 +672,16 @@ def import_log(logmap: LogMap, path: str | os.PathLike[str], name: str | None = 
     so. ``envelope``: the vehicle's (:func:`auv_logs.plausibility.envelope_of`) for
     the plausibility checks; default the physical limits.
 
-    Raises:
-        LogReadError, MapError: bad log or map (one line naming the map key, file or row).
-        NoSegmentError: no usable segment.
-        PlausibilityError: a signal that cannot be in the unit or frame the map says.
-        RealLogError: a state signal is missing and cannot be derived.
+    Raises
+    ------
+    LogReadError, MapError
+        bad log or map (one line naming the map key, file or row).
+    NoSegmentError
+        no usable segment.
+    PlausibilityError
+        a signal that cannot be in the unit or frame the map says.
+    RealLogError
+        a state signal is missing and cannot be derived.
     """
     p = pathlib.Path(path)
     name = name or (p.stem if p.is_file() else p.name)
@@ -789,9 +794,11 @@ def import_logs(map_path: str | os.PathLike[str], logs: Sequence[str | os.PathLi
     out and its one-line reason appended there (the batch goes on); without it, with
     ``strict``, or for a single log, the first such log raises.
 
-    Raises:
-        RealLogError: as :func:`import_log`; when every log is left out, one line naming
-            them.
+    Raises
+    ------
+    RealLogError
+        as :func:`import_log`; when every log is left out, one line naming
+        them.
     """
     logmap = load_map(map_path)
     out: list[ContractLog] = []
@@ -836,8 +843,10 @@ def write_contract_bag(out: str | os.PathLike[str], logmap: LogMap,
     directory beside it and renamed, so nothing is left half written). Returns the provenance
     stored in ``metadata.yaml`` (``custom_data.auv_provenance``, JSON) and in the MCAP file.
 
-    Raises:
-        RealLogError: ``out`` exists, or the logs overlap in time (import them one by one).
+    Raises
+    ------
+    RealLogError
+        ``out`` exists, or the logs overlap in time (import them one by one).
     """
     from auv_bag import BagWriter, typestore
 

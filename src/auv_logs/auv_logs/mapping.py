@@ -627,8 +627,10 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
               text: str = '') -> LogMap:
     """Validate a loaded map document (ruamel round-trip data keep line numbers).
 
-    Raises:
-        MapError: naming the key and line of the first problem.
+    Raises
+    ------
+    MapError
+        naming the key and line of the first problem.
     """
     root = _Node(data, '', 1)
     root.finish(('format', 'kind', 'description', 'text', 'time', 'sources', 'vectors',
@@ -770,8 +772,10 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
 def load_map(path: str | os.PathLike[str]) -> LogMap:
     """Read and validate a map file.
 
-    Raises:
-        MapError: the file is missing, is not YAML, or is not a valid map.
+    Raises
+    ------
+    MapError
+        the file is missing, is not YAML, or is not a valid map.
     """
     p = pathlib.Path(path)
     try:

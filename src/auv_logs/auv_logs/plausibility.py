@@ -187,9 +187,11 @@ def check_signals(name: str, segments: Sequence[tuple[np.ndarray, Mapping[str, n
 
     Returns the checks that ran, one line each (for the import report).
 
-    Raises:
-        PlausibilityError: one line naming the signal, what was found, the map key that
-            declares its unit, and the unit that would fit.
+    Raises
+    ------
+    PlausibilityError
+        one line naming the signal, what was found, the map key that
+        declares its unit, and the unit that would fit.
     """
     env = envelope or Envelope()
     ran: list[str] = []

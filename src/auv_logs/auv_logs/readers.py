@@ -69,8 +69,10 @@ class Table:
 def log_kind(path: str | os.PathLike[str]) -> str:
     """``rosbag2``, ``mcap``, ``ros1`` or ``text``.
 
-    Raises:
-        LogReadError: the path is missing or of a kind the readers do not know.
+    Raises
+    ------
+    LogReadError
+        the path is missing or of a kind the readers do not know.
     """
     p = pathlib.Path(path)
     if not p.exists():
@@ -159,8 +161,10 @@ def compile_path(path: str) -> Callable[[Any], Any]:
     """A getter for a field path such as ``pose.pose.position.x`` or ``data[2]`` or
     ``fins[1].angle``.
 
-    Raises:
-        LogReadError: the path is not well formed.
+    Raises
+    ------
+    LogReadError
+        the path is not well formed.
     """
     steps: list[tuple[str, tuple[int, ...]]] = []
     for part in path.split('.'):
@@ -376,18 +380,25 @@ def read_bag(path: str | os.PathLike[str], requests: Mapping[str, Sequence[str]]
              ) -> dict[str, Table]:
     """Read the requested fields of the requested topics of a bag.
 
-    Args:
-        path: rosbag2 directory (MCAP or sqlite3), bare ``.mcap`` file or ROS 1 ``.bag``.
-        requests: topic -> field paths (``pose.pose.position.x``, ``data[2]``).
-        stamp: ``header`` (header stamps; the receive times for a type with no header, said
-            in the table's ``stamp_kind``) or ``log`` (receive times), for every topic or
-            per topic (a mapping topic -> ``header``/``log``; a topic not in it: header).
-        fast: MCAP storage through the columnar decoder of :func:`auv_bag.read_arrays`
-            (falls back to rosbags for what it cannot give); False: rosbags only.
+    Parameters
+    ----------
+    path
+        rosbag2 directory (MCAP or sqlite3), bare ``.mcap`` file or ROS 1 ``.bag``.
+    requests
+        topic -> field paths (``pose.pose.position.x``, ``data[2]``).
+    stamp
+        ``header`` (header stamps; the receive times for a type with no header, said
+        in the table's ``stamp_kind``) or ``log`` (receive times), for every topic or
+        per topic (a mapping topic -> ``header``/``log``; a topic not in it: header).
+    fast
+        MCAP storage through the columnar decoder of :func:`auv_bag.read_arrays`
+        (falls back to rosbags for what it cannot give); False: rosbags only.
 
-    Raises:
-        LogReadError: unknown kind, missing topic, field path not in the message, message
-            type the readers do not know, a topic with no messages.
+    Raises
+    ------
+    LogReadError
+        unknown kind, missing topic, field path not in the message, message
+        type the readers do not know, a topic with no messages.
     """
     p = pathlib.Path(path)
     kind = log_kind(p)
@@ -497,24 +508,35 @@ def read_text(path: str | os.PathLike[str], columns: Sequence[str], time_column:
               comment: str = '#', strict: bool = False) -> Table:
     """Read a text log's columns.
 
-    Args:
-        path: the file.
-        columns: column names wanted (besides the time column).
-        time_column: name of the time column (its values are returned as ``stamps``, in the
-            log's unit; the caller converts).
-        delimiter: ``None`` for whitespace, else the separator character.
-        header: the first non-comment line names the columns.
-        names: column names when there is no header (or to override it).
-        comment: lines starting with this are skipped.
-        strict: refuse a row with the wrong number of fields or a field that is not a
-            number; otherwise such a row (typically the last, cut off mid-line by a logger
-            switched off while writing) is left out and said in :attr:`Table.skipped`, one
-            line per kind of problem.
+    Parameters
+    ----------
+    path
+        the file.
+    columns
+        column names wanted (besides the time column).
+    time_column
+        name of the time column (its values are returned as ``stamps``, in the
+        log's unit; the caller converts).
+    delimiter
+        ``None`` for whitespace, else the separator character.
+    header
+        the first non-comment line names the columns.
+    names
+        column names when there is no header (or to override it).
+    comment
+        lines starting with this are skipped.
+    strict
+        refuse a row with the wrong number of fields or a field that is not a
+        number; otherwise such a row (typically the last, cut off mid-line by a logger
+        switched off while writing) is left out and said in :attr:`Table.skipped`, one
+        line per kind of problem.
 
-    Raises:
-        LogReadError: missing file or column, no data rows, a non-finite time; with
-            ``strict`` a ragged row or a field that is not a number; without it, more than
-            :data:`BAD_ROW_SHARE` of the rows bad (the map does not fit the file).
+    Raises
+    ------
+    LogReadError
+        missing file or column, no data rows, a non-finite time; with
+        ``strict`` a ragged row or a field that is not a number; without it, more than
+        :data:`BAD_ROW_SHARE` of the rows bad (the map does not fit the file).
     """
     p = pathlib.Path(path)
     try:

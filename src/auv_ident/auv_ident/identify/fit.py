@@ -248,26 +248,41 @@ def identify(records: Sequence[ForceRecord], base: VehicleParams, *,
     (:mod:`auv_ident.identify.posterior`), with the structure of its quadratic cross-flow term
     chosen by held-out prediction (:func:`choose_structure`).
 
-    Args:
-        records: force records (see :class:`ForceRecord`), one source for all.
-        base: the vehicle the identified values replace (and the fixed CZ0/CM0 come from).
-        equations: names from :data:`EQUATIONS`.
-        fit_offsets: fit CZ0 and CM0 too (else fixed at the base values, as the report).
-        fit_planes: fit the dive plane's CZbar and CMbar too (forces from motion; else fixed
-            at the base values, as the report).
-        bounds: name -> (lo, hi) on top of the physical bounds (``{}``: no bounds at all).
-        errors: standard-error method, one of :data:`ERROR_METHODS`.
-        partial: an equation the data cannot identify is left out and said so in
-            ``not_identifiable`` (which coefficient, why, what would fix it) instead of
-            raising; it raises only when no equation is left.
-        use_priors: the posterior with the file's priors (else the data alone).
-        structures: choose the cross-flow structure by held-out prediction (else the file's).
-        use: per record, the samples the fit may use (held-out data: False), or None.
+    Parameters
+    ----------
+    records
+        force records (see :class:`ForceRecord`), one source for all.
+    base
+        the vehicle the identified values replace (and the fixed CZ0/CM0 come from).
+    equations
+        names from :data:`EQUATIONS`.
+    fit_offsets
+        fit CZ0 and CM0 too (else fixed at the base values, as the report).
+    fit_planes
+        fit the dive plane's CZbar and CMbar too (forces from motion; else fixed
+        at the base values, as the report).
+    bounds
+        name -> (lo, hi) on top of the physical bounds (``{}``: no bounds at all).
+    errors
+        standard-error method, one of :data:`ERROR_METHODS`.
+    partial
+        an equation the data cannot identify is left out and said so in
+        ``not_identifiable`` (which coefficient, why, what would fix it) instead of
+        raising; it raises only when no equation is left.
+    use_priors
+        the posterior with the file's priors (else the data alone).
+    structures
+        choose the cross-flow structure by held-out prediction (else the file's).
+    use
+        per record, the samples the fit may use (held-out data: False), or None.
 
-    Raises:
-        NotIdentifiableError: a coefficient lacks excitation or two cannot be separated
-            (with ``partial``: every equation).
-        IdentificationError: bad records, unknown equation or option.
+    Raises
+    ------
+    NotIdentifiableError
+        a coefficient lacks excitation or two cannot be separated
+        (with ``partial``: every equation).
+    IdentificationError
+        bad records, unknown equation or option.
     """
     if not records:
         raise IdentificationError('no data: give at least one record')
