@@ -45,8 +45,8 @@ own stamp, so the simulator can wait for it (see :mod:`auv_sim.node`). A state s
 Parameters (:mod:`auv_depth_lqr.parameters`: each declared with a descriptor giving its
 description with unit, its range and its further limits; validated at start: a bad one ends
 the node with one line ``error: ...`` and exit status 1; and on change, where a bad one is
-refused with a reason and nothing changes, a good one applied once ROS has stored it): ``vehicle_file``,
-``rate`` [Hz], ``weights`` (preset name), ``theta_max`` [rad], ``bar_max`` /
+refused with a reason and nothing changes, a good one applied once ROS has stored it):
+``vehicle_file``, ``rate`` [Hz], ``weights`` (preset name), ``theta_max`` [rad], ``bar_max`` /
 ``bar_rate`` [rad, rad/s; 0 = vehicle file], ``state_timeout`` [s], ``safe_bar`` [rad;
 NaN (default) = derived from the vehicle file, :func:`auv_depth_lqr.tuning.derive_tuning`],
 ``lockstep`` (bool), ``water_speed`` [m/s; 0 = schedule on the measured surge over ground,
