@@ -98,6 +98,7 @@ from rcl_interfaces.msg import (
     FloatingPointRange,
     IntegerRange,
     ParameterDescriptor,
+    ParameterType,
     SetParametersResult,
 )
 from rclpy.clock import Clock, ROSClock
@@ -135,6 +136,7 @@ from auv_depth_lqr.command_intake import (
 from auv_depth_lqr.controller import PlaneState
 from auv_depth_lqr.errors import AuvLqrError, InvalidInputError
 from auv_depth_lqr.parameters import (
+    INT64_MAX,
     PARAMETERS,
     RELIABILITIES,
     START_ONLY,
@@ -192,9 +194,13 @@ class DepthPilotNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         kwargs.setdefault('namespace', DEFAULT_NAMESPACE)
         super().__init__(NODE_NAME, **kwargs)
+        # ranges after the check, so that a bad value at start gets the message naming it
         for spec in PARAMETERS.values():
-            self.declare_parameter(spec.name, spec.default, descriptor(spec))
+            self.declare_parameter(spec.name, spec.default, descriptor(spec, ranged=False))
         values = checked_values(self._values({}))
+        for spec in PARAMETERS.values():
+            if spec.range is not None:
+                self.set_descriptor(spec.name, descriptor(spec))
         self.realtime_priority: int = values['realtime_priority']
         self.start_subscribers: int = values['start_subscribers']
         self.diagnostics_subscribers: int = values['diagnostics_subscribers']
@@ -688,13 +694,15 @@ def _qos_text(qos: QoSProfile) -> str:
     return f'{qos.reliability.name.lower()}, {qos.durability.name.lower()}'
 
 
-def descriptor(spec: ParameterSpec) -> ParameterDescriptor:
+def descriptor(spec: ParameterSpec, ranged: bool = True) -> ParameterDescriptor:
     """The ROS descriptor of one node parameter.
 
     Parameters
     ----------
     spec : ParameterSpec
         The parameter (:data:`auv_depth_lqr.parameters.PARAMETERS`).
+    ranged : bool
+        With its range (False: without, to declare it before its value is checked).
 
     Returns
     -------
@@ -703,9 +711,10 @@ def descriptor(spec: ParameterSpec) -> ParameterDescriptor:
         and "applied at start only"; its range as the closed interval over the allowed one
         (an open bound such as ``rate > 0`` is published as its edge, which ROS accepts and
         :func:`~auv_depth_lqr.parameters.checked_values` refuses; ``inf`` where there is no
-        upper bound). A float parameter takes an integer too (``dynamic_typing``; ROS checks
-        its range on float values only, :func:`checked_values` on both). A start-only
-        parameter is not ``read_only``: the node refuses a change itself, saying why.
+        upper bound, the largest int64 for an integer). A float parameter takes an integer
+        too (``dynamic_typing``; ROS checks its range on float values only,
+        :func:`checked_values` on both). A start-only parameter is not ``read_only``: the node
+        refuses a change itself, saying why.
     """
     words = [f'in {spec.range.text()}'] if spec.range is not None else []
     if spec.choices:
@@ -718,14 +727,20 @@ def descriptor(spec: ParameterSpec) -> ParameterDescriptor:
                               additional_constraints='; '.join(words))
     if isinstance(spec.default, float):
         out.dynamic_typing = True  # 5 as well as 5.0
-        if spec.range is not None:
+        if ranged and spec.range is not None:
             out.floating_point_range = [FloatingPointRange(
                 from_value=float(spec.range.lower), to_value=float(spec.range.upper),
                 step=0.0)]
-    elif isinstance(spec.default, int) and not isinstance(spec.default, bool) \
-            and spec.range is not None:
-        out.integer_range = [IntegerRange(from_value=int(spec.range.lower),
-                                          to_value=int(spec.range.upper), step=1)]
+    elif isinstance(spec.default, bool):
+        out.type = ParameterType.PARAMETER_BOOL
+    elif isinstance(spec.default, str):
+        out.type = ParameterType.PARAMETER_STRING
+    else:
+        out.type = ParameterType.PARAMETER_INTEGER
+        if ranged and spec.range is not None:
+            upper = INT64_MAX if math.isinf(spec.range.upper) else int(spec.range.upper)
+            out.integer_range = [IntegerRange(from_value=int(spec.range.lower),
+                                              to_value=upper, step=1)]
     return out
 
 

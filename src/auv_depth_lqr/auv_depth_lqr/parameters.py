@@ -29,14 +29,14 @@ from auv_depth_lqr.recovery import RecoverySettings
 from auv_depth_lqr.state_input import ODOM_FRAMES
 from auv_sim.params import load_vehicle
 
-__all__ = ['COMMAND_MODES', 'PARAMETERS', 'RELIABILITIES', 'START_ONLY', 'STATE_SOURCES',
-           'ParameterSpec', 'Range', 'checked_values', 'default_vehicle_file',
+__all__ = ['COMMAND_MODES', 'INT64_MAX', 'PARAMETERS', 'RELIABILITIES', 'START_ONLY',
+           'STATE_SOURCES', 'ParameterSpec', 'Range', 'checked_values', 'default_vehicle_file',
            'pilot_from_values']
 
 COMMAND_MODES = ('refuse', 'clamp')
 STATE_SOURCES = ('vehicle_state', 'odometry')
 RELIABILITIES = ('reliable', 'best_effort')
-INT64_MAX = 2**63 - 1  # largest value of an integer ROS parameter
+INT64_MAX = 2**63 - 1  # largest value of an integer ROS parameter (its range's 'inf')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,7 +77,6 @@ class Range:
 POSITIVE = Range(0.0, lower_open=True)
 NON_NEGATIVE = Range(0.0)
 SHARE = Range(0.0, 1.0, lower_open=True)
-COUNT = Range(0, INT64_MAX)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -203,9 +202,9 @@ _SPECS = (
     ParameterSpec('realtime_priority', 0, 'SCHED_FIFO priority of the node\'s threads; '
                   '0 = normal scheduling', '', Range(0, 99), start_only=True),
     ParameterSpec('start_subscribers', 0, 'bar_command subscriptions awaited before the first '
-                  'command; 0 = do not wait', '', COUNT, start_only=True),
+                  'command; 0 = do not wait', '', NON_NEGATIVE, start_only=True),
     ParameterSpec('diagnostics_subscribers', 0, '/diagnostics subscriptions awaited before '
-                  'the first status; 0 = do not wait', '', COUNT, start_only=True),
+                  'the first status; 0 = do not wait', '', NON_NEGATIVE, start_only=True),
     ParameterSpec('report_file', '', 'JSON report written at exit; \'\' = none',
                   start_only=True),
 )
