@@ -244,3 +244,16 @@ def test_running_node_describes_rate_refuses_out_of_range_and_applies_a_change(r
         node.destroy_node()
         rclpy.shutdown()
         pilot.stop()
+
+
+@pytest.mark.parametrize('bar_max', [5e-324, 1e-9, math.inf])
+def test_a_plane_travel_too_small_to_weigh_is_a_design_error(bar_max: float) -> None:
+    """The BAR weight is 1 / (0.2292 bar_max)^2: at 5e-324 rad it overflows (a division by
+    zero before); the core refuses such a travel by name."""
+    from auv_contract import config_path
+    from auv_depth_lqr.pilot import DepthPilot, PilotSettings
+    from auv_sim.params import load_vehicle
+
+    vehicle = load_vehicle(config_path('a18m.yaml'))
+    with pytest.raises(DesignError, match=r'^bar_max = .* rad must be finite and at least '):
+        DepthPilot.for_vehicle(vehicle, PilotSettings(bar_max=bar_max))
