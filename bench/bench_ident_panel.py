@@ -1,7 +1,7 @@
 """Benchmark: identification on plants that are not the base file's structure.
 
 Each case flies a plant in closed loop with the project's depth pilot and BAR doublets
-(:func:`auv_ident.gap.synth.simulate`, realistic sensor noise), writes the flight in one of
+(:func:`auv_gap.synth.simulate`, realistic sensor noise), writes the flight in one of
 the log forms a user brings, and runs ``auv ident`` on it against a base file that is wrong in
 a known way. The plants (``PLANTS``):
 
@@ -146,7 +146,7 @@ def scenario(vehicle: str, minutes: float, shift: float = 0.0, fast: bool = Fals
     """The closed-loop flight: depth changes, thrust steps and BAR doublets repeating every
     300 s, for ``minutes``; ``shift`` [s] moves the doublets (the validation flight);
     ``fast``: the REMUS 100 at 2-2.4 m/s (with a plane 40 % weaker it trims above 1.9 m/s)."""
-    from auv_ident.gap import synth
+    from auv_gap import synth
 
     duration = 60.0 * minutes
     n = int(math.ceil(duration / 300.0))
@@ -175,8 +175,8 @@ def scenario(vehicle: str, minutes: float, shift: float = 0.0, fast: bool = Fals
 def write_form(form: str, log: Any, path: pathlib.Path) -> tuple[list[str], list[str]]:
     """Write the flight ``log`` in log form ``form``; returns the log paths and the extra
     ``auv ident`` options (the map)."""
-    from auv_ident.realog import synth as realsynth
-    from auv_ident.simlog import write_record
+    from auv_logs import synth as realsynth
+    from auv_logs.simlog import write_record
 
     if form == 'bag50':
         write_record(path, log.record, forces=False, sent_commands=log.commands)
@@ -245,7 +245,7 @@ def run_ident(paths: list[str], base_path: pathlib.Path, out: pathlib.Path,
 
 def run_case(name: str, k: int, workdir: pathlib.Path) -> dict[str, Any]:
     """One case of the panel (module docstring)."""
-    from auv_ident.gap import synth
+    from auv_gap import synth
     from auv_sim.params import load_vehicle
 
     vehicle, plant_name, base_name, form, minutes, options, former = CASES[name]
