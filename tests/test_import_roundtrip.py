@@ -232,6 +232,10 @@ def test_gap_on_original_log_with_map_equals_gap_on_imported_bag(
         assert seg.pop('log') == 'mcap10'
     for seg in imported['gap']['segments']:
         assert seg.pop('log') == str(tmp_path / 'bag')
+    for report, name in ((direct, 'mcap10'), (imported, str(tmp_path / 'bag'))):
+        origins = report['gap']['time_origin']['logs']
+        assert list(origins) == [name]
+        report['gap']['time_origin']['logs'] = list(origins.values())
     assert direct == imported
     # the simulated vehicle is the model: no gap, as on the simulator's own 50 Hz bag
     contract = _gap([contract_ident['bag']], tmp_path / 'c')

@@ -152,8 +152,10 @@ def _output_error_names(result: Identification, equations: Sequence[str] | None,
                         fit_offsets: bool, fit_planes: bool,
                         logs: Sequence[Any]) -> list[str]:
     """The heave and pitch coefficients output error refines: those of the fitted heave and
-    pitch equations and of those equation error left out or could not fit (R^2 < 0), with
-    their quadratic cross-flow term; none when the logged pitch does not vary."""
+    pitch equations and of those equation error left out or could not fit (R^2 < 0); their
+    quadratic cross-flow terms only where the structure chosen by held-out prediction fitted
+    them (:func:`auv_ident.identify.fit.choose_structure`), or, for an equation equation error
+    could not fit, where the file has them; none when the logged pitch does not vary."""
     theta = np.concatenate([lg.state[:, 4] for lg in logs])
     if float(np.percentile(np.abs(theta - np.median(theta)), 99.0)) < PITCH_EXCITATION:
         return []
@@ -170,7 +172,10 @@ def _output_error_names(result: Identification, equations: Sequence[str] | None,
             names.append(eq.offset)
         if fit_planes and eq.plane and result.base.values[eq.plane] != 0.0:
             names.append(eq.plane)
-        names += [k for k in component_terms(eq) if k in CROSSFLOW]
+        fit = result.fits.get(eq_name)
+        fitted = {c.name for c in fit.coefficients} if fit is not None else set()
+        names += [k for k in component_terms(eq) if k in CROSSFLOW
+                  and (k in fitted if fit is not None else result.base.values[k] != 0.0)]
     return list(dict.fromkeys(names))
 
 
@@ -206,7 +211,7 @@ def _apply(result: Identification, oe: OutputErrorFit, base: VehicleParams) -> N
                 old, coefficients=tuple(coefs), fixed=kept_fixed, identified=True,
                 why=(f'equation error: {old.why}; ' if old.why else '')
                 + f'refined by output error ({oe.why})',
-                structure='quadratic', structures={**old.structures, 'set': {}},
+                structures={**old.structures, 'set': {}},
                 covariance=f'output error: cluster sandwich over {oe.windows} windows')
         else:
             empty = np.zeros(0)
@@ -218,7 +223,8 @@ def _apply(result: Identification, oe: OutputErrorFit, base: VehicleParams) -> N
                 measured=empty, fitted=empty, record_index=np.zeros(0, int),
                 record_names=(), covariance=f'output error: cluster sandwich over '
                                             f'{oe.windows} windows',
-                structure='quadratic', identified=True,
+                structure='quadratic' if any(n in CROSSFLOW for n in mine) else 'file',
+                identified=True,
                 why=f'fitted by output error only ({oe.why}); equation error: '
                     f'{result.not_identifiable.get(eq_name, "")}')
         result.not_identifiable.pop(eq_name, None)
