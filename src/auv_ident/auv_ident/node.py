@@ -222,7 +222,7 @@ def _make_node(overrides: dict[str, Any]) -> Any:
             Parameters
             ----------
             params : list of rclpy.parameter.Parameter
-                The parameters being set together.
+                What a ``set_parameters`` request asks for, all or nothing.
 
             Returns
             -------

@@ -57,10 +57,9 @@ def _number_problem(spec: ParameterSpec, value: Any) -> str | None:
 
     Parameters
     ----------
-    spec : ParameterSpec
-        A parameter with a float or integer default and a range.
-    value : Any
-        The value given (a float parameter also takes an integer).
+    spec, value : ParameterSpec, Any
+        A parameter with a range (float or integer) and the value set for it; an integer
+        stands for a float too.
 
     Returns
     -------

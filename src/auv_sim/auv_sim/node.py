@@ -261,7 +261,7 @@ class SimulatorNode(Node):
         Parameters
         ----------
         params : list of rclpy.parameter.Parameter
-            The parameters being set together.
+            Set at once; rclpy's own (``use_sim_time``) are let through untouched.
 
         Returns
         -------
