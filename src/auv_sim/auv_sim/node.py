@@ -3,21 +3,24 @@
 Run it as ``ros2 run auv_sim simulator [--ros-args -p name:=value ...]`` or ``auv sim
 [options]`` (each option mirrors a parameter; options win over ``--ros-args``).
 
-Parameters (see :class:`auv_sim.sim_settings.SimSettings`; validated at start, where a bad one
-ends the node with one line ``error: ...`` and exit status 1, and again on every change, where
-a bad one is refused with a reason): ``vehicle_file`` (default ``config/a18m.yaml``, found
-relative to the working directory, ``$AUV_ROOT`` or the source tree), ``effects_file`` (''
-none), ``publish_rate`` [Hz], ``dt`` [s] (0: the vehicle file's), ``real_time_factor`` (0: as
-fast as possible), ``use_sim_clock``, ``initial_trim``, ``initial_depth`` [m],
-``initial_speed`` [m/s], ``initial_pitch`` [rad], ``initial_heading`` [rad], ``lockstep``,
-``control_period`` [s], ``lockstep_timeout`` and ``lockstep_startup_timeout`` [wall s],
-``lockstep_channels`` (``bar``; ``bar,helm,thrust`` for a mission), ``start_subscribers``
-(``state``) and ``start_stream_subscribers`` (``odom``, ``hydrodynamic_forces``, ``/clock``):
-subscribers to wait for before t = 0, ``await_recorder`` (wait for a recorder's progress before
-t = 0), ``recorder_timeout`` [wall s], ``stop_time`` [s of simulated time; 0: run until
-stopped], ``report_file`` (JSON written at exit: messages published per topic, control
-instants that went on without their answer, whether the recorder pacing gave up). Only
-``publish_rate``, ``real_time_factor`` and ``lockstep_timeout`` may change while it runs.
+Parameters (see :class:`auv_sim.sim_settings.SimSettings`; each declared with a descriptor
+giving its description with its unit, its range and further limits,
+:data:`auv_sim.sim_settings.PARAMETERS`; validated at start, where a bad one ends the node with
+one line ``error: ...`` and exit status 1, and again on every change, where a bad one is
+refused with a reason and changes nothing, a good one applied once ROS has stored it):
+``vehicle_file`` (default ``config/a18m.yaml``, found relative to the working directory,
+``$AUV_ROOT`` or the source tree), ``effects_file`` ('' none), ``publish_rate`` [Hz], ``dt``
+[s] (0: the vehicle file's), ``real_time_factor`` (0: as fast as possible), ``use_sim_clock``,
+``initial_trim``, ``initial_depth`` [m], ``initial_speed`` [m/s], ``initial_pitch`` [rad],
+``initial_heading`` [rad], ``lockstep``, ``control_period`` [s], ``lockstep_timeout`` and
+``lockstep_startup_timeout`` [wall s], ``lockstep_channels`` (``bar``; ``bar,helm,thrust`` for
+a mission), ``start_subscribers`` (``state``) and ``start_stream_subscribers`` (``odom``,
+``hydrodynamic_forces``, ``/clock``): subscribers to wait for before t = 0, ``await_recorder``
+(wait for a recorder's progress before t = 0), ``recorder_timeout`` [wall s], ``stop_time`` [s
+of simulated time; 0: run until stopped], ``report_file`` (JSON written at exit: messages
+published per topic, control instants that went on without their answer, whether the recorder
+pacing gave up). Only ``publish_rate``, ``real_time_factor`` and ``lockstep_timeout`` may
+change while it runs.
 
 Topics (namespace ``/auv`` by default, remappable with ``-r __ns:=...``):
 

@@ -90,31 +90,31 @@ _SPECS = (
     ParameterSpec('effects_file', _D.effects_file,
                   "environment/effects file (YAML); '' for calm water"),
     ParameterSpec('publish_rate', _D.publish_rate, 'state publish rate [Hz of simulated time]',
-                  'Hz', POSITIVE, constraint='finite; 1/publish_rate a whole number of steps'),
+                  'Hz', POSITIVE, constraint='1/publish_rate a whole number of steps'),
     ParameterSpec('dt', _D.dt, "RK4 step [s]; 0: the vehicle file's", 's', NON_NEGATIVE,
-                  constraint='finite; a whole number of nanoseconds'),
+                  constraint='a whole number of nanoseconds'),
     ParameterSpec('real_time_factor', _D.real_time_factor,
                   'simulated seconds per wall second [s/s]; 0: as fast as possible', 's/s',
-                  NON_NEGATIVE, constraint='finite; 0 needs use_sim_clock'),
+                  NON_NEGATIVE, constraint='0 needs use_sim_clock'),
     ParameterSpec('use_sim_clock', _D.use_sim_clock,
                   'publish /clock and stamp on simulated time'),
     ParameterSpec('initial_trim', _D.initial_trim,
                   'start trimmed (w, theta, BAR, thrust) at initial_speed and initial_depth'),
     ParameterSpec('initial_depth', _D.initial_depth, 'initial depth [m, NED z positive down]',
-                  'm', NON_NEGATIVE, constraint="finite; within the vehicle file's envelope"),
+                  'm', NON_NEGATIVE, constraint="within the vehicle file's envelope"),
     ParameterSpec('initial_speed', _D.initial_speed, 'initial surge speed [m/s, body FRD]',
-                  'm/s', constraint='finite; > 0 with initial_trim'),
+                  'm/s', constraint='> 0 with initial_trim'),
     ParameterSpec('initial_pitch', _D.initial_pitch, 'initial pitch [rad], positive nose up '
                   '(only with initial_trim false)', 'rad', _PITCH,
                   constraint='0 with initial_trim'),
     ParameterSpec('initial_heading', _D.initial_heading, 'initial heading [rad, NED yaw]',
-                  'rad', constraint='finite'),
+                  'rad'),
     ParameterSpec('lockstep', _D.lockstep,
                   'wait at each control instant for the bar command stamped with it',
                   constraint='needs use_sim_clock'),
     ParameterSpec('control_period', _D.control_period,
                   'lockstep control period [s of simulated time]', 's', POSITIVE,
-                  constraint='finite; a whole number of steps dt'),
+                  constraint='a whole number of steps dt'),
     ParameterSpec('lockstep_timeout', _D.lockstep_timeout,
                   'wait for a control instant command [wall s]', 's', POSITIVE),
     ParameterSpec('lockstep_startup_timeout', _D.lockstep_startup_timeout,
@@ -145,7 +145,7 @@ _SPECS = (
 )
 #: Every parameter of the simulator node by name, in declaration order (the fields of
 #: :class:`SimSettings`; the ones not in :data:`RUNTIME_FIELDS` apply at start only); the
-#: ranges are the ones :func:`check_settings` enforces.
+#: ranges are the ones :func:`check_settings` enforces; every number must be finite.
 PARAMETERS: Mapping[str, ParameterSpec] = MappingProxyType({
     s.name: dataclasses.replace(s, start_only=s.name not in RUNTIME_FIELDS) for s in _SPECS})
 
