@@ -94,13 +94,7 @@ import rclpy.exceptions
 import rclpy.executors
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import (
-    FloatingPointRange,
-    IntegerRange,
-    ParameterDescriptor,
-    ParameterType,
-    SetParametersResult,
-)
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ROSClock
 from rclpy.clock_type import ClockType
 from rclpy.duration import Duration
@@ -136,11 +130,9 @@ from auv_depth_lqr.command_intake import (
 from auv_depth_lqr.controller import PlaneState
 from auv_depth_lqr.errors import AuvLqrError, InvalidInputError
 from auv_depth_lqr.parameters import (
-    INT64_MAX,
     PARAMETERS,
     RELIABILITIES,
     START_ONLY,
-    ParameterSpec,
     checked_values,
     pilot_from_values,
 )
@@ -149,6 +141,7 @@ from auv_depth_lqr.state_input import plane_state_from_odometry
 from auv_msgs.msg import ActuatorSetpoint, VehicleState
 from auv_sim.errors import AuvSimError
 from auv_sim.node_report import write_report
+from auv_sim.parameter_descriptor import descriptor
 from auv_sim.sim_settings import control_instant
 
 NS_PER_S = 1_000_000_000
@@ -692,56 +685,6 @@ def _policy_name(kind: int) -> str:
 
 def _qos_text(qos: QoSProfile) -> str:
     return f'{qos.reliability.name.lower()}, {qos.durability.name.lower()}'
-
-
-def descriptor(spec: ParameterSpec, ranged: bool = True) -> ParameterDescriptor:
-    """The ROS descriptor of one node parameter.
-
-    Parameters
-    ----------
-    spec : ParameterSpec
-        The parameter (:data:`auv_depth_lqr.parameters.PARAMETERS`).
-    ranged : bool
-        With its range (False: without, to declare it before its value is checked).
-
-    Returns
-    -------
-    ParameterDescriptor
-        Its description; ``additional_constraints`` with its range in words, further limits
-        and "applied at start only"; its range as the closed interval over the allowed one
-        (an open bound such as ``rate > 0`` is published as its edge, which ROS accepts and
-        :func:`~auv_depth_lqr.parameters.checked_values` refuses; ``inf`` where there is no
-        upper bound, the largest int64 for an integer). A float parameter takes an integer
-        too (``dynamic_typing``; ROS checks its range on float values only,
-        :func:`checked_values` on both). A start-only parameter is not ``read_only``: the node
-        refuses a change itself, saying why.
-    """
-    words = [f'in {spec.range.text()}'] if spec.range is not None else []
-    if spec.choices:
-        words.append(f'one of {", ".join(spec.choices)}')
-    if spec.constraint:
-        words.append(spec.constraint)
-    if spec.start_only:
-        words.append('applied at start only')
-    out = ParameterDescriptor(description=spec.description,
-                              additional_constraints='; '.join(words))
-    if isinstance(spec.default, float):
-        out.dynamic_typing = True  # 5 as well as 5.0
-        if ranged and spec.range is not None:
-            out.floating_point_range = [FloatingPointRange(
-                from_value=float(spec.range.lower), to_value=float(spec.range.upper),
-                step=0.0)]
-    elif isinstance(spec.default, bool):
-        out.type = ParameterType.PARAMETER_BOOL
-    elif isinstance(spec.default, str):
-        out.type = ParameterType.PARAMETER_STRING
-    else:
-        out.type = ParameterType.PARAMETER_INTEGER
-        if ranged and spec.range is not None:
-            upper = INT64_MAX if math.isinf(spec.range.upper) else int(spec.range.upper)
-            out.integer_range = [IntegerRange(from_value=int(spec.range.lower),
-                                              to_value=upper, step=1)]
-    return out
 
 
 def apply_realtime_priority(priority: int) -> str | None:

@@ -16,13 +16,20 @@ vehicle's envelope, ``bar_max`` within the vehicle's plane) are said in
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Mapping
 from types import MappingProxyType
 from typing import Any
 
 from auv_contract import config_path
+from auv_contract.parameters import (
+    INT64_MAX,
+    NON_NEGATIVE,
+    POSITIVE,
+    SHARE,
+    ParameterSpec,
+    Range,
+)
 from auv_depth_lqr.errors import DesignError
 from auv_depth_lqr.pilot import DepthPilot, PilotSettings
 from auv_depth_lqr.recovery import RecoverySettings
@@ -36,89 +43,6 @@ __all__ = ['COMMAND_MODES', 'INT64_MAX', 'PARAMETERS', 'RELIABILITIES', 'START_O
 COMMAND_MODES = ('refuse', 'clamp')
 STATE_SOURCES = ('vehicle_state', 'odometry')
 RELIABILITIES = ('reliable', 'best_effort')
-INT64_MAX = 2**63 - 1  # largest value of an integer ROS parameter (its range's 'inf')
-
-
-@dataclasses.dataclass(frozen=True)
-class Range:
-    """An interval of allowed values, in the parameter's unit.
-
-    Parameters
-    ----------
-    lower, upper : float
-        Bounds; ``math.inf`` for none above.
-    lower_open, upper_open : bool
-        True when the bound itself is excluded (``(0, 1]``: lower open, upper closed).
-    """
-
-    lower: float
-    upper: float = math.inf
-    lower_open: bool = False
-    upper_open: bool = False
-
-    def __contains__(self, value: float) -> bool:
-        above = value > self.lower if self.lower_open else value >= self.lower
-        below = value < self.upper if self.upper_open else value <= self.upper
-        return above and below
-
-    def text(self) -> str:
-        """The interval in mathematical notation, e.g. ``(0, 1]`` or ``[0, inf)``.
-
-        Returns
-        -------
-        str
-            Bounds printed with ``%g``; an infinite bound always open.
-        """
-        left = '(' if self.lower_open else '['
-        right = ')' if self.upper_open or math.isinf(self.upper) else ']'
-        return f'{left}{self.lower:g}, {self.upper:g}{right}'
-
-
-POSITIVE = Range(0.0, lower_open=True)
-NON_NEGATIVE = Range(0.0)
-SHARE = Range(0.0, 1.0, lower_open=True)
-
-
-@dataclasses.dataclass(frozen=True)
-class ParameterSpec:
-    """One parameter of the depth-pilot node.
-
-    Parameters
-    ----------
-    name : str
-        The ROS parameter name.
-    default : float | int | str | bool
-        Its value when not given; its type is the parameter's (a float parameter also takes an
-        integer, see :func:`checked_values`).
-    description : str
-        One line with its unit in brackets and its frame where it has one.
-    unit : str
-        The unit written in ``description`` (``'Hz'``, ``'rad'``, ...); ``''`` when the
-        parameter is unitless (a name, a flag, a count, a share).
-    range : Range | None
-        Allowed numeric values; None when there is no static range.
-    nan : bool
-        A float parameter whose NaN means "derived" (see its description).
-    choices : tuple of str
-        Allowed values of a text parameter; empty when any text goes.
-    start_only : bool
-        Applied at start only; a change while running is refused.
-    setting : str
-        The pure-core setting it feeds when named otherwise (``'pilot setting rate_hz'``).
-    constraint : str
-        Further limits in plain words (ROS ``additional_constraints``), '' if none.
-    """
-
-    name: str
-    default: float | int | str | bool
-    description: str
-    unit: str = ''
-    range: Range | None = None
-    nan: bool = False
-    choices: tuple[str, ...] = ()
-    start_only: bool = False
-    setting: str = ''
-    constraint: str = ''
 
 
 def default_vehicle_file() -> str:
