@@ -30,7 +30,7 @@ import pathlib
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from auv_contract import YamlError, config_path, read_yaml
+from auv_contract import config_path, read_yaml_file
 from auv_gap.catalogue import CATALOGUE, Parameter, crossflow_unit
 from auv_gap.errors import GapError
 from auv_sim.environment import EFFECT_FIELDS
@@ -173,13 +173,7 @@ def load_ranges(path: str | pathlib.Path) -> Ranges:
         a missing or invalid file, one line.
     """
     p = pathlib.Path(path)
-    try:
-        doc = read_yaml(p)
-    except OSError as exc:
-        raise GapError(f'cannot read ranges file {p}: {exc.strerror}') from None
-    except YamlError as exc:
-        raise GapError(str(exc)) from None
-    return parse_ranges(doc, str(p))
+    return parse_ranges(read_yaml_file(p, 'ranges file', GapError), str(p))
 
 
 @functools.lru_cache(maxsize=1)

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from auv_contract import YamlError, read_yaml
+from auv_contract import read_yaml_file
 from auv_sim.errors import ParameterError
 from auv_sim.hull import strip_stations
 from auv_sim.model import (
@@ -328,10 +328,4 @@ def load_environment(path: str | pathlib.Path | None) -> Environment:
     if path is None:
         return Environment()
     path = pathlib.Path(path)
-    try:
-        doc = read_yaml(path)
-    except OSError as exc:
-        raise ParameterError(f'cannot read effects file {path}: {exc.strerror}') from None
-    except YamlError as exc:
-        raise ParameterError(str(exc)) from None
-    return parse_environment(doc, str(path))
+    return parse_environment(read_yaml_file(path, 'effects file', ParameterError), str(path))
