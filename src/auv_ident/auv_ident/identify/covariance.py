@@ -49,8 +49,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from auv_ident.identify.records import ForceRecord
 from auv_ident.identify.regression import LinearSystem, column_scale
-from auv_ident.identify.regressors import hydro_gradient
+from auv_ident.identify.regressors import gradient_differences, hydro_gradient
 from auv_sim.params import VehicleParams
 
 ERROR_METHODS = ('hac', 'jackknife', 'ess', 'iid')
@@ -174,24 +175,40 @@ def sensor_noise_meat(system: LinearSystem, design: np.ndarray, resid: np.ndarra
         G = nm.other_jacobian[:, axis, :].copy()
         coef = dict(zip(system.names, theta))
         coef.update(system.fixed)
-        G[:, 6:12] += hydro_gradient(system.equation, rec.nu, coef, base)
-        var_t = np.zeros(N)
-        for c in range(12):
-            sig = float(nm.sigma[c])
-            if sig <= 0.0:
-                continue
-            m_ac = float(nm.mass[axis, c - 6]) if c >= 6 else 0.0
-            w = m_ac * hd - G[:, c:c + 1] * kd
-            S += sig ** 2 * (w.T @ w)
-            # residual variance the noise predicts at each sample
-            v = (np.convolve(G[:, c] ** 2, kappa ** 2, mode='same')
-                 - 2.0 * m_ac * np.convolve(G[:, c], h * kappa, mode='same')
-                 + m_ac ** 2 * float(h @ h))
-            var_t += sig ** 2 * v
+        G[:, 6:12] += hydro_gradient(system.equation, rec.nu, coef, base,
+                                     _gradient_differences(system, i, rec, base))
+        # the channels summed in closed form: with s_c = sigma_c^2 (0 for a channel without
+        # noise), sum_c s_c w_c' w_c = a hd'hd - hd' g1 kd - kd' g1 hd + kd' g2 kd and the
+        # predicted variance conv(g2, kappa^2) - 2 conv(g1, h kappa) + a h'h, with
+        # a = sum_c s_c M_ac^2, g1 = sum_c s_c M_ac G_c, g2 = sum_c s_c G_c^2
+        s2 = np.where(nm.sigma[:12] <= 0.0, 0.0, nm.sigma[:12]) ** 2
+        m_a = np.concatenate([np.zeros(6), nm.mass[axis, :6]])
+        a = float(np.sum(s2 * m_a ** 2))
+        g1 = G @ (s2 * m_a)
+        g2 = (G * G) @ s2
+        cross = hd.T @ (g1[:, None] * kd)
+        S += a * (hd.T @ hd) - cross - cross.T + kd.T @ (g2[:, None] * kd)
+        # residual variance the noise predicts at each sample
+        var_t = (np.convolve(g2, kappa ** 2, mode='same')
+                 - 2.0 * np.convolve(g1, h * kappa, mode='same') + a * float(h @ h))
         predicted += float(np.sum(var_t[rows]))
     observed = float(resid @ resid)
     ratio = observed / predicted if predicted > 0 else math.inf
     return S, ratio
+
+
+def _gradient_differences(system: LinearSystem, i: int, rec: ForceRecord,
+                          base: VehicleParams) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`gradient_differences` of record ``i`` of ``system`` for ``base``, kept in the
+    system's cache when it has one (they do not depend on the coefficients)."""
+    key, key_h = (i, f'{system.equation.name} gradient'), (i, f'{system.equation.name} steps')
+    cache = system.cache
+    if cache is not None and key in cache and key_h in cache:
+        return cache[key], cache[key_h]
+    out = gradient_differences(system.equation, rec.nu, base)
+    if cache is not None:
+        cache[key], cache[key_h] = out
+    return out
 
 
 def _block_jackknife(design: np.ndarray, regressors: np.ndarray, b: np.ndarray,
@@ -231,8 +248,8 @@ def _smoothed_design(system: LinearSystem, design: np.ndarray) -> np.ndarray | N
         mask[rows] = 1.0
         d = np.zeros((N, design.shape[1]))
         d[rows] = design[sel]
+        norm = np.convolve(mask, rec.kernel, mode='same')
         for _ in range(DESIGN_SMOOTHING_PASSES):
-            norm = np.convolve(mask, rec.kernel, mode='same')
             d = np.column_stack([np.convolve(d[:, j], rec.kernel, mode='same')
                                  for j in range(d.shape[1])])
             d[rows] /= norm[rows, None]

@@ -53,6 +53,10 @@ class LinearSystem:
     #: the names the identifiability checks apply to (the others, such as the quadratic
     #: cross-flow terms, are held by their priors where the data say little)
     core: tuple[str, ...] = ()
+    #: what :func:`build_system` was given to keep between calls on the same records (the
+    #: filtered columns; the covariance keeps the noise propagation's differences there)
+    cache: dict[tuple[int, str], np.ndarray] | None = dataclasses.field(
+        default=None, repr=False, compare=False)
 
     def sum_of_squares(self, theta: np.ndarray) -> float:
         """The report's objective ``J(theta) = sum (b - A theta)^2`` [N^2 or (N m)^2]."""
@@ -160,7 +164,7 @@ def build_system(records: Sequence[ForceRecord], equation: Equation, base: Vehic
         t=np.concatenate(parts_t), record_index=np.concatenate(parts_i),
         record_names=tuple(r.name for r in records), excitation=np.concatenate(parts_x),
         instrumented=bool(parts_z), rows=np.concatenate(parts_r), records=tuple(records),
-        core=tuple(n for n in names if n not in free))
+        core=tuple(n for n in names if n not in free), cache=cache)
 
 
 def _term_columns(i: int, rec: ForceRecord, equation: Equation, base: VehicleParams,
