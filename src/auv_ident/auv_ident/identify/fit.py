@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from auv_ident.blas import one_blas_thread
 from auv_ident.errors import IdentificationError, NotIdentifiableError
 from auv_ident.identify.covariance import (
     ERROR_METHODS,
@@ -233,6 +234,7 @@ def exciting_records(system: LinearSystem) -> dict[str, tuple[str, ...]]:
     return out
 
 
+@one_blas_thread
 def identify(records: Sequence[ForceRecord], base: VehicleParams, *,
              equations: Sequence[str] | None = None, fit_offsets: bool = False,
              bounds: Mapping[str, tuple[float, float]] | None = None,
