@@ -142,7 +142,9 @@ def _flat_top_meat(g: np.ndarray, m: int) -> np.ndarray:
 
 
 def sensor_noise_meat(system: LinearSystem, design: np.ndarray, resid: np.ndarray,
-                      theta: np.ndarray, base: VehicleParams) -> tuple[np.ndarray, float] | None:
+                      theta: np.ndarray, base: VehicleParams,
+                      full: Sequence[np.ndarray | None] | None = None
+                      ) -> tuple[np.ndarray, float] | None:
     """``S = Var(D'e)`` propagated from the white sensor noise (see :class:`NoisePropagation`)
     and the ratio of the observed to the predicted residual variance; None when a record
     has no noise model.
@@ -151,7 +153,8 @@ def sensor_noise_meat(system: LinearSystem, design: np.ndarray, resid: np.ndarra
     ``e = M_ac (h * n_c) - kappa * (G_c n_c)``, ``G_c`` the sensitivity of the other wrenches
     plus the fitted hydrodynamic model; so ``D'e = sum_c sum_j n_c,j w_c,j`` with
     ``w_c = M_ac (h~ * d) - G_c (kappa * d)`` (``h~`` reversed, ``d`` the design rows, zero
-    where unused) and ``S = sum_c sigma_c^2 w_c' w_c``.
+    where unused) and ``S = sum_c sigma_c^2 w_c' w_c``. ``full``: per record, ``d`` when
+    already at hand (the design's rows in place among the record's samples, zero elsewhere).
     """
     p = design.shape[1]
     S = np.zeros((p, p))
@@ -166,8 +169,12 @@ def sensor_noise_meat(system: LinearSystem, design: np.ndarray, resid: np.ndarra
             return None
         N = len(rec.t)
         rows = system.rows[sel]
-        d = np.zeros((N, p))
-        d[rows] = design[sel]
+        given = None if full is None else full[i]
+        if given is None:
+            d = np.zeros((N, p))
+            d[rows] = design[sel]
+        else:
+            d = given
         kappa = rec.kernel
         h = nm.derivative_kernel
         kd = np.column_stack([np.convolve(d[:, j], kappa, mode='same') for j in range(p)])
@@ -231,31 +238,37 @@ def _block_jackknife(design: np.ndarray, regressors: np.ndarray, b: np.ndarray,
     return (blocks - 1.0) / blocks * (dev.T @ dev), blocks
 
 
-def _smoothed_design(system: LinearSystem, design: np.ndarray) -> np.ndarray | None:
+def _smoothed_design(system: LinearSystem, design: np.ndarray
+                     ) -> tuple[np.ndarray, list[np.ndarray | None]] | None:
     """The design with its noise filtered out, for the first-order (delta-method) covariance,
     which holds at the noise-free design: each record's rows low-passed by its kernel
-    (normalised at the ends of the used rows); None if a record has no kernel."""
+    (normalised at the ends of the used rows); None if a record has no kernel. Returned with
+    each record's smoothed rows in place among its samples (N, p), zero where unused (None for
+    a record without rows)."""
     out = np.empty_like(design)
+    full: list[np.ndarray | None] = []
     for i, rec in enumerate(system.records):
         sel = system.record_index == i
         if not np.any(sel):
+            full.append(None)
             continue
         if rec.kernel is None or system.rows is None:
             return None
         rows = system.rows[sel]
         N = len(rec.t)
-        mask = np.zeros(N)
-        mask[rows] = 1.0
+        used = np.zeros(N, bool)
+        used[rows] = True
         d = np.zeros((N, design.shape[1]))
         d[rows] = design[sel]
-        norm = np.convolve(mask, rec.kernel, mode='same')
+        norm = np.convolve(used.astype(float), rec.kernel, mode='same')
+        divisor = np.where(used, norm, 1.0)[:, None]
         for _ in range(DESIGN_SMOOTHING_PASSES):
             d = np.column_stack([np.convolve(d[:, j], rec.kernel, mode='same')
                                  for j in range(d.shape[1])])
-            d[rows] /= norm[rows, None]
-            d[mask == 0] = 0.0
+            d = np.where(used[:, None], d / divisor, 0.0)
         out[sel] = d[rows]
-    return out if system.records else None
+        full.append(d)
+    return (out, full) if system.records else None
 
 
 def _hac_covariance(system: LinearSystem, As: np.ndarray, resid: np.ndarray,
@@ -271,9 +284,10 @@ def _hac_covariance(system: LinearSystem, As: np.ndarray, resid: np.ndarray,
     predicted residual variance.
     """
     n, p = As.shape
-    smooth = _smoothed_design(system, As)
-    propagated = None if smooth is None else sensor_noise_meat(system, smooth, resid, theta,
-                                                                base)
+    smoothed = _smoothed_design(system, As)
+    smooth = None if smoothed is None else smoothed[0]
+    propagated = None if smoothed is None else sensor_noise_meat(
+        system, smoothed[0], resid, theta, base, smoothed[1])
     ratio = math.nan
     if propagated is not None and smooth is not None:
         meat, ratio = propagated

@@ -223,11 +223,12 @@ def reduce_system(system: LinearSystem, fixed: Mapping[str, float]) -> LinearSys
 def exciting_records(system: LinearSystem) -> dict[str, tuple[str, ...]]:
     """For each coefficient, the records whose own data pass its excitation test."""
     out: dict[str, tuple[str, ...]] = {}
+    rows = [system.record_index == i for i in range(len(system.record_names))]
     for name in system.names:
         exc = EXCITATION[name]
         names = []
         for i, rname in enumerate(system.record_names):
-            x = system.excitation[system.record_index == i, exc.variable]
+            x = system.excitation[rows[i], exc.variable]
             if len(x) and excitation_amplitude(name, x) >= exc.threshold:
                 names.append(rname)
         out[name] = tuple(dict.fromkeys(names))
@@ -504,6 +505,7 @@ def held_out_error(system: LinearSystem, base: VehicleParams,
     return out
 
 
+@one_blas_thread
 def compare_nelder_mead(records: Sequence[ForceRecord], result: Identification,
                         x0: Mapping[str, float] | None = None) -> dict[str, dict[str, Any]]:
     """Run the report's bounded Nelder-Mead on the same data as ``result`` and compare it with
