@@ -50,7 +50,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from auv_ident.identify.records import ForceRecord
-from auv_ident.identify.regression import LinearSystem, column_scale
+from auv_ident.identify.regression import LinearSystem
 from auv_ident.identify.regressors import gradient_differences, hydro_gradient
 from auv_sim.params import VehicleParams
 
@@ -292,7 +292,7 @@ def _hac_covariance(system: LinearSystem, As: np.ndarray, resid: np.ndarray,
     if propagated is not None and smooth is not None:
         meat, ratio = propagated
         if ratio <= NOISE_RATIO_MAX:
-            bread = smooth.T @ (system.regressors / column_scale(system.A))
+            bread = smooth.T @ (system.regressors / system.scale)
             return (bread, meat, 0,
                     f'sensor-noise propagation (residual variance {ratio:.2f} x predicted)',
                     ratio)
@@ -337,7 +337,7 @@ def coefficient_covariance(system: LinearSystem, resid: np.ndarray, theta: np.nd
     ``system.A`` for the coefficients' own)."""
     A, b = system.A, system.b
     n, p = A.shape
-    scale = column_scale(A)
+    scale = system.scale
     As = A / scale
     xtx = As.T @ As
     dof = max(n - p, 1)

@@ -49,7 +49,6 @@ from auv_ident.identify.regression import (
     LinearSystem,
     build_system,
     check_identifiable,
-    column_scale,
     conditioning,
     nelder_mead,
     solve,
@@ -190,7 +189,7 @@ def _posterior(system: LinearSystem, base: VehicleParams, errors: str,
     how precisely the data fix the coefficients; where they push one past its bound, the
     bound holds it and the note and the equation's R^2 say what that means."""
     theta_d, _ = solve(system)
-    scale = column_scale(system.A)
+    scale = system.scale
     names = system.names
     mean = np.array([pri[n].mean for n in names]) * scale
     sd = np.array([pri[n].sd if use_priors else math.inf for n in names]) * scale
@@ -471,7 +470,7 @@ def held_out_error(system: LinearSystem, base: VehicleParams,
     names = system.names
     pri = priors(names, base)
     limits = _limits(names, base, bounds)
-    scale = column_scale(system.A)
+    scale = system.scale
     D = system.A / scale
     R = system.regressors / scale
     theta_all = np.linalg.lstsq(D.T @ R, D.T @ system.b, rcond=None)[0]
