@@ -44,7 +44,7 @@ def run(repeats: int = 3) -> dict[str, Any]:
     from auv_bag import read_arrays
     from auv_contract import COMMAND_TOPICS
     from auv_ident.identify import compare_nelder_mead
-    from auv_ident.motion import needed_topics, records_from_topics
+    from auv_ident.motion import needed_topics, records_from_topics, shared_actuator_tracks
     from auv_ident.workflow import run_identification
     from auv_logs.simlog import SensorNoise, write_record
     from auv_sim.missions import load_mission, run_mission
@@ -73,10 +73,12 @@ def run(repeats: int = 3) -> dict[str, Any]:
             return [read_arrays(b, topics) for b in bags]
 
         def fit(arrays: list[Any], source: str) -> Any:
-            records = []
-            for i, arr in enumerate(arrays):
-                records += records_from_topics(arr, params, source, name=str(i))
-            outcome = run_identification(records, params)
+            # as `auv ident`: the actuators of each log integrated once per identification
+            with shared_actuator_tracks():
+                records = []
+                for i, arr in enumerate(arrays):
+                    records += records_from_topics(arr, params, source, name=str(i))
+                outcome = run_identification(records, params)
             return records, outcome.result, outcome.validation
 
         # warm-up: numba kernels compiled or loaded from cache, imports done

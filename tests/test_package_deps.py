@@ -21,6 +21,7 @@ ROSDEP_KEYS = {
     'distributed': 'python3-distributed', 'foxglove': 'python3-foxglove-sdk-pip',
     'websockets': 'python3-websockets', 'pandas': 'python3-pandas',
     'statsmodels': 'python3-statsmodels', 'psutil': 'python3-psutil',
+    'threadpoolctl': 'python3-threadpoolctl',
 }
 
 

@@ -32,7 +32,7 @@ from numba import njit, prange
 
 from auv_ident.identify import ForceRecord, LoggedRun
 from auv_ident.motion import actuator_track
-from auv_sim.model import ENV_SIZE, NB_EXTRA, NX, rk4_prescribed
+from auv_sim.model import ACTUATOR_PARAMS, ENV_SIZE, NB_EXTRA, NX, rk4_prescribed
 from auv_sim.params import PARAM_NAMES, VehicleParams
 
 #: Longest and shortest window [s] and the e-folding times of an unstable mode it spans.
@@ -198,10 +198,17 @@ class FreeRuns:
     params
         the vehicle whose actuator model rebuilds the actuator positions (its ``dt``
         is the integration step).
+    step
+        the RK4 step [s] (default: :func:`integration_step`).
+    tracks
+        a dict shared by the free runs of the same ``logs``: the rebuilt actuator positions
+        of a record are kept there and reused by the runs of any vehicle with the same
+        actuator model (:data:`auv_sim.model.ACTUATOR_PARAMS`, step and ``dt``).
     """
 
     def __init__(self, logs: Sequence[LoggedRun], windows: Sequence[Window],
-                 params: VehicleParams, step: float | None = None) -> None:
+                 params: VehicleParams, step: float | None = None,
+                 tracks: dict[tuple[float, ...], np.ndarray] | None = None) -> None:
         self.logs = list(logs)
         self.windows = list(windows)
         self.params = params
@@ -220,8 +227,15 @@ class FreeRuns:
         for k in sorted({w.record for w in self.windows}):
             lg = self.logs[k]
             n_fine = 2 * int(math.ceil((float(lg.t[-1]) - float(lg.t[0])) / self.dt)) + 3
-            tg = float(lg.t[0]) + 0.5 * self.dt * np.arange(n_fine)
-            grid = actuator_track(tg, lg.commands, params, lg.measured)
+            key = (float(k), self.dt, float(params.dt),
+                   *(float(params.values[n]) for n in ACTUATOR_PARAMS))
+            if tracks is not None and key in tracks:
+                grid = tracks[key]
+            else:
+                tg = float(lg.t[0]) + 0.5 * self.dt * np.arange(n_fine)
+                grid = actuator_track(tg, lg.commands, params, lg.measured)
+                if tracks is not None:
+                    tracks[key] = grid
             fine_start[k] = (offset, grid)
             acts.append(grid)
             offset += n_fine

@@ -26,7 +26,14 @@ from auv_ident.identify import (
     Identification,
     compare_nelder_mead,
 )
-from auv_ident.motion import SOURCES, WINDOW_S, choose_source, needed_topics, records_from_topics
+from auv_ident.motion import (
+    SOURCES,
+    WINDOW_S,
+    choose_source,
+    needed_topics,
+    records_from_topics,
+    shared_actuator_tracks,
+)
 from auv_ident.report import write_outputs
 from auv_ident.workflow import Outcome, run_identification
 from auv_sim.params import VehicleParams, load_vehicle
@@ -129,7 +136,8 @@ class IdentRun:
 
 
 def run_ident(opts: IdentOptions, progress: Progress | None = None) -> IdentRun:
-    """Read, identify, validate and write (see the module docstring).
+    """Read, identify, validate and write (see the module docstring); the actuator positions
+    of each log are integrated once (:func:`auv_ident.motion.shared_actuator_tracks`).
 
     Raises
     ------
@@ -140,6 +148,12 @@ def run_ident(opts: IdentOptions, progress: Progress | None = None) -> IdentRun:
     OSError
         A file that cannot be read or written.
     """
+    with shared_actuator_tracks():
+        return _run_ident(opts, progress)
+
+
+def _run_ident(opts: IdentOptions, progress: Progress | None) -> IdentRun:
+    """:func:`run_ident`'s steps."""
     say = progress or (lambda _msg: None)
     base = load_vehicle(opts.vehicle)
     limits: dict[str, Any] = {}

@@ -44,9 +44,11 @@ the first logged command when the log starts with no earlier command.
 """
 from __future__ import annotations
 
+import contextlib
+import hashlib
 import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 
 import numpy as np
 from numba import njit
@@ -187,6 +189,26 @@ def _integrate_actuators(x0, ev_step, ev_channel, ev_value,  # type: ignore[no-u
     return out
 
 
+#: The actuator integrations kept by :func:`shared_actuator_tracks` (innermost last).
+_SHARED: list[dict[bytes, np.ndarray]] = []
+#: Seconds a kept integration runs on after the last stamp asked for (the free runs' grid of
+#: a log ends up to two of their steps, 0.1 s at most, after its last sample).
+TRACK_BEYOND_S = 1.0
+
+
+@contextlib.contextmanager
+def shared_actuator_tracks() -> Iterator[None]:
+    """Inside it, :func:`actuator_positions` integrates the actuators of a log once and
+    reuses the run (by the digest of its inputs: initial positions, command events, the
+    vehicle's parameters, the step): one identification rebuilds them at the log's stamps and
+    again on the free runs' grid. Outside it, every call integrates anew."""
+    _SHARED.append({})
+    try:
+        yield
+    finally:
+        _SHARED.pop()
+
+
 def actuator_positions(t: np.ndarray, commands: Mapping[str, tuple[np.ndarray, np.ndarray]],
                        params: VehicleParams) -> np.ndarray:
     """Reconstructed BAR [rad], helm [rad] and thrust [N] at stamps ``t`` [s] (N, 3).
@@ -218,9 +240,22 @@ def actuator_positions(t: np.ndarray, commands: Mapping[str, tuple[np.ndarray, n
         vals.append(np.asarray(values[later], float))
     ev_step = np.concatenate(steps)
     order = np.argsort(ev_step, kind='stable')
-    grid = _integrate_actuators(x0, ev_step[order], np.concatenate(chans)[order],
-                                np.concatenate(vals)[order], x0.copy(), params.as_array(),
-                                dt, nsteps)
+    events = (ev_step[order], np.concatenate(chans)[order], np.concatenate(vals)[order])
+    P = params.as_array()
+    if not _SHARED:
+        grid = _integrate_actuators(x0, *events, x0.copy(), P, dt, nsteps)
+    else:
+        kept = _SHARED[-1]
+        digest = hashlib.blake2b(digest_size=16)
+        for a in (x0, *events, P, np.array([dt])):
+            digest.update(np.ascontiguousarray(a).tobytes())
+        key = digest.digest()
+        if key not in kept or len(kept[key]) < nsteps + 1:
+            # the integration is causal (a longer run's first steps are a shorter one's):
+            # run on for TRACK_BEYOND_S, so that a call that ends a little later reuses it
+            more = nsteps + int(math.ceil(TRACK_BEYOND_S / dt))
+            kept[key] = _integrate_actuators(x0, *events, x0.copy(), P, dt, more)
+        grid = kept[key][:nsteps + 1]
     tg = t0 + dt * np.arange(nsteps + 1)
     return np.column_stack([np.interp(t, tg, grid[:, c]) for c in range(3)])
 

@@ -41,6 +41,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from scipy import optimize, sparse
 
+from auv_ident.blas import one_blas_thread
 from auv_ident.freerun import (
     FreeRuns,
     Window,
@@ -233,13 +234,16 @@ class ShootingProblem:
                                  shape=(n, len(z)))
 
 
+@one_blas_thread
 def refine(logs: Sequence[LoggedRun], windows: Sequence[Window], params: VehicleParams,
            base: VehicleParams, names: Sequence[str], why: str,
            bounds: Mapping[str, tuple[float, float]] | None = None,
-           use_priors: bool = True) -> OutputErrorFit:
+           use_priors: bool = True,
+           tracks: dict[tuple[float, ...], np.ndarray] | None = None) -> OutputErrorFit:
     """Fit the coefficients ``names`` to the free-run prediction of the windows that are not
     held out (module docstring), starting from ``params`` (the equation error's values);
-    ``base`` gives the priors and the signs.
+    ``base`` gives the priors and the signs; ``tracks``: the actuator positions kept between
+    free runs of ``logs`` (:class:`~auv_ident.freerun.FreeRuns`).
 
     Raises
     ------
@@ -263,7 +267,7 @@ def refine(logs: Sequence[LoggedRun], windows: Sequence[Window], params: Vehicle
     outputs = [c for c in OUTPUTS if all(lg.is_measured(CHANNEL_NAMES[c]) for lg in logs)]
     if 2 not in outputs and 4 not in outputs:
         raise ValueError('output error needs the depth or the pitch measured')
-    runs = FreeRuns(logs, fit_windows, params)
+    runs = FreeRuns(logs, fit_windows, params, tracks=tracks)
     pri = priors(list(names), base)
     limits = {n: (constraint(n, base).lo, constraint(n, base).hi) for n in names}
     for n, (b_lo, b_hi) in (bounds or {}).items():

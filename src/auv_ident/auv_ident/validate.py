@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 from scipy import optimize
 
+from auv_ident.blas import one_blas_thread
 from auv_ident.freerun import FreeRuns, Window, parameter_vector
 from auv_ident.identify.records import LoggedRun
 from auv_ident.output_error import (
@@ -92,17 +93,19 @@ def not_validated(why: str) -> Validation:
                       windows=0, seconds=0.0, initial_state='', message=why)
 
 
-def _initial_states(runs: FreeRuns, params: VehicleParams, logs: Sequence[LoggedRun]
+def _initial_states(runs: FreeRuns, params: VehicleParams, logs: Sequence[LoggedRun],
+                    tracks: dict[tuple[float, ...], np.ndarray] | None = None
                     ) -> tuple[np.ndarray, list[int], str]:
     """Initial states (nw, 15) of ``params`` for the windows of ``runs``, the first scored
-    sample of each window, and how they were set (module docstring)."""
+    sample of each window, and how they were set (module docstring); ``tracks``: the
+    actuator positions kept between free runs of ``logs`` (:class:`FreeRuns`)."""
     X0 = runs.initial_states()
     derived = [c for c in ('z', 'theta', 'u', 'w', 'q')
                if not all(lg.is_measured(c) for lg in logs)]
     leads = [max(LEAD_MIN, int(LEAD_SHARE * (w.i1 - w.i0))) for w in runs.windows]
     lead_windows = [dataclasses.replace(w, i1=min(w.i1, w.i0 + n))
                     for w, n in zip(runs.windows, leads)]
-    lead_runs = FreeRuns(logs, lead_windows, params)
+    lead_runs = FreeRuns(logs, lead_windows, params, tracks=tracks)
     outputs = [c for c in OUTPUTS if all(lg.is_measured(CHANNEL_NAMES[c]) for lg in logs)]
     prob = ShootingProblem(lead_runs, params, (), outputs,
                            {c: channel_sigma(logs, c) for c in outputs}, np.zeros(0),
@@ -119,10 +122,13 @@ def _initial_states(runs: FreeRuns, params: VehicleParams, logs: Sequence[Logged
                        f'each window{why}, scored after')
 
 
+@one_blas_thread
 def validate(logs: Sequence[LoggedRun], windows: Sequence[Window], base: VehicleParams,
-             identified: VehicleParams, lateral: bool = False) -> Validation:
+             identified: VehicleParams, lateral: bool = False,
+             tracks: dict[tuple[float, ...], np.ndarray] | None = None) -> Validation:
     """Compare ``identified`` with ``base`` on the held-out ``windows`` (module docstring);
-    ``lateral``: sway and yaw were identified, so the heading is scored too."""
+    ``lateral``: sway and yaw were identified, so the heading is scored too; ``tracks``: the
+    actuator positions kept between free runs of ``logs`` (:class:`FreeRuns`)."""
     held = [w for w in windows if w.held_out]
     if not held:
         return not_validated('the log is too short to hold a window out')
@@ -131,9 +137,10 @@ def validate(logs: Sequence[LoggedRun], windows: Sequence[Window], base: Vehicle
     errs: dict[str, dict[str, list[np.ndarray]]] = {}
     diverged: dict[str, int] = {}
     how = ''
+    tracks = {} if tracks is None else tracks
     for label, params in (('base', base), ('identified', identified)):
-        runs = FreeRuns(logs, held, params)
-        X0, first, how = _initial_states(runs, params, logs)
+        runs = FreeRuns(logs, held, params, tracks=tracks)
+        X0, first, how = _initial_states(runs, params, logs, tracks)
         pred = runs.run(parameter_vector(params)[None], X0[None])
         errs[label] = {c: [] for c in SCORED}
         diverged[label] = 0

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from auv_ident.blas import one_blas_thread
 from auv_ident.errors import NotIdentifiableError
 from auv_ident.freerun import Window, split_windows, use_masks, window_length
 from auv_ident.identify import (
@@ -83,6 +84,7 @@ class Outcome:
         }
 
 
+@one_blas_thread
 def run_identification(records: Sequence[ForceRecord], base: VehicleParams, *,
                        equations: Sequence[str] | None = None, fit_offsets: bool = False,
                        fit_planes: bool = False,
@@ -104,6 +106,7 @@ def run_identification(records: Sequence[ForceRecord], base: VehicleParams, *,
         length, why_len = window_length(base, plain)
         windows = split_windows(plain, length, hold=hold_out)
     use = use_masks(records, windows) if windows else None
+    tracks: dict[tuple[float, ...], np.ndarray] = {}    # actuator positions of the free runs
     result = identify(records, base, equations=equations, fit_offsets=fit_offsets,
                       bounds=bounds, errors=errors, partial=partial, fit_planes=fit_planes,
                       use_priors=use_priors, use=use, structures=structures)
@@ -122,7 +125,7 @@ def run_identification(records: Sequence[ForceRecord], base: VehicleParams, *,
             say(f'output error on {", ".join(names)}: {poor}')
             try:
                 oe_fit = refine(plain, windows, result.params, base, names, poor, bounds,
-                                use_priors)
+                                use_priors, tracks)
             except OutputErrorImpossible as exc:
                 derivatives = (f'equation error: the derivatives are poor ({poor}), but {exc}; '
                                'heave and pitch not refined (equation error\'s values stand '
@@ -142,7 +145,7 @@ def run_identification(records: Sequence[ForceRecord], base: VehicleParams, *,
     else:
         lateral = any(e in result.fits and result.fits[e].identified for e in ('sway', 'yaw'))
         val = validate([lg for lg in logs if lg is not None], windows, base, result.params,
-                       lateral)
+                       lateral, tracks)
     say(val.message)
     return Outcome(result=result, validation=val, output_error=oe_fit, windows=windows,
                    window_s=length, window_why=why_len, derivatives=derivatives)

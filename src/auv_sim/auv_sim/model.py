@@ -50,6 +50,10 @@ I_BARMAX, I_BARRATE, I_BARTAU = _I['bar_max'], _I['bar_rate'], _I['bar_tau']
 I_HELMMAX, I_HELMRATE, I_HELMTAU = _I['helm_max'], _I['helm_rate'], _I['helm_tau']
 I_TMAX, I_TMIN, I_TTAU = _I['thrust_max'], _I['thrust_min'], _I['thrust_tau']
 I_MINV = len(PARAM_NAMES)
+#: The parameters the actuator model (:func:`actuator_rates`) reads: two vehicles equal in
+#: these move their actuators alike under the same commands.
+ACTUATOR_PARAMS = ('bar_max', 'bar_rate', 'bar_tau', 'helm_max', 'helm_rate', 'helm_tau',
+                   'thrust_max', 'thrust_min', 'thrust_tau')
 
 # Environment vector layout (see auv_sim.environment).
 E_VC = 0            # 0..2 constant current, NED [m/s]

@@ -49,8 +49,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from auv_ident.identify.regression import LinearSystem, column_scale
-from auv_ident.identify.regressors import hydro_gradient
+from auv_ident.identify.records import ForceRecord
+from auv_ident.identify.regression import LinearSystem
+from auv_ident.identify.regressors import gradient_differences, hydro_gradient
 from auv_sim.params import VehicleParams
 
 ERROR_METHODS = ('hac', 'jackknife', 'ess', 'iid')
@@ -141,7 +142,9 @@ def _flat_top_meat(g: np.ndarray, m: int) -> np.ndarray:
 
 
 def sensor_noise_meat(system: LinearSystem, design: np.ndarray, resid: np.ndarray,
-                      theta: np.ndarray, base: VehicleParams) -> tuple[np.ndarray, float] | None:
+                      theta: np.ndarray, base: VehicleParams,
+                      full: Sequence[np.ndarray | None] | None = None
+                      ) -> tuple[np.ndarray, float] | None:
     """``S = Var(D'e)`` propagated from the white sensor noise (see :class:`NoisePropagation`)
     and the ratio of the observed to the predicted residual variance; None when a record
     has no noise model.
@@ -150,7 +153,8 @@ def sensor_noise_meat(system: LinearSystem, design: np.ndarray, resid: np.ndarra
     ``e = M_ac (h * n_c) - kappa * (G_c n_c)``, ``G_c`` the sensitivity of the other wrenches
     plus the fitted hydrodynamic model; so ``D'e = sum_c sum_j n_c,j w_c,j`` with
     ``w_c = M_ac (h~ * d) - G_c (kappa * d)`` (``h~`` reversed, ``d`` the design rows, zero
-    where unused) and ``S = sum_c sigma_c^2 w_c' w_c``.
+    where unused) and ``S = sum_c sigma_c^2 w_c' w_c``. ``full``: per record, ``d`` when
+    already at hand (the design's rows in place among the record's samples, zero elsewhere).
     """
     p = design.shape[1]
     S = np.zeros((p, p))
@@ -165,8 +169,12 @@ def sensor_noise_meat(system: LinearSystem, design: np.ndarray, resid: np.ndarra
             return None
         N = len(rec.t)
         rows = system.rows[sel]
-        d = np.zeros((N, p))
-        d[rows] = design[sel]
+        given = None if full is None else full[i]
+        if given is None:
+            d = np.zeros((N, p))
+            d[rows] = design[sel]
+        else:
+            d = given
         kappa = rec.kernel
         h = nm.derivative_kernel
         kd = np.column_stack([np.convolve(d[:, j], kappa, mode='same') for j in range(p)])
@@ -174,24 +182,40 @@ def sensor_noise_meat(system: LinearSystem, design: np.ndarray, resid: np.ndarra
         G = nm.other_jacobian[:, axis, :].copy()
         coef = dict(zip(system.names, theta))
         coef.update(system.fixed)
-        G[:, 6:12] += hydro_gradient(system.equation, rec.nu, coef, base)
-        var_t = np.zeros(N)
-        for c in range(12):
-            sig = float(nm.sigma[c])
-            if sig <= 0.0:
-                continue
-            m_ac = float(nm.mass[axis, c - 6]) if c >= 6 else 0.0
-            w = m_ac * hd - G[:, c:c + 1] * kd
-            S += sig ** 2 * (w.T @ w)
-            # residual variance the noise predicts at each sample
-            v = (np.convolve(G[:, c] ** 2, kappa ** 2, mode='same')
-                 - 2.0 * m_ac * np.convolve(G[:, c], h * kappa, mode='same')
-                 + m_ac ** 2 * float(h @ h))
-            var_t += sig ** 2 * v
+        G[:, 6:12] += hydro_gradient(system.equation, rec.nu, coef, base,
+                                     _gradient_differences(system, i, rec, base))
+        # the channels summed in closed form: with s_c = sigma_c^2 (0 for a channel without
+        # noise), sum_c s_c w_c' w_c = a hd'hd - hd' g1 kd - kd' g1 hd + kd' g2 kd and the
+        # predicted variance conv(g2, kappa^2) - 2 conv(g1, h kappa) + a h'h, with
+        # a = sum_c s_c M_ac^2, g1 = sum_c s_c M_ac G_c, g2 = sum_c s_c G_c^2
+        s2 = np.where(nm.sigma[:12] <= 0.0, 0.0, nm.sigma[:12]) ** 2
+        m_a = np.concatenate([np.zeros(6), nm.mass[axis, :6]])
+        a = float(np.sum(s2 * m_a ** 2))
+        g1 = G @ (s2 * m_a)
+        g2 = (G * G) @ s2
+        cross = hd.T @ (g1[:, None] * kd)
+        S += a * (hd.T @ hd) - cross - cross.T + kd.T @ (g2[:, None] * kd)
+        # residual variance the noise predicts at each sample
+        var_t = (np.convolve(g2, kappa ** 2, mode='same')
+                 - 2.0 * np.convolve(g1, h * kappa, mode='same') + a * float(h @ h))
         predicted += float(np.sum(var_t[rows]))
     observed = float(resid @ resid)
     ratio = observed / predicted if predicted > 0 else math.inf
     return S, ratio
+
+
+def _gradient_differences(system: LinearSystem, i: int, rec: ForceRecord,
+                          base: VehicleParams) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`gradient_differences` of record ``i`` of ``system`` for ``base``, kept in the
+    system's cache when it has one (they do not depend on the coefficients)."""
+    key, key_h = (i, f'{system.equation.name} gradient'), (i, f'{system.equation.name} steps')
+    cache = system.cache
+    if cache is not None and key in cache and key_h in cache:
+        return cache[key], cache[key_h]
+    out = gradient_differences(system.equation, rec.nu, base)
+    if cache is not None:
+        cache[key], cache[key_h] = out
+    return out
 
 
 def _block_jackknife(design: np.ndarray, regressors: np.ndarray, b: np.ndarray,
@@ -214,31 +238,37 @@ def _block_jackknife(design: np.ndarray, regressors: np.ndarray, b: np.ndarray,
     return (blocks - 1.0) / blocks * (dev.T @ dev), blocks
 
 
-def _smoothed_design(system: LinearSystem, design: np.ndarray) -> np.ndarray | None:
+def _smoothed_design(system: LinearSystem, design: np.ndarray
+                     ) -> tuple[np.ndarray, list[np.ndarray | None]] | None:
     """The design with its noise filtered out, for the first-order (delta-method) covariance,
     which holds at the noise-free design: each record's rows low-passed by its kernel
-    (normalised at the ends of the used rows); None if a record has no kernel."""
+    (normalised at the ends of the used rows); None if a record has no kernel. Returned with
+    each record's smoothed rows in place among its samples (N, p), zero where unused (None for
+    a record without rows)."""
     out = np.empty_like(design)
+    full: list[np.ndarray | None] = []
     for i, rec in enumerate(system.records):
         sel = system.record_index == i
         if not np.any(sel):
+            full.append(None)
             continue
         if rec.kernel is None or system.rows is None:
             return None
         rows = system.rows[sel]
         N = len(rec.t)
-        mask = np.zeros(N)
-        mask[rows] = 1.0
+        used = np.zeros(N, bool)
+        used[rows] = True
         d = np.zeros((N, design.shape[1]))
         d[rows] = design[sel]
+        norm = np.convolve(used.astype(float), rec.kernel, mode='same')
+        divisor = np.where(used, norm, 1.0)[:, None]
         for _ in range(DESIGN_SMOOTHING_PASSES):
-            norm = np.convolve(mask, rec.kernel, mode='same')
             d = np.column_stack([np.convolve(d[:, j], rec.kernel, mode='same')
                                  for j in range(d.shape[1])])
-            d[rows] /= norm[rows, None]
-            d[mask == 0] = 0.0
+            d = np.where(used[:, None], d / divisor, 0.0)
         out[sel] = d[rows]
-    return out if system.records else None
+        full.append(d)
+    return (out, full) if system.records else None
 
 
 def _hac_covariance(system: LinearSystem, As: np.ndarray, resid: np.ndarray,
@@ -254,14 +284,15 @@ def _hac_covariance(system: LinearSystem, As: np.ndarray, resid: np.ndarray,
     predicted residual variance.
     """
     n, p = As.shape
-    smooth = _smoothed_design(system, As)
-    propagated = None if smooth is None else sensor_noise_meat(system, smooth, resid, theta,
-                                                                base)
+    smoothed = _smoothed_design(system, As)
+    smooth = None if smoothed is None else smoothed[0]
+    propagated = None if smoothed is None else sensor_noise_meat(
+        system, smoothed[0], resid, theta, base, smoothed[1])
     ratio = math.nan
     if propagated is not None and smooth is not None:
         meat, ratio = propagated
         if ratio <= NOISE_RATIO_MAX:
-            bread = smooth.T @ (system.regressors / column_scale(system.A))
+            bread = smooth.T @ (system.regressors / system.scale)
             return (bread, meat, 0,
                     f'sensor-noise propagation (residual variance {ratio:.2f} x predicted)',
                     ratio)
@@ -306,7 +337,7 @@ def coefficient_covariance(system: LinearSystem, resid: np.ndarray, theta: np.nd
     ``system.A`` for the coefficients' own)."""
     A, b = system.A, system.b
     n, p = A.shape
-    scale = column_scale(A)
+    scale = system.scale
     As = A / scale
     xtx = As.T @ As
     dof = max(n - p, 1)

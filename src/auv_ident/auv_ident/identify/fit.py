@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from auv_ident.blas import one_blas_thread
 from auv_ident.errors import IdentificationError, NotIdentifiableError
 from auv_ident.identify.covariance import (
     ERROR_METHODS,
@@ -48,7 +49,6 @@ from auv_ident.identify.regression import (
     LinearSystem,
     build_system,
     check_identifiable,
-    column_scale,
     conditioning,
     nelder_mead,
     solve,
@@ -189,7 +189,7 @@ def _posterior(system: LinearSystem, base: VehicleParams, errors: str,
     how precisely the data fix the coefficients; where they push one past its bound, the
     bound holds it and the note and the equation's R^2 say what that means."""
     theta_d, _ = solve(system)
-    scale = column_scale(system.A)
+    scale = system.scale
     names = system.names
     mean = np.array([pri[n].mean for n in names]) * scale
     sd = np.array([pri[n].sd if use_priors else math.inf for n in names]) * scale
@@ -222,17 +222,19 @@ def reduce_system(system: LinearSystem, fixed: Mapping[str, float]) -> LinearSys
 def exciting_records(system: LinearSystem) -> dict[str, tuple[str, ...]]:
     """For each coefficient, the records whose own data pass its excitation test."""
     out: dict[str, tuple[str, ...]] = {}
+    rows = [system.record_index == i for i in range(len(system.record_names))]
     for name in system.names:
         exc = EXCITATION[name]
         names = []
         for i, rname in enumerate(system.record_names):
-            x = system.excitation[system.record_index == i, exc.variable]
+            x = system.excitation[rows[i], exc.variable]
             if len(x) and excitation_amplitude(name, x) >= exc.threshold:
                 names.append(rname)
         out[name] = tuple(dict.fromkeys(names))
     return out
 
 
+@one_blas_thread
 def identify(records: Sequence[ForceRecord], base: VehicleParams, *,
              equations: Sequence[str] | None = None, fit_offsets: bool = False,
              bounds: Mapping[str, tuple[float, float]] | None = None,
@@ -468,7 +470,7 @@ def held_out_error(system: LinearSystem, base: VehicleParams,
     names = system.names
     pri = priors(names, base)
     limits = _limits(names, base, bounds)
-    scale = column_scale(system.A)
+    scale = system.scale
     D = system.A / scale
     R = system.regressors / scale
     theta_all = np.linalg.lstsq(D.T @ R, D.T @ system.b, rcond=None)[0]
@@ -502,6 +504,7 @@ def held_out_error(system: LinearSystem, base: VehicleParams,
     return out
 
 
+@one_blas_thread
 def compare_nelder_mead(records: Sequence[ForceRecord], result: Identification,
                         x0: Mapping[str, float] | None = None) -> dict[str, dict[str, Any]]:
     """Run the report's bounded Nelder-Mead on the same data as ``result`` and compare it with

@@ -28,6 +28,7 @@ a coefficient the data do not inform stays at its prior, and the report says so.
 """
 from __future__ import annotations
 
+import functools
 import math
 import re
 from typing import NamedTuple
@@ -82,7 +83,7 @@ def source_kind(source: str) -> tuple[str, float | None]:
 def physical_scale(name: str, base: VehicleParams) -> float:
     """The floor of a coefficient's prior standard deviation (module docstring), > 0."""
     if name in CROSSFLOW:
-        strip = crossflow_coefficients(base.L_ref, base.diameter, base.rho, CD_CROSSFLOW)
+        strip = _strip_theory(float(base.L_ref), float(base.diameter), float(base.rho))
         return max(abs(strip[name]), 1e-6 * abs(strip['Zww']) * base.L_ref ** 2, 1e-9)
     if name in ('CZ0', 'CM0'):
         return OFFSET_FLOOR
@@ -91,6 +92,13 @@ def physical_scale(name: str, base: VehicleParams) -> float:
     if name == 'Ksh':
         return 0.05 * max(abs(base.values['Ksh']), 1.0)
     return DIMENSIONLESS_FLOOR
+
+
+@functools.lru_cache(maxsize=32)
+def _strip_theory(length: float, diameter: float, rho: float) -> dict[str, float]:
+    """:func:`auv_sim.hull.crossflow_coefficients` of a hull with the drag coefficient
+    :data:`auv_sim.hull.CD_CROSSFLOW`, computed once per hull (read only)."""
+    return crossflow_coefficients(length, diameter, rho, CD_CROSSFLOW)
 
 
 def prior(name: str, base: VehicleParams) -> Prior:

@@ -15,6 +15,7 @@ instruments (two-stage least squares): ``theta = (D'A)^-1 D'b``.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Mapping, Sequence
 
@@ -53,6 +54,15 @@ class LinearSystem:
     #: the names the identifiability checks apply to (the others, such as the quadratic
     #: cross-flow terms, are held by their priors where the data say little)
     core: tuple[str, ...] = ()
+    #: what :func:`build_system` was given to keep between calls on the same records (the
+    #: filtered columns; the covariance keeps the noise propagation's differences there)
+    cache: dict[tuple[int, str], np.ndarray] | None = dataclasses.field(
+        default=None, repr=False, compare=False)
+
+    @functools.cached_property
+    def scale(self) -> np.ndarray:
+        """:func:`column_scale` of ``A`` (computed once; read only)."""
+        return column_scale(self.A)
 
     def sum_of_squares(self, theta: np.ndarray) -> float:
         """The report's objective ``J(theta) = sum (b - A theta)^2`` [N^2 or (N m)^2]."""
@@ -160,7 +170,7 @@ def build_system(records: Sequence[ForceRecord], equation: Equation, base: Vehic
         t=np.concatenate(parts_t), record_index=np.concatenate(parts_i),
         record_names=tuple(r.name for r in records), excitation=np.concatenate(parts_x),
         instrumented=bool(parts_z), rows=np.concatenate(parts_r), records=tuple(records),
-        core=tuple(n for n in names if n not in free))
+        core=tuple(n for n in names if n not in free), cache=cache)
 
 
 def _term_columns(i: int, rec: ForceRecord, equation: Equation, base: VehicleParams,
@@ -327,7 +337,7 @@ def solve(system: LinearSystem, bounds: Mapping[str, tuple[float, float]] | None
     (name -> (lo, hi), missing names unbounded): scipy's bounded-variable least squares
     (``lsq_linear``, method ``bvls``), exact for this convex quadratic problem.
     """
-    scale = column_scale(system.A)
+    scale = system.scale
     As = system.A / scale
     lo = np.array([(bounds or {}).get(n, (-math.inf, math.inf))[0] for n in system.names])
     hi = np.array([(bounds or {}).get(n, (-math.inf, math.inf))[1] for n in system.names])
@@ -351,7 +361,7 @@ def nelder_mead(system: LinearSystem, x0: Sequence[float] | None = None,
     from ``x0`` (default: zeros), with scipy's ``minimize(method='Nelder-Mead', bounds=...)``;
     the objective is :meth:`LinearSystem.sum_of_squares` evaluated on every sample.
     """
-    scale = column_scale(system.A)
+    scale = system.scale
     p = len(system.names)
     start = np.zeros(p) if x0 is None else np.asarray(x0, float) * scale
     lim = [((bounds or {}).get(n, (-math.inf, math.inf))) for n in system.names]

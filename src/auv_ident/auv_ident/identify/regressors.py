@@ -83,16 +83,37 @@ def unbiased_columns(equation: Equation, rec: ForceRecord, base: VehicleParams
     return out
 
 
-def hydro_gradient(equation: Equation, nu: np.ndarray, coefficients: dict[str, float],
-                   base: VehicleParams) -> np.ndarray:
-    """``d/d nu`` of the equation's hydrodynamic component ``sum_k c_k col_k`` for the
-    coefficients ``coefficients`` (name -> value; names that are not hydrodynamic terms, such
-    as a fitted plane coefficient, are left out) at every row of ``nu`` (N, 6) [N or N m per
-    m/s or rad/s], central differences."""
-    out = np.zeros((len(nu), 6))
+def gradient_differences(equation: Equation, nu: np.ndarray, base: VehicleParams
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """The central differences :func:`hydro_gradient` combines, which do not depend on the
+    coefficients: per term of the equation's component (:func:`component_terms` order) and
+    velocity channel ``c`` (0..5: u, v, w [m/s], p, q, r [rad/s]) ``col(nu + h_c) - col(nu -
+    h_c)`` at every row of ``nu`` (N, 6), shape (k, 6, N), and the steps ``h_c`` (6,)."""
+    terms = component_terms(equation)
+    diffs = np.empty((len(terms), 6, len(nu)))
+    steps = np.empty(6)
     for c in range(6):
         h = 1e-6 * (1.0 + float(np.max(np.abs(nu[:, c]))))
         cu, cd = _stepped_columns(equation, nu, c, h, base)
-        out[:, c] = sum(v * (cu[k] - cd[k]) for k, v in coefficients.items()
-                        if k in cu) / (2.0 * h)
+        for j, k in enumerate(terms):
+            diffs[j, c] = cu[k] - cd[k]
+        steps[c] = h
+    return diffs, steps
+
+
+def hydro_gradient(equation: Equation, nu: np.ndarray, coefficients: dict[str, float],
+                   base: VehicleParams,
+                   differences: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """``d/d nu`` of the equation's hydrodynamic component ``sum_k c_k col_k`` for the
+    coefficients ``coefficients`` (name -> value; names that are not hydrodynamic terms, such
+    as a fitted plane coefficient, are left out) at every row of ``nu`` (N, 6) [N or N m per
+    m/s or rad/s], central differences; ``differences``: :func:`gradient_differences` of
+    ``nu``, when already computed."""
+    diffs, steps = differences if differences is not None else gradient_differences(
+        equation, nu, base)
+    index = {k: j for j, k in enumerate(component_terms(equation))}
+    out = np.zeros((len(nu), 6))
+    for c in range(6):
+        out[:, c] = sum(v * diffs[index[k], c] for k, v in coefficients.items()
+                        if k in index) / (2.0 * float(steps[c]))
     return out
