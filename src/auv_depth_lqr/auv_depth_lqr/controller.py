@@ -56,6 +56,7 @@ import numpy as np
 
 from auv_depth_lqr.errors import ControllerError, DesignError
 from auv_depth_lqr.governor import GovernorSettings, Reference, ReferenceGovernor
+from auv_depth_lqr.learning import PlantEstimator
 from auv_depth_lqr.limits import Limits
 from auv_depth_lqr.schedule import GainSchedule, Matrix, OperatingPoint, feedforward
 from auv_depth_lqr.surge import SurgeTrend
@@ -119,6 +120,11 @@ class DepthController:
         Sample period [s]; must equal ``design.Ts``.
     governor : GovernorSettings, optional
         Reference-governor settings.
+    learner : PlantEstimator, optional
+        Learns what the design model gets wrong while flying (:mod:`auv_depth_lqr.learning`);
+        every model-derived quantity (trim, feed-forward, the reference's climb and stop,
+        the gain) then rests on the learned model. Without it (a controller built from a
+        linear model only) the disturbance estimate of :meth:`trimmed` acts instead.
 
     Raises
     ------
@@ -133,8 +139,12 @@ class DepthController:
         limits: Limits | None = None,
         Ts: float | None = None,
         governor: GovernorSettings | None = None,
+        learner: PlantEstimator | None = None,
     ) -> None:
         self.design = design
+        self.learner = learner
+        """The plant estimate (:class:`~auv_depth_lqr.learning.PlantEstimator`), or None.
+        It is not forgotten on :meth:`reset`: what was learned of the vehicle stays true."""
         self.limits = limits if limits is not None else Limits()
         self.governor = governor if governor is not None else GovernorSettings()
         ts = design.Ts if Ts is None else finite('Ts', Ts, positive=True)
@@ -175,6 +185,8 @@ class DepthController:
         self._xi = 0.0
         self._disturbance = np.zeros(2)
         self._observed: tuple[float, float, float] | None = None
+        self._u_last: float | None = None
+        self._caps: tuple[float, float, float] | None = None
         self._z_prev: float | None = None
         self._z_rate = 0.0
         self._still = 0.0
@@ -193,15 +205,29 @@ class DepthController:
     @property
     def disturbance(self) -> tuple[float, float]:
         """Estimated heave and pitch accelerations the model does not explain
-        ``(d_w [m/s^2], d_q [rad/s^2])`` (see :meth:`step`)."""
+        ``(d_w [m/s^2], d_q [rad/s^2])`` (see :meth:`step`); with a :attr:`learner`, those
+        of its estimate at the design trim of the last measured speed."""
+        if self.learner is not None:
+            if self._u_last is None:
+                return 0.0, 0.0
+            return self.learner.offset_acceleration(self.design.at(self._u_last))
         return float(self._disturbance[0]), float(self._disturbance[1])
 
     def trimmed(self, op: OperatingPoint) -> OperatingPoint:
         """``op`` with its level trim ``(w_e, theta_e, BAR_e)`` moved to hold the estimated
         disturbance (``OperatingPoint.D``), as far as ``trim_bar_share * bar_max`` and
         ``trim_pitch_share * theta_max`` allow (the shift is scaled down, not clipped per
-        component, so the trim stays one of the model's)."""
-        shift = op.D @ self._disturbance
+        component, so the trim stays one of the model's). With a :attr:`learner`, the learned
+        model (:meth:`~auv_depth_lqr.learning.PlantEstimator.correct`), its trim shift
+        bounded the same way."""
+        if self.learner is not None:
+            learned = self.learner.correct(op)
+            shift = np.array([learned.w_e - op.w_e, 0.0, learned.theta_e - op.theta_e,
+                              learned.bar_e - op.bar_e])
+            base = learned._replace(w_e=op.w_e, theta_e=op.theta_e, bar_e=op.bar_e)
+        else:
+            shift = op.D @ self._disturbance
+            base = op
         scale = 1.0
         for centre, delta, bound in (
                 (op.bar_e, float(shift[3]), self.governor.trim_bar_share * self.limits.bar_max),
@@ -211,10 +237,12 @@ class DepthController:
                 reach = math.copysign(bound, delta) - centre
                 scale = min(scale, max(reach / delta, 0.0))
         shift = scale * shift
-        return op._replace(w_e=op.w_e + float(shift[0]), theta_e=op.theta_e + float(shift[2]),
-                           bar_e=op.bar_e + float(shift[3]))
+        return base._replace(w_e=op.w_e + float(shift[0]),
+                             theta_e=op.theta_e + float(shift[2]),
+                             bar_e=op.bar_e + float(shift[3]))
 
-    def _observe(self, op: OperatingPoint, w: float, q: float, theta: float) -> None:
+    def _observe(self, op: OperatingPoint, w: float, q: float, theta: float, u: float
+                 ) -> None:
         """Update the disturbance estimate from the heave and pitch accelerations over the
         last sample against the model's (trapezoidal mean of the state, the BAR commanded
         over the sample), low-passed with ``disturbance_time`` (``disturbance_estimate`` on).
@@ -223,7 +251,17 @@ class DepthController:
         error (the unstable modes, the quadratic cross-flow drag) is taken for an offset and
         moves the trim (10 -> 30 m: 27.4 deg peak pitch, against 24.4 deg without), and at
         rest behind a 0.3 s plane delay it widens the hold's limit cycle (1.3 cm against
-        0.8 cm); its estimate stays zero and its integrator removes offsets."""
+        0.8 cm); its estimate stays zero and its integrator removes offsets.
+        With a :attr:`learner`, the sample goes to it instead (any vehicle)."""
+        if self.learner is not None:
+            if self._observed is not None and self._bar_prev is not None \
+                    and self._u_last is not None and self.governor.disturbance_estimate:
+                self.learner.update(self._observed, (w, q, theta), 0.5 * (u + self._u_last),
+                                    self._bar_prev)
+            self._observed = (w, q, theta)
+            self._u_last = u
+            return
+        self._u_last = u
         if self._observed is not None and self._bar_prev is not None \
                 and self.governor.disturbance_estimate and not self.kinematic_stop:
             w0, q0, theta0 = self._observed
@@ -241,6 +279,21 @@ class DepthController:
         lower, the lowest the vehicle was heading for over the last ``surge_horizon``; None
         before the first :meth:`step`."""
         return self._stop_speed
+
+    @property
+    def state_speed(self) -> float | None:
+        """Surge speed [m/s] of the last state stepped on, None before."""
+        return self._u_last
+
+    @property
+    def vertical_speed_caps(self) -> tuple[float, float, float] | None:
+        """``(v_lo, v_hi, v_kin)`` [m/s, NED down] of the last sample: the steadiest climb
+        (``v_lo`` < 0) and dive (``v_hi`` > 0) the reference may fly on the (learned) model at
+        the speed the vehicle is heading for, within ``margin`` of the pitch and plane limits
+        (:meth:`GainSchedule.vertical_speed_bounds`), and the kinematic cap
+        ``margin u sin(theta_max)`` they would be without the plane's limit; None before the
+        first :meth:`step`."""
+        return self._caps
 
     @property
     def governed_reference(self) -> tuple[float, float] | None:
@@ -288,7 +341,7 @@ class DepthController:
 
         ts, lim, settings = self.Ts, self.limits, self.governor
         nominal = self.design.at(u)
-        self._observe(nominal, w, q, theta)
+        self._observe(nominal, w, q, theta, u)
         op = self.trimmed(nominal)
 
         self.reference.start(z)
@@ -305,6 +358,10 @@ class DepthController:
         self._stop_speed = u_heading
         stop = None if u_heading >= u else (self.trimmed(self.design.at(u_heading)), u_heading)
         z_r, v_r, a_r, j_r, s_r = self.reference.advance(op, u, z_cmd, stop)
+        slowest = op if stop is None else stop[0]
+        self._caps = (*GainSchedule.vertical_speed_bounds(slowest, u_heading, lim,
+                                                          settings.margin),
+                      settings.margin * u_heading * math.sin(lim.theta_max))
         # Depth rate [m/s, down] from the measured depth, low-passed over stall_time: a vehicle
         # whose depth no longer moves is held off by a steady disturbance (a vertical current,
         # a buoyancy the model does not know), not by the transient of a manoeuvre.

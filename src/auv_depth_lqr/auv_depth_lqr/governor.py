@@ -212,6 +212,8 @@ class ReferenceGovernor:
             kinematic_map(self.stop_tau, ts) if self.kinematic_stop
             else series_map([float(x) for x in design.F[k, :, 3]], ts)
             for k in range(design.speeds.size)]
+        self._learned_map: tuple[tuple[float, ...], tuple[tuple[float, ...], tuple[float, ...]]] \
+            = ((), ((), ()))
         self.reset()
 
     def reset(self) -> None:
@@ -287,11 +289,18 @@ class ReferenceGovernor:
             u_land = -v_land / landing
             u_release = u_land + settings.release_bar_share * (u_other - u_land)
             du = jerk * self.ts
-        _, i, j, w = self.design.weights(u)
-        (phi_i, gam_i), (phi_j, gam_j) = self.stop_maps[i], self.stop_maps[j]
-        brake = Brake(tuple((1.0 - w) * x + w * y for x, y in zip(phi_i, phi_j)),
-                       tuple((1.0 - w) * x + w * y for x, y in zip(gam_i, gam_j)),
-                       u_brake, u_release, max(du, 1e-9), landing, v_land)
+        if op.learned and not self.kinematic_stop:
+            # the stop of the learned model's own series (one map per series, kept)
+            key = tuple(float(x) for x in b)
+            if self._learned_map[0] != key:
+                self._learned_map = (key, series_map(list(key), self.ts))
+            phi, gam = self._learned_map[1]
+        else:
+            _, i, j, w = self.design.weights(u)
+            (phi_i, gam_i), (phi_j, gam_j) = self.stop_maps[i], self.stop_maps[j]
+            phi = tuple((1.0 - w) * x + w * y for x, y in zip(phi_i, phi_j))
+            gam = tuple((1.0 - w) * x + w * y for x, y in zip(gam_i, gam_j))
+        brake = Brake(phi, gam, u_brake, u_release, max(du, 1e-9), landing, v_land)
         return v_cap, jerk, brake
 
 
@@ -328,7 +337,11 @@ class ReferenceGovernor:
             return Reference(z_cmd, 0.0, 0.0, 0.0, 0.0)
         v_cap, jerk, brake = self.limits_toward(op, u, travel, self._landing[1])
         if stop is not None:
-            brake = self.limits_toward(stop[0], stop[1], travel, self._landing[1])[2]
+            # the climb or dive is capped, and the stop planned, at the speed the vehicle is
+            # heading for: with its thrust held it slows down in a dive (a buoyant one) or a
+            # climb, and its plane's authority with it
+            stop_cap, _, brake = self.limits_toward(stop[0], stop[1], travel, self._landing[1])
+            v_cap = min(v_cap, stop_cap)
         landing, v_land = brake.landing, brake.v_land
         if 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E:
             # Final approach: the exponential e(t) = E exp(-t / landing).

@@ -34,11 +34,13 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
+from typing import NamedTuple
 
 from auv_depth_lqr.attitude import PitchOffset, PitchOffsetEstimator
 from auv_depth_lqr.authority import Authority, AuthorityMonitor
 from auv_depth_lqr.controller import DepthController, PlaneState
 from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
+from auv_depth_lqr.learning import PARAMETERS, PlantEstimator
 from auv_depth_lqr.limits import Limits
 from auv_depth_lqr.recovery import (
     RECOVERY,
@@ -87,6 +89,38 @@ misplans the stop between grid points (A18M, 40 -> 10 m at 1.83 m/s: RMS pitch r
 settling 0.20 deg/s, against 0.03 deg/s on this grid). The design takes ~2 ms per speed."""
 
 
+LIMITED_SHARE = 0.9
+"""A climb or dive whose steady vertical speed the plane allows is below this share of the
+kinematic one (the pitch limit's) is limited by the plane at the present speed [-]."""
+
+
+class ClimbLimits(NamedTuple):
+    """The steadiest climb and dive the pilot can fly within its limits at the present
+    speed (its learned model), and whether the plane, not the pitch limit, sets them."""
+
+    climb: float
+    """Largest steady climb rate [m/s, up positive] (nan before the first command)."""
+    dive: float
+    """Largest steady dive rate [m/s, down positive]."""
+    kinematic: float
+    """What the pitch limit alone allows, ``margin u sin(theta_max)`` [m/s]."""
+    limited: bool
+    """Whether a climb or dive is held below ``LIMITED_SHARE`` of ``kinematic`` by the
+    plane (a weak or trimmed-out plane, a speed too low): depth changes take longer than
+    the pitch limit would allow."""
+
+    def message(self) -> str:
+        """One line for an operator."""
+        if not math.isfinite(self.kinematic):
+            return 'not known yet'
+        text = (f'climb at most {self.climb:.2f} m/s, dive at most {self.dive:.2f} m/s '
+                f'(pitch limit alone: {self.kinematic:.2f} m/s)')
+        if self.limited:
+            text += ': the plane cannot hold the pitch limit at this speed, depth changes are ' \
+                    'flown slower, within the limits'
+        return text
+
+
 @dataclasses.dataclass(frozen=True)
 class PilotSettings:
     """Design and run-time settings of the depth pilot (SI units, radians).
@@ -132,6 +166,7 @@ class PilotSettings:
     pitch_offset_time: float | None = None
     pitch_offset_max: float = math.radians(3.0)
     authority_window: float | None = None
+    learn: bool = True
 
     def __post_init__(self) -> None:
         for name in ('rate_hz', 'theta_max', 'state_timeout'):
@@ -226,7 +261,8 @@ def build_controller(params: VehicleParams, settings: PilotSettings) -> DepthCon
     limits = Limits(bar_max=bar_max, bar_rate_max=bar_rate, theta_max=settings.theta_max)
     governor = dataclasses.replace(tuning.governor,
                                    surge_length=surge_length(params, speeds))
-    return DepthController(schedule, limits, settings.Ts, governor)
+    learner = PlantEstimator(params, settings.Ts) if settings.learn else None
+    return DepthController(schedule, limits, settings.Ts, governor, learner)
 
 
 class DepthPilot:
@@ -280,6 +316,42 @@ class DepthPilot:
         """How much of the plane holding depth took over the last window
         (:class:`~auv_depth_lqr.authority.Authority`), from the commands of normal control."""
         return self.authority_monitor.authority
+
+    def climb_limits(self) -> ClimbLimits:
+        """The steadiest climb and dive at the present speed on the learned model
+        (:class:`ClimbLimits`; from the last control step)."""
+        caps = self.controller.vertical_speed_caps
+        if caps is None:
+            return ClimbLimits(math.nan, math.nan, math.nan, False)
+        v_lo, v_hi, v_kin = caps
+        limited = min(-v_lo, v_hi) < LIMITED_SHARE * v_kin
+        return ClimbLimits(-v_lo, v_hi, v_kin, bool(limited))
+
+    def learning_diagnostics(self) -> dict[str, str]:
+        """What the pilot has learned of its plant and what it can fly, as diagnostic
+        key/values (``learned_*`` the estimate's parameters and standard deviations
+        (:mod:`auv_depth_lqr.learning`), ``climb_limit_*``, ``depth_change_limited``)."""
+        out: dict[str, str] = {}
+        learner = self.controller.learner
+        if learner is None:
+            out['learning'] = 'off'
+        else:
+            est = learner.estimate
+            out['learning'] = f'{est.samples} samples'
+            for name, value, sigma in zip(PARAMETERS, est.values, est.sigma):
+                out[f'learned_{name}'] = f'{value:+.4f} +- {sigma:.4f}'
+            if self.controller.state_speed is not None:
+                op = self.controller.design.at(self.controller.state_speed)
+                learned = self.controller.trimmed(op)
+                out['learned_trim_bar_deg'] = f'{math.degrees(learned.bar_e):+.2f}'
+                out['model_trim_bar_deg'] = f'{math.degrees(op.bar_e):+.2f}'
+                out['learned_plane_gain'] = f'{learner.plane_gain(op):.3f}'
+        limits = self.climb_limits()
+        out['climb_limit_mps'] = f'{limits.climb:.3f}'
+        out['dive_limit_mps'] = f'{limits.dive:.3f}'
+        out['depth_change_limited'] = 'true' if limits.limited else 'false'
+        out['depth_change_limits'] = limits.message()
+        return out
 
     @property
     def state(self) -> PlaneState | None:
