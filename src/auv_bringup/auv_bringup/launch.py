@@ -143,6 +143,7 @@ class GraphConfig:
     namespace: str = ''  # the nodes' namespace ('' = /auv); with sim_clock also its own clock
     pilot_state: str = 'vehicle_state'  # the pilot's state input: vehicle_state or odometry
     foxglove: int | None = None  # serve the live topics on a Foxglove WebSocket on this port
+    pilot_vehicle: str = ''  # the pilot's vehicle file when it is not the simulated one's
 
 
 def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
@@ -172,7 +173,8 @@ def graph_nodes(cfg: GraphConfig) -> list[NodeProcess]:
                                  log('mission')))
     elif cfg.pilot:
         nodes.append(NodeProcess('pilot', [py, '-m', 'auv_depth_lqr.node', *ros_params(
-            vehicle_file=cfg.vehicle, lockstep=cfg.lockstep, rate=cfg.pilot_rate,
+            vehicle_file=cfg.pilot_vehicle or cfg.vehicle, lockstep=cfg.lockstep,
+            rate=cfg.pilot_rate,
             weights=cfg.weights, water_speed=float(cfg.water_speed),
             realtime_priority=int(cfg.realtime_priority), use_sim_time=cfg.sim_clock,
             state_source=cfg.pilot_state, start_subscribers=bar_subscribers(cfg)),
