@@ -196,6 +196,8 @@ class DepthController:
         self.surge.reset()
         self.reference.reset()
         self._bar_prev = None if bar_previous is None else finite('bar_previous', bar_previous)
+        if self.learner is not None:
+            self.learner.forget_plane()
 
     @property
     def integrator(self) -> float:
@@ -257,7 +259,7 @@ class DepthController:
             if self._observed is not None and self._bar_prev is not None \
                     and self._u_last is not None and self.governor.disturbance_estimate:
                 self.learner.update(self._observed, (w, q, theta), 0.5 * (u + self._u_last),
-                                    self._bar_prev)
+                                    self._bar_prev, u - self._u_last)
             self._observed = (w, q, theta)
             self._u_last = u
             return

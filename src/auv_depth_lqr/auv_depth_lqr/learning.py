@@ -127,8 +127,15 @@ class PlantEstimator:
         m = mass_matrix(params)
         self.m_wq: Matrix = np.asarray(m[np.ix_([2, 4], [2, 4])], dtype=np.float64)
         self.m_wq_inv: Matrix = np.asarray(np.linalg.inv(self.m_wq), dtype=np.float64)
+        self.m_wq_u: Matrix = np.asarray(m[[2, 4], 0], dtype=np.float64)
+        """The heave and pitch rows' surge column of the mass matrix [kg, kg m]: a surge
+        acceleration ``u_dot`` takes ``m_wq_u u_dot`` of the wrench (``m z_g`` in pitch)."""
         self.bar_tau = max(float(params.bar_tau), 0.0)
         self.bar_rate = float(params.bar_rate)
+        self.plane_settling = 2.0 * float(params.bar_max) / self.bar_rate + 5.0 * self.bar_tau
+        """Time [s] the plane takes from anywhere to where it is commanded (across its travel at
+        its rate, then five lags): until then after a start its angle is not known and
+        nothing is learned."""
         self.weight = float(params.m * params.g)
         self.length = float(params.L_ref)
         self.qs = 0.5 * float(params.rho) * float(params.S_ref)
@@ -150,27 +157,41 @@ class PlantEstimator:
         self._p: Matrix = np.zeros(N_PARAMS)
         self._cov: Matrix = np.diag(self._prior ** 2)
         self._samples = 0
+        self.forget_plane()
+
+    def forget_plane(self) -> None:
+        """The plane's angle is not known (a start, a gap in the commands): the actuator
+        model starts again from the next command, and nothing is learned for
+        :attr:`plane_settling` seconds."""
         self._plane_angle: float | None = None
+        self._unsure = self.plane_settling
 
     def plane_over(self, bar: float) -> float:
         """The mean plane angle [rad] over a sample commanded ``bar`` [rad], on the vehicle
-        file's actuator (first-order lag ``bar_tau`` from where the plane was, at most
-        ``bar_rate``); the plane is then where it ends the sample."""
+        file's actuator (``BAR_dot = clip((bar - BAR) / bar_tau, +-bar_rate)``, solved
+        exactly: at the rate limit while ``|bar - BAR| > bar_rate bar_tau``, then the lag);
+        the plane is then where it ends the sample."""
         start = bar if self._plane_angle is None else self._plane_angle
-        ts, tau = self.ts, self.bar_tau
-        if tau > 0.0:
-            decay = math.exp(-ts / tau)
-            end = bar + (start - bar) * decay
-            mean = bar + (start - bar) * tau / ts * (1.0 - decay)
+        ts, tau, rate = self.ts, self.bar_tau, self.bar_rate
+        gap = bar - start
+        sign = 1.0 if gap >= 0.0 else -1.0
+        # rate-limited phase: |gap| shrinks at `rate` down to rate * tau (all of it if tau = 0)
+        t1 = min(max(abs(gap) - rate * tau, 0.0) / rate, ts) if rate > 0.0 else 0.0
+        mid = start + sign * rate * t1
+        area = 0.5 * (start + mid) * t1
+        t2 = ts - t1
+        if t2 > 0.0:
+            if tau > 0.0:
+                decay = math.exp(-t2 / tau)
+                end = bar + (mid - bar) * decay
+                area += bar * t2 + (mid - bar) * tau * (1.0 - decay)
+            else:
+                end = bar
+                area += bar * t2
         else:
-            end = mean = bar
-        # the rate limit: the plane moves at most bar_rate ts over the sample
-        reach = self.bar_rate * ts
-        if abs(end - start) > reach:
-            end = start + math.copysign(reach, end - start)
-            mean = 0.5 * (start + end)
+            end = mid
         self._plane_angle = end
-        return mean
+        return area / ts
 
     @property
     def estimate(self) -> PlantEstimate:
@@ -199,7 +220,7 @@ class PlantEstimator:
         return H
 
     def update(self, start: tuple[float, float, float], end: tuple[float, float, float],
-               u: float, bar: float) -> PlantEstimate:
+               u: float, bar: float, du: float = 0.0) -> PlantEstimate:
         """Learn from one sample.
 
         Parameters
@@ -212,20 +233,27 @@ class PlantEstimator:
         bar : float
             BAR commanded over the sample [rad]; the plane's own angle over it is that of
             the vehicle file's actuator (:meth:`plane_over`).
+        du : float, optional
+            Change of the surge speed over the sample [m/s] (its share of the wrench through
+            the mass matrix's surge column, :attr:`m_wq_u`).
 
         Returns
         -------
         PlantEstimate
-            The estimate after it (unchanged for a non-finite sample or ``u <= 0``).
+            The estimate after it (unchanged for a non-finite sample, ``u <= 0``, or while
+            the plane's angle is not known yet: :meth:`forget_plane`).
         """
-        values = (*start, *end, u, bar)
+        values = (*start, *end, u, bar, du)
         if not all(math.isfinite(v) for v in values) or u <= 0.0:
             return self.estimate
         bar = self.plane_over(bar)
+        if self._unsure > 0.0:
+            self._unsure -= self.ts
+            return self.estimate
         w, q, theta = (0.5 * (a + b) for a, b in zip(start, end))
         (z_m, m_m), (z_bar, m_bar) = self._wrench(u, w, q, theta, bar)
         felt = self.m_wq @ np.array([(end[0] - start[0]) / self.ts,
-                                     (end[1] - start[1]) / self.ts])
+                                     (end[1] - start[1]) / self.ts]) + self.m_wq_u * du / self.ts
         y = felt - np.array([z_m, m_m])
         H = self.regressors(u, w, q, bar, z_bar, m_bar)
         cov = self._cov + np.diag(self._drift)
