@@ -7,6 +7,7 @@ settings, :class:`ReferenceGovernor` the planner (re-planned every sample, stop 
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -212,6 +213,8 @@ class ReferenceGovernor:
             kinematic_map(self.stop_tau, ts) if self.kinematic_stop
             else series_map([float(x) for x in design.F[k, :, 3]], ts)
             for k in range(design.speeds.size)]
+        self._plane_only = dataclasses.replace(limits, theta_max=math.radians(89.0))
+        """The limits without the pitch limit's (for the plane's bound alone)."""
         self.reset()
 
     def reset(self) -> None:
@@ -334,8 +337,11 @@ class ReferenceGovernor:
             # the climb or dive is capped, and the stop planned, at the speed the vehicle is
             # heading for: with its thrust held it slows down in a dive (a buoyant one) or a
             # climb, and its plane's authority with it
-            stop_cap, _, brake = self.limits_toward(stop[0], stop[1], travel, self._landing[1])
-            v_cap = min(v_cap, stop_cap)
+            _, _, brake = self.limits_toward(stop[0], stop[1], travel, self._landing[1])
+            # the plane's bound only: the pitch limit's follows the measured speed
+            plane_lo, plane_hi = GainSchedule.vertical_speed_bounds(
+                stop[0], stop[1], self._plane_only, settings.margin)
+            v_cap = min(v_cap, plane_hi if travel > 0.0 else -plane_lo)
         landing, v_land = brake.landing, brake.v_land
         if 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E:
             # Final approach: the exponential e(t) = E exp(-t / landing).

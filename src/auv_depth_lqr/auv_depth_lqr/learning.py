@@ -46,7 +46,9 @@ from typing import NamedTuple
 import numpy as np
 
 from auv_depth_lqr.errors import DesignError
+from auv_depth_lqr.glide import Glide, glide_cap
 from auv_depth_lqr.schedule import Matrix, OperatingPoint, disturbance_map, feedforward_series
+from auv_sim.errors import TrimError
 from auv_sim.params import VehicleParams, mass_matrix
 from auv_sim.trim import VerticalPlane
 
@@ -91,6 +93,10 @@ class LearningSettings:
     follows)."""
     gain_range: tuple[float, float] = (0.25, 4.0)
     """Range of the plane effectiveness ``1 + p`` used to scale the LQR gain [-]."""
+    thrust_time: float = 2.0
+    """Time constant [s] of the low-pass of the thrust the vehicle flies with (the surge
+    force the model's drag and the measured surge acceleration need,
+    :attr:`PlantEstimator.thrust`)."""
 
 
 class PlantEstimate(NamedTuple):
@@ -127,6 +133,8 @@ class PlantEstimator:
         m = mass_matrix(params)
         self.m_wq: Matrix = np.asarray(m[np.ix_([2, 4], [2, 4])], dtype=np.float64)
         self.m_wq_inv: Matrix = np.asarray(np.linalg.inv(self.m_wq), dtype=np.float64)
+        self.m_u: Matrix = np.asarray(m[0, [0, 2, 4]], dtype=np.float64)
+        """The surge row of the mass matrix over ``(u_dot, w_dot, q_dot)`` [kg, kg, kg m]."""
         self.m_wq_u: Matrix = np.asarray(m[[2, 4], 0], dtype=np.float64)
         """The heave and pitch rows' surge column of the mass matrix [kg, kg m]: a surge
         acceleration ``u_dot`` takes ``m_wq_u u_dot`` of the wrench (``m z_g`` in pitch)."""
@@ -157,6 +165,7 @@ class PlantEstimator:
         self._p: Matrix = np.zeros(N_PARAMS)
         self._cov: Matrix = np.diag(self._prior ** 2)
         self._samples = 0
+        self._thrust: float | None = None
         self.forget_plane()
 
     def forget_plane(self) -> None:
@@ -201,13 +210,46 @@ class PlantEstimator:
                              self._samples)
 
     def _wrench(self, u: float, w: float, q: float, theta: float, bar: float
-                ) -> tuple[tuple[float, float], tuple[float, float]]:
-        """The model's heave force and pitch moment ``(Z [N], M [N m])`` at a state and
-        their derivatives by the BAR ``(Z_bar [N/rad], M_bar [N m/rad])`` (complex step)."""
+                ) -> tuple[tuple[float, float], tuple[float, float], float]:
+        """The model's heave force and pitch moment ``(Z [N], M [N m])`` at a state, their
+        derivatives by the BAR ``(Z_bar [N/rad], M_bar [N m/rad])`` (complex step) and its
+        surge force without the thrust ``X`` [N]."""
         x = self.plane.full_state(w, q, 0.0, theta, bar + 1j * _H, u)
         f = self.plane.wrench(x)
         return ((float(f[2].real), float(f[4].real)),
-                (float(f[2].imag) / _H, float(f[4].imag) / _H))
+                (float(f[2].imag) / _H, float(f[4].imag) / _H), float(f[0].real))
+
+    @property
+    def thrust(self) -> float | None:
+        """The thrust the vehicle flies with [N], low-passed over ``thrust_time``: the
+        surge force that the measured surge, heave and pitch accelerations need beyond the
+        model's (``m_u nu_dot - X``); None before it is known."""
+        return self._thrust
+
+    def force(self, u: float, w: float, theta: float, bar: float
+              ) -> tuple[float, float, float]:
+        """The learned model's surge and heave force and pitch moment ``(X [N], Z [N],
+        M [N m])`` without the thrust in a steady straight motion (``q = 0``) at surge ``u``,
+        heave ``w`` [m/s], pitch ``theta`` and BAR ``bar`` [rad] (a
+        :data:`auv_depth_lqr.glide.Force`)."""
+        (z_m, m_m), (z_bar, m_bar), x_m = self._wrench(u, w, 0.0, theta, bar)
+        dz, dm = self.regressors(u, w, 0.0, bar, z_bar, m_bar) @ self._p
+        return x_m, z_m + float(dz), m_m + float(dm)
+
+    def glide_cap(self, travel: float, theta_limit: float, bar_limit: float, u: float
+                  ) -> float:
+        """The fastest steady climb (``travel`` -1) or dive (+1) [m/s, >= 0] of the learned
+        model with the present :attr:`thrust` held whose BAR stays within ``bar_limit``
+        [rad], ``inf`` if the one at ``theta_limit`` [rad] does or the thrust is not known
+        (:func:`auv_depth_lqr.glide.glide_cap`, from the level trim at ``u`` [m/s])."""
+        if self._thrust is None or not u > 0.0:
+            return math.inf
+        try:
+            trim = self.plane.trim(u)
+        except TrimError:
+            return math.inf
+        return glide_cap(self.force, self._thrust, travel, theta_limit, bar_limit,
+                         Glide(trim.u0, trim.w, 0.0, trim.bar))
 
     def regressors(self, u: float, w: float, q: float, bar: float, z_bar: float,
                    m_bar: float) -> Matrix:
@@ -251,9 +293,13 @@ class PlantEstimator:
             self._unsure -= self.ts
             return self.estimate
         w, q, theta = (0.5 * (a + b) for a, b in zip(start, end))
-        (z_m, m_m), (z_bar, m_bar) = self._wrench(u, w, q, theta, bar)
-        felt = self.m_wq @ np.array([(end[0] - start[0]) / self.ts,
-                                     (end[1] - start[1]) / self.ts]) + self.m_wq_u * du / self.ts
+        (z_m, m_m), (z_bar, m_bar), x_m = self._wrench(u, w, q, theta, bar)
+        dw, dq = (end[0] - start[0]) / self.ts, (end[1] - start[1]) / self.ts
+        felt = self.m_wq @ np.array([dw, dq]) + self.m_wq_u * du / self.ts
+        thrust = float(self.m_u @ np.array([du / self.ts, dw, dq])) - x_m
+        alpha = self.ts / (self.settings.thrust_time + self.ts)
+        self._thrust = thrust if self._thrust is None else \
+            self._thrust + alpha * (thrust - self._thrust)
         y = felt - np.array([z_m, m_m])
         H = self.regressors(u, w, q, bar, z_bar, m_bar)
         cov = self._cov + np.diag(self._drift)

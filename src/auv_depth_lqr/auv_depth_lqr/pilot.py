@@ -93,6 +93,10 @@ LIMITED_SHARE = 0.9
 """A climb or dive whose steady vertical speed the plane allows is below this share of the
 kinematic one (the pitch limit's) is limited by the plane at the present speed [-]."""
 
+HELD_THRUST_PERIOD = 10.0
+"""How long [s of state time] the steadiest climb and dive with the thrust held
+(:meth:`DepthPilot.climb_limits`) are kept before they are solved again [s]."""
+
 
 class ClimbLimits(NamedTuple):
     """The steadiest climb and dive the pilot can fly within its limits at the present
@@ -108,6 +112,13 @@ class ClimbLimits(NamedTuple):
     """Whether a climb or dive is held below ``LIMITED_SHARE`` of ``kinematic`` by the
     plane (a weak or trimmed-out plane, a speed too low): depth changes take longer than
     the pitch limit would allow."""
+    held_climb: float = math.nan
+    """Steadiest climb [m/s, up positive] with the present thrust held, the speed settled
+    where the thrust balances the drag and the weight less the buoyancy along the axis, the
+    plane within its trim share (:mod:`auv_depth_lqr.glide`); ``inf``: the pitch limit,
+    not the plane, bounds it; nan: not known (no learner, thrust not measured yet)."""
+    held_dive: float = math.nan
+    """The same for a dive [m/s, down positive]."""
 
     def message(self) -> str:
         """One line for an operator."""
@@ -118,6 +129,10 @@ class ClimbLimits(NamedTuple):
         if self.limited:
             text += ': the plane cannot hold the pitch limit at this speed, depth changes are ' \
                     'flown slower, within the limits'
+        held = [f'{name} at most {value:.2f} m/s' for name, value in
+                (('climb', self.held_climb), ('dive', self.held_dive)) if math.isfinite(value)]
+        if held:
+            text += '; with the thrust held, once the speed has settled: ' + ', '.join(held)
         return text
 
 
@@ -299,6 +314,8 @@ class DepthPilot:
                                                   settings.state_timeout)
         self._theta_measured = 0.0
         self._t_measured = 0.0
+        self._held: tuple[float, float, float] | None = None
+        """``(t [s], climb, dive [m/s])`` of the last held-thrust limits solved."""
         """Measurement time [s] of the latest state (its stamp)."""
         self._t_offset: float | None = None
         """Measurement time [s] of the last state the pitch-offset estimate took."""
@@ -319,13 +336,28 @@ class DepthPilot:
 
     def climb_limits(self) -> ClimbLimits:
         """The steadiest climb and dive at the present speed on the learned model
-        (:class:`ClimbLimits`; from the last control step)."""
+        (:class:`ClimbLimits`; from the last control step), and with the present thrust
+        held (solved at most every ``HELD_THRUST_PERIOD`` seconds of state time)."""
         caps = self.controller.vertical_speed_caps
         if caps is None:
             return ClimbLimits(math.nan, math.nan, math.nan, False)
         v_lo, v_hi, v_kin = caps
-        limited = min(-v_lo, v_hi) < LIMITED_SHARE * v_kin
-        return ClimbLimits(-v_lo, v_hi, v_kin, bool(limited))
+        held_climb, held_dive = self._held_thrust_caps()
+        limited = min(-v_lo, v_hi, held_climb, held_dive) < LIMITED_SHARE * v_kin
+        return ClimbLimits(-v_lo, v_hi, v_kin, bool(limited), held_climb, held_dive)
+
+    def _held_thrust_caps(self) -> tuple[float, float]:
+        """``(climb, dive)`` [m/s] of :attr:`ClimbLimits.held_climb`, ``held_dive``."""
+        learner, u = self.controller.learner, self.controller.state_speed
+        t = self._t_state
+        if learner is None or learner.thrust is None or u is None or t is None:
+            return math.nan, math.nan
+        if self._held is None or not 0.0 <= t - self._held[0] < HELD_THRUST_PERIOD:
+            lim, gov = self.controller.limits, self.controller.governor
+            theta, bar = gov.margin * lim.theta_max, gov.trim_bar_share * lim.bar_max
+            self._held = (t, learner.glide_cap(-1.0, theta, bar, u),
+                          learner.glide_cap(1.0, theta, bar, u))
+        return self._held[1], self._held[2]
 
     def learning_diagnostics(self) -> dict[str, str]:
         """What the pilot has learned of its plant and what it can fly, as diagnostic
@@ -349,6 +381,8 @@ class DepthPilot:
         limits = self.climb_limits()
         out['climb_limit_mps'] = f'{limits.climb:.3f}'
         out['dive_limit_mps'] = f'{limits.dive:.3f}'
+        out['held_thrust_climb_limit_mps'] = f'{limits.held_climb:.3f}'
+        out['held_thrust_dive_limit_mps'] = f'{limits.held_dive:.3f}'
         out['depth_change_limited'] = 'true' if limits.limited else 'false'
         out['depth_change_limits'] = limits.message()
         return out
