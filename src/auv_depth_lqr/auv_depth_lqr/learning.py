@@ -33,9 +33,16 @@ open-loop-unstable vehicle (the REMUS 100) learns like any other.
 the heave and pitch rows of the design model plus the estimated corrections, its level trim
 re-solved (the plane angle and pitch the vehicle really holds depth at), its feed-forward
 series (the plane a climb really takes) and its LQR gain scaled by the plane's estimated
-effectiveness (the LQR of a plane ``k`` times as strong with the input weight ``k^2`` times as
-large is the design gain over ``k``). Everything the pilot plans, the reference's climb rate,
-its plane budget and its stop, then rests on the plane the plant has.
+effectiveness ``k`` when that is below 1 (the LQR of a plane ``k`` times as strong with the
+input weight ``k^2`` times as large is the design gain over ``k``; a stronger plane keeps the
+design gain, within the LQR's gain margin). Everything the pilot plans, the reference's climb
+rate, its plane budget and its stop, then rests on the plane the plant has.
+
+Limits: the estimate is a regression on the model's own terms. A plant error of another form
+(a plane delay, a lag) is explained by them as well as they can (behind a 0.3 s plane delay
+the REMUS 100 learns a hull lift seven times its own), so on such a plant the learned model
+is not the plant; in a steady climb the data hold one operating point and cannot split the
+error between an offset, the plane's effectiveness and the Munk term.
 """
 from __future__ import annotations
 
@@ -331,7 +338,8 @@ class PlantEstimator:
     def correct(self, op: OperatingPoint) -> OperatingPoint:
         """The pilot's linear model at ``op`` with the estimate applied (module docstring):
         heave and pitch rows ``P``, level trim ``(w_e, theta_e, BAR_e)``, series ``F``,
-        disturbance map ``D`` and gain ``K``. ``op`` itself if the learned model has no
+        disturbance map ``D`` and gain ``K`` (over the plane's learned effectiveness when
+        that is below 1, :meth:`plane_gain`). ``op`` itself if the learned model has no
         steady climb (an estimate far off: the design model is kept)."""
         p, u = self._p, op.u0
         if not np.any(p):
@@ -352,7 +360,11 @@ class PlantEstimator:
         except (DesignError, np.linalg.LinAlgError):
             return op
         shift = D @ (self.m_wq_inv @ offset)
-        gain = self.plane_gain(op)
+        # The LQR's gain margin is [1/2, inf): the design gain keeps a stronger plane stable,
+        # not a much weaker one, so the gain is raised for a weaker plane and never lowered
+        # (an unmodelled plane delay is learned as a stronger plane, and a lowered gain
+        # widens the hold's limit cycle behind it)
+        gain = min(self.plane_gain(op), 1.0)
         return op._replace(w_e=op.w_e + float(shift[0]), theta_e=op.theta_e + float(shift[2]),
                            bar_e=op.bar_e + float(shift[3]), F=F, P=P, D=D, K=op.K / gain,
                            dw_dv=float(F[0, 0]), dtheta_dv=float(F[0, 2]),
