@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from conftest import A18M, ROOT
 
-from auv_depth_lqr.closed_loop import foreign_plant, run_closed_loop
+from auv_depth_lqr.closed_loop import foreign_plant, model_error_plant, run_closed_loop
 from auv_depth_lqr.glide import Glide, glide_cap, steady_glide
 from auv_depth_lqr.learning import PARAMETERS, PlantEstimator
 from auv_depth_lqr.pilot import DepthPilot, PilotSettings
@@ -134,13 +134,34 @@ def test_a_buoyant_vehicle_with_its_thrust_held_cannot_dive_on_its_plane(
 
 def test_the_learned_force_is_the_models_plus_the_estimate(remus: VehicleParams) -> None:
     """With a heave offset of 1 % of the weight and a pitch offset of 0.5 % of W L set by
-    hand, the learned force is the model's plus exactly those (surge force unchanged)."""
+    hand, the learned force is the model's plus exactly those, the heave offset a vertical
+    force (a buoyancy) resolved on the body's axes at the pitch of 0.1 rad."""
     est = PlantEstimator(remus, 0.1)
     plane = VerticalPlane(remus)
     base = plane.wrench(plane.full_state(0.05, 0.0, 0.0, 0.1, 0.05, 1.5)).real
     est._p = np.array([0.01, 0.0, 0.0, 0.005, 0.0, 0.0, 0.0])
     x, z, m = est.force(1.5, 0.05, 0.1, 0.05)
     weight = remus.m * remus.g
-    assert x == pytest.approx(float(base[0]), abs=1e-9)
-    assert z == pytest.approx(float(base[2]) + 0.01 * weight, abs=1e-9)
+    assert x == pytest.approx(float(base[0]) - 0.01 * weight * math.sin(0.1), abs=1e-9)
+    assert z == pytest.approx(float(base[2]) + 0.01 * weight * math.cos(0.1), abs=1e-9)
     assert m == pytest.approx(float(base[4]) + 0.005 * weight * remus.L_ref, abs=1e-9)
+
+
+def test_a_buoyant_vehicle_with_its_thrust_held_is_not_flown_into_a_dive_it_cannot_hold(
+        ) -> None:
+    """The A18M with 1 % more buoyancy than its file, thrust held at its 1.5 m/s trim value,
+    commanded 10 -> 30 m: the buoyancy along its axis slows a dive until its plane cannot
+    hold it (planned at the pitch limit it slowed to 0.3 m/s, passed the limit by 5.9 deg and
+    broached). Planned on the steadiest dive the held thrust sustains (none, here), it keeps
+    its pitch within the limit plus 1 deg and stays below 5 m, and says that its depth
+    changes are limited."""
+    design = load_vehicle(A18M)
+    real, environment = model_error_plant(design, 'buoyancy+1%')
+    pilot = DepthPilot.for_vehicle(design, PilotSettings())
+    run = run_closed_loop(real, [(0.0, 30.0)], 200.0, z0=10.0, u0=1.5,
+                          environment=environment, pilot=pilot)
+    x = run.record.x
+    assert np.max(np.abs(x[:, 4])) <= math.radians(26.0)
+    assert np.min(x[:, 2]) > 5.0
+    limits = pilot.climb_limits()
+    assert limits.limited and limits.held_dive < 0.05, limits

@@ -187,6 +187,7 @@ class DepthController:
         self._observed: tuple[float, float, float] | None = None
         self._u_last: float | None = None
         self._caps: tuple[float, float, float] | None = None
+        self._glide: tuple[float, float, float, float] | None = None
         self._z_prev: float | None = None
         self._z_rate = 0.0
         self._still = 0.0
@@ -311,6 +312,35 @@ class DepthController:
         (:func:`auv_depth_lqr.schedule.feedforward`)."""
         return feedforward(op, u, v, a, j, snap)
 
+    def held_thrust_cap(self, travel: float, u: float) -> float:
+        """The steadiest climb (``travel`` -1) or dive (+1) [m/s, >= 0] the learned model
+        holds with the present thrust held, its BAR within ``trim_bar_share * bar_max`` and
+        its pitch within ``margin * theta_max``, from the level trim at ``u`` [m/s]
+        (:meth:`~auv_depth_lqr.learning.PlantEstimator.glide_cap`); ``inf`` when the pitch
+        limit, not the plane, bounds it, without a learner or before the thrust is known."""
+        if self.learner is None:
+            return math.inf
+        settings, lim = self.governor, self.limits
+        return self.learner.glide_cap(travel, settings.margin * lim.theta_max,
+                                      settings.trim_bar_share * lim.bar_max, u)
+
+    def _glide_cap(self, z_cmd: float, z: float, u: float) -> float:
+        """:meth:`held_thrust_cap` towards ``z_cmd`` [m] from the governed reference (``z``
+        [m] before it starts), solved on a new command and every ``glide_period`` seconds
+        (``inf`` at rest on the command)."""
+        ref = self.reference.reference
+        if self.learner is None or (ref is not None and ref.v == 0.0 and ref.z == z_cmd):
+            self._glide = None
+            return math.inf
+        travel = 1.0 if z_cmd >= (z if ref is None else ref.z) else -1.0
+        last = self._glide
+        if last is not None and last[0] == z_cmd and last[1] == travel and last[2] > 0.0:
+            self._glide = (z_cmd, travel, last[2] - self.Ts, last[3])
+            return last[3]
+        cap = self.held_thrust_cap(travel, u)
+        self._glide = (z_cmd, travel, self.governor.glide_period - self.Ts, cap)
+        return cap
+
     def step(self, state: DepthState, z_ref: float) -> float:
         """BAR command [rad] for this sample.
 
@@ -359,7 +389,8 @@ class DepthController:
         u_heading = min(u, min(self._headings))
         self._stop_speed = u_heading
         stop = None if u_heading >= u else (self.trimmed(self.design.at(u_heading)), u_heading)
-        z_r, v_r, a_r, j_r, s_r = self.reference.advance(op, u, z_cmd, stop)
+        glide = self._glide_cap(z_cmd, z, u)
+        z_r, v_r, a_r, j_r, s_r = self.reference.advance(op, u, z_cmd, stop, glide)
         slowest = op if stop is None else stop[0]
         self._caps = (*GainSchedule.vertical_speed_bounds(slowest, u_heading, lim,
                                                           settings.margin),

@@ -116,10 +116,8 @@ def glide_cap(force: Force, thrust: float, travel: float, theta_limit: float,
 
     Parameters
     ----------
-    force : Force
-        The vehicle's forces without the thrust.
-    thrust : float
-        Held thrust [N].
+    force, thrust
+        As for :func:`steady_glide`.
     travel : float
         +1 for a dive (down), -1 for a climb.
     theta_limit : float

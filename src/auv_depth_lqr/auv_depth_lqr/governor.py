@@ -152,6 +152,11 @@ class GovernorSettings:
     longer falls (the steady speed of the dive, reached only after several time constants,
     would plan it far too slowly)."""
 
+    glide_period: float = 2.0
+    """How often [s] the steadiest climb or dive with the thrust held (:mod:`~auv_depth_lqr.
+    glide`, on the learned model and the thrust the vehicle flies with) is solved again
+    during a depth change; it caps the reference's steady climb or dive."""
+
     def __post_init__(self) -> None:
         for name in ('margin', 'bar_margin', 'brake_bar_share', 'pitch_guard',
                      'jerk_bar_share', 'bar_rate_margin', 'trim_bar_share',
@@ -171,7 +176,7 @@ class GovernorSettings:
                      'integrate_within',
                      'integrate_below_speed', 'max_lag', 'stall_time', 'stall_speed',
                      'surge_trend_time', 'surge_horizon',
-                     'disturbance_time'):
+                     'disturbance_time', 'glide_period'):
             finite(f'GovernorSettings.{name}', getattr(self, name), positive=True)
 
 
@@ -302,10 +307,13 @@ class ReferenceGovernor:
 
 
     def advance(self, op: OperatingPoint, u: float, z_cmd: float,
-                stop: tuple[OperatingPoint, float] | None = None) -> Reference:
+                stop: tuple[OperatingPoint, float] | None = None,
+                v_limit: float = math.inf) -> Reference:
         """The governed reference one sample on (:class:`Reference`); not stored (see
         :meth:`accept`). ``stop``, if given, is the operating point and surge speed [m/s] the
         stop is planned at (the speed the vehicle is heading for); else ``op`` and ``u``.
+        ``v_limit`` [m/s, >= 0] caps the steady climb or dive further (the steadiest one the
+        plane holds with the thrust held, :mod:`auv_depth_lqr.glide`).
 
         A time-optimal point-to-point motion, re-planned at every sample (so it follows a
         new command, a new speed or a reference held back by the vehicle). The snap ``s_r``
@@ -342,6 +350,7 @@ class ReferenceGovernor:
             plane_lo, plane_hi = GainSchedule.vertical_speed_bounds(
                 stop[0], stop[1], self._plane_only, settings.margin)
             v_cap = min(v_cap, plane_hi if travel > 0.0 else -plane_lo)
+        v_cap = min(v_cap, v_limit)
         landing, v_land = brake.landing, brake.v_land
         if 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E:
             # Final approach: the exponential e(t) = E exp(-t / landing).

@@ -11,12 +11,14 @@ really felt, ``M_wq (dw, dq) / Ts``; less the model's wrench at the sample's mea
 BAR commanded over it, it is what the model does not explain. :class:`PlantEstimator`
 explains it by seven parameters, a linear regression on the model's own terms::
 
-    dZ = p1 W  + p2 Z_bar(u) BAR + p3 qs u w
-    dM = p4 W L + p5 M_bar(u) BAR + p6 qs L u w + p7 qs L^2 u q
+    dZ = p1 W cos(theta) + p2 Z_bar(u) BAR + p3 qs u w
+    dM = p4 W L          + p5 M_bar(u) BAR + p6 qs L u w + p7 qs L^2 u q
 
 ``W`` the weight [N], ``L`` the reference length [m], ``qs = 1/2 rho S_ref`` [kg/m];
 ``Z_bar``, ``M_bar`` the model's plane force and moment per radian at the measured speed
-[N/rad, N m/rad]. So ``p1``, ``p4`` are a buoyancy or a trim offset (a level trim needing
+[N/rad, N m/rad]. So ``p1``, ``p4`` are a buoyancy or a trim offset (``p1 W`` a vertical
+force, as a buoyancy is: along the body's axis it is ``-p1 W sin(theta)``, which slows a
+buoyant vehicle's dive with its thrust held; a level trim needing
 another plane angle, a plane bias, a pitch moment the hull has and the file does not), in
 shares of ``W`` and ``W L``; ``p2``, ``p5`` the plane's effectiveness less one (a plane half
 as strong: -0.5); ``p3``, ``p6``, ``p7`` errors of the hull's lift, Munk and damping
@@ -240,7 +242,8 @@ class PlantEstimator:
         heave ``w`` [m/s], pitch ``theta`` and BAR ``bar`` [rad] (a
         :data:`auv_depth_lqr.glide.Force`)."""
         (z_m, m_m), (z_bar, m_bar), x_m = self._wrench(u, w, 0.0, theta, bar)
-        dz, dm = self.regressors(u, w, 0.0, bar, z_bar, m_bar) @ self._p
+        dz, dm = self.regressors(u, w, 0.0, bar, z_bar, m_bar, theta) @ self._p
+        x_m -= self._p[0] * self.weight * math.sin(theta)
         return x_m, z_m + float(dz), m_m + float(dm)
 
     def glide_cap(self, travel: float, theta_limit: float, bar_limit: float, u: float
@@ -259,12 +262,13 @@ class PlantEstimator:
                          Glide(trim.u0, trim.w, 0.0, trim.bar))
 
     def regressors(self, u: float, w: float, q: float, bar: float, z_bar: float,
-                   m_bar: float) -> Matrix:
+                   m_bar: float, theta: float = 0.0) -> Matrix:
         """The regression's rows (2, 7) at a state: heave force and pitch moment [N, N m]
-        per unit parameter."""
+        per unit parameter (the heave offset ``p1 W`` acts along the vertical, as a
+        buoyancy does: ``p1 W cos(theta)`` on the body's heave axis)."""
         qs, ln, wt = self.qs, self.length, self.weight
         H = np.zeros((2, N_PARAMS))
-        H[0, :3] = (wt, z_bar * bar, qs * u * w)
+        H[0, :3] = (wt * math.cos(theta), z_bar * bar, qs * u * w)
         H[1, 3:] = (wt * ln, m_bar * bar, qs * ln * u * w, qs * ln * ln * u * q)
         return H
 
@@ -303,12 +307,15 @@ class PlantEstimator:
         (z_m, m_m), (z_bar, m_bar), x_m = self._wrench(u, w, q, theta, bar)
         dw, dq = (end[0] - start[0]) / self.ts, (end[1] - start[1]) / self.ts
         felt = self.m_wq @ np.array([dw, dq]) + self.m_wq_u * du / self.ts
+        # the thrust: the surge force the accelerations need beyond the model's, the learned
+        # heave offset's share along the axis included (a buoyancy slows a dive)
+        x_m -= self._p[0] * self.weight * math.sin(theta)
         thrust = float(self.m_u @ np.array([du / self.ts, dw, dq])) - x_m
         alpha = self.ts / (self.settings.thrust_time + self.ts)
         self._thrust = thrust if self._thrust is None else \
             self._thrust + alpha * (thrust - self._thrust)
         y = felt - np.array([z_m, m_m])
-        H = self.regressors(u, w, q, bar, z_bar, m_bar)
+        H = self.regressors(u, w, q, bar, z_bar, m_bar, theta)
         cov = self._cov + np.diag(self._drift)
         S = H @ cov @ H.T + np.diag(self._noise ** 2)
         gain = np.linalg.solve(S, H @ cov).T

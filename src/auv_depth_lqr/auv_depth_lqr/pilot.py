@@ -353,10 +353,8 @@ class DepthPilot:
         if learner is None or learner.thrust is None or u is None or t is None:
             return math.nan, math.nan
         if self._held is None or not 0.0 <= t - self._held[0] < HELD_THRUST_PERIOD:
-            lim, gov = self.controller.limits, self.controller.governor
-            theta, bar = gov.margin * lim.theta_max, gov.trim_bar_share * lim.bar_max
-            self._held = (t, learner.glide_cap(-1.0, theta, bar, u),
-                          learner.glide_cap(1.0, theta, bar, u))
+            self._held = (t, self.controller.held_thrust_cap(-1.0, u),
+                          self.controller.held_thrust_cap(1.0, u))
         return self._held[1], self._held[2]
 
     def learning_diagnostics(self) -> dict[str, str]:
