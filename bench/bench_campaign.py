@@ -59,7 +59,7 @@ def _effects(i: int) -> dict[str, dict[str, float]]:
 
 
 def _campaign(argv: list[str]) -> dict[str, Any]:
-    from auv_ident.campaign import cli
+    from auv_campaign import cli
 
     parser = argparse.ArgumentParser()
     cli.add_arguments(parser)
@@ -76,7 +76,7 @@ def _campaign(argv: list[str]) -> dict[str, Any]:
 
 def _cluster_start_and_noop(workers: int, tasks: int = 200) -> tuple[float, float]:
     """Seconds to start the embedded cluster, and seconds per no-op task round trip."""
-    from auv_ident.campaign import engine
+    from auv_campaign import engine
 
     t0 = time.perf_counter()
     with engine.client(workers) as c:
@@ -89,7 +89,7 @@ def _cluster_start_and_noop(workers: int, tasks: int = 200) -> tuple[float, floa
 
 
 def run_gap(tmp: pathlib.Path) -> dict[str, Any]:
-    from auv_ident.campaign.synthetic import write_campaign
+    from auv_campaign.synthetic import write_campaign
     from auv_sim.params import load_vehicle
 
     t0 = time.perf_counter()
@@ -167,7 +167,7 @@ def _cpu_s() -> float:
 _BARE_CHILD = """
 import json, resource, sys, time
 t0 = time.perf_counter()
-from auv_ident.campaign.montecarlo import Draw, run_chunk
+from auv_campaign.montecarlo import Draw, run_chunk
 d = json.loads(sys.argv[1])
 draw = Draw(d['vehicle'], runs=d['runs'], seed=d['seed'], duration=d['duration'],
             spreads=d['spreads'], effects={e: {f: tuple(v) for f, v in fs.items()}
@@ -223,7 +223,7 @@ def run_montecarlo(tmp: pathlib.Path) -> dict[str, Any]:
 
     Figures per wall second and per CPU second (this process and its children: the
     scheduler, the workers; CPU time is far less sensitive to the load than wall time)."""
-    from auv_ident.campaign.montecarlo import Draw, forget_pilots, run_chunk
+    from auv_campaign.montecarlo import Draw, forget_pilots, run_chunk
 
     spreads = {'CZuw': 0.2, 'CMuq': 0.2, 'CMuw': 0.1}
     effects = {'buoyancy_offset': {'dB': (-30.0, 30.0)}}

@@ -1,11 +1,11 @@
 """Benchmark: sim-to-real gap diagnosis of a 20-minute, 50 Hz log (target: under 60 s).
 
 The log: the panel flight (closed-loop depth changes at three speeds with BAR doublets,
-:func:`auv_ident.gap.synth.panel_scenario`) for 1200 s with two hidden effects (a 0.3 m/s
+:func:`auv_gap.synth.panel_scenario`) for 1200 s with two hidden effects (a 0.3 m/s
 current with a 2 cm/s vertical component and a 0.5 s plane delay) and realistic sensor noise,
 written as a bag (60 001 states). Timed, median of ``repeats`` runs each:
 
-* ``read_s``: the bag to log arrays (:func:`auv_ident.gap.logs.load_bag`);
+* ``read_s``: the bag to log arrays (:func:`auv_gap.logs.load_bag`);
 * ``diagnose_s``: the whole diagnosis (nominal free runs, equation error, every catalogue
   effect fitted and scored on held-out windows, combinations);
 * ``report_s``: report.json, details.json, report.md and the PNG plots;
@@ -36,10 +36,10 @@ def run(repeats: int = 3) -> dict[str, Any]:
     """Run the benchmark; returns the figures (seconds, counts, the verdict)."""
     import numba
 
-    from auv_ident.gap import synth
-    from auv_ident.gap.diagnose import diagnose
-    from auv_ident.gap.logs import load_bag
-    from auv_ident.gap.report import write_report
+    from auv_gap import synth
+    from auv_gap.diagnose import diagnose
+    from auv_gap.logs import load_bag
+    from auv_gap.report import write_report
     from auv_sim.params import load_vehicle
 
     params = load_vehicle(ROOT / 'config' / 'a18m.yaml')

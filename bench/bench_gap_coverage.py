@@ -73,10 +73,10 @@ def wilson(hits: int, n: int) -> tuple[float, float]:
 
 def run(effect: str, seeds: int, first_seed: int = 1000) -> dict[str, Any]:
     """Coverage figures of one effect over ``seeds`` seeds."""
-    from auv_ident.gap import synth
-    from auv_ident.gap.catalogue import Perturbation
-    from auv_ident.gap.fit import EquationFit, FreeRunFit
-    from auv_ident.gap.problem import CH_INDEX, EffectSet, Problem
+    from auv_gap import synth
+    from auv_gap.catalogue import Perturbation
+    from auv_gap.fit import EquationFit, FreeRunFit
+    from auv_gap.problem import CH_INDEX, EffectSet, Problem
     from auv_sim.params import load_vehicle
 
     vehicle = load_vehicle(ROOT / 'config' / 'a18m.yaml')

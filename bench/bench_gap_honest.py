@@ -1,7 +1,7 @@
 """Benchmark: how honest the gap diagnosis is, inside and outside its catalogue.
 
-A panel of 15-minute closed-loop logs (the panel flight, :func:`auv_ident.gap.synth.
-panel_scenario`) and 10-minute open-loop logs (:func:`auv_ident.gap.synth.open_loop_scenario`)
+A panel of 15-minute closed-loop logs (the panel flight, :func:`auv_gap.synth.
+panel_scenario`) and 10-minute open-loop logs (:func:`auv_gap.synth.open_loop_scenario`)
 with realistic sensor noise, each of a plant the diagnosis is not told:
 
 * ``inside``: catalogue effects at magnitudes from barely visible to large, single and in
@@ -214,8 +214,8 @@ def panel(seed: int = 23, only: frozenset[str] = frozenset(),
           saved: list[dict[str, Any]] | None = None) -> dict[str, Any]:
     """Run the panel (the cases of ``only``, the others kept from ``saved`` rows); per-case
     rows and the summary figures."""
-    from auv_ident.gap import synth
-    from auv_ident.gap.diagnose import diagnose
+    from auv_gap import synth
+    from auv_gap.diagnose import diagnose
     from auv_sim.params import load_vehicle
 
     vehicle = load_vehicle(ROOT / 'config' / 'a18m.yaml')

@@ -1,7 +1,7 @@
 """Benchmark: the effect panel of the gap diagnosis, one case per file of ``config/effects``.
 
 For each effect file a 15-minute closed-loop log (the panel flight,
-:func:`auv_ident.gap.synth.panel_scenario`, noise seed 11) is flown on the simulator with that
+:func:`auv_gap.synth.panel_scenario`, noise seed 11) is flown on the simulator with that
 effect and realistic sensor noise, and the diagnosis, told nothing, must name the effect (or
 say it cannot tell it from another), bracket its size with its 95 % interval and shrink the
 held-out depth RMS to at most 0.8 of the nominal model's. Also: a clean log (no gap) and two
@@ -95,10 +95,10 @@ def judge(report: dict[str, Any], truth: dict[str, dict[str, float]]) -> str | N
 
 
 def diagnose_case(case: str) -> Any:
-    """The diagnosis (:class:`auv_ident.gap.diagnose.Diagnosis`) of the panel log of ``case``
+    """The diagnosis (:class:`auv_gap.diagnose.Diagnosis`) of the panel log of ``case``
     (the A18M, noise seed :data:`SEED`)."""
-    from auv_ident.gap import synth
-    from auv_ident.gap.diagnose import diagnose
+    from auv_gap import synth
+    from auv_gap.diagnose import diagnose
     from auv_sim.params import load_vehicle
 
     vehicle = load_vehicle(ROOT / 'config' / 'a18m.yaml')

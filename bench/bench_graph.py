@@ -19,14 +19,35 @@ pitch-up, the climb and the stop, whose planning is the pilot's heaviest computa
   stamped t_k (state -> pilot -> BAR, both legs over DDS, measured at one process clock).
   Target: p99 < 5 ms.
 
-Run: ``. .venv/bin/auv-env && python bench/bench_graph.py`` (writes bench/results/graph.json).
+* ``completeness``: each README recipe run as a user runs it (``auv launch --lockstep
+  --real-time-factor 0 --depth 10 --stop-time 150 --record``, ``auv launch --mission pitch
+  --real-time-factor 0 --record``, ``auv demo --skip-gap`` (its graph run), and the real-time
+  ``auv launch --depth 10 --duration 30 --record``) with the machine as it is (``idle``: no
+  load added), beside two CPU-bound processes (``cpu2``), and beside another node graph in
+  the same DDS domain plus a CPU-bound test file run again and again (``graph_and_tests``):
+  per topic the messages the nodes published (their reports) and the messages in the bag,
+  the exit status and what the launcher said. Goal: 1.000 for every topic of every lockstep
+  recipe under every load.
+* ``startup``: from starting a plain ``auv launch`` (real time) to the first BAR command a
+  subscriber receives, 5 times under each load. Goal: < 3 s.
+
+Each section records the load average when it ran (the machine is shared: "idle" is the
+machine with nothing added by the benchmark). Run: ``. .venv/bin/auv-env && python
+bench/bench_graph.py [--only timing completeness startup]`` (writes bench/results/graph.json;
+with ``--only`` the other sections of the file are kept).
 """
 from __future__ import annotations
 
+import argparse
+import contextlib
 import json
 import os
 import pathlib
+import signal
+import subprocess
+import sys
 import tempfile
+import threading
 import time
 from typing import Any
 
@@ -77,11 +98,9 @@ def _period_figures(times: np.ndarray, period: float = 0.1) -> dict[str, float]:
             'jitter_max_ms': float(1e3 * dev.max())}
 
 
-def run(lockstep_time: float = 300.0, real_time: float = 30.0) -> dict[str, Any]:
-    """Run the three graph measurements; returns the figures."""
-    env = dict(os.environ)
-    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-    env.setdefault('ROS_DOMAIN_ID', '87')
+def run_timing(env: dict[str, str], lockstep_time: float = 300.0,
+               real_time: float = 30.0) -> dict[str, Any]:
+    """The three timing measurements (lockstep real-time factor, publish period, latency)."""
     out: dict[str, Any] = {'targets': {'lockstep_real_time_factor_min': 20.0,
                                        'timer_p99_jitter_ms_max': 2.0,
                                        'latency_p99_ms_max': 5.0}}
@@ -128,7 +147,271 @@ def run(lockstep_time: float = 300.0, real_time: float = 30.0) -> dict[str, Any]
     return out
 
 
+# -- whole recordings under load ---------------------------------------------------------------
+#: The README's recipes, as ``auv`` command lines (the bag, or the demo's output, appended).
+RECIPES: dict[str, list[str]] = {
+    'lockstep': ['launch', '--lockstep', '--real-time-factor', '0', '--depth', '10',
+                 '--stop-time', '150', '--record'],
+    'mission_pitch': ['launch', '--mission', 'pitch', '--real-time-factor', '0', '--record'],
+    'demo': ['demo', '--skip-gap', '--out'],
+    'realtime': ['launch', '--depth', '10', '--duration', '30', '--record'],
+}
+LOADS = ('idle', 'cpu2', 'graph_and_tests')
+#: A test-like load: CPU-bound unit tests of the model, run again and again (no DDS).
+TEST_LOAD = ['-m', 'pytest', '-q', '-p', 'no:cacheprovider', 'tests/test_physics.py',
+             'tests/test_trim.py']
+
+
+class Load:
+    """What runs beside the measured graph (``idle``: nothing more than the machine's own
+    jobs; ``cpu2``: two CPU-bound processes; ``graph_and_tests``: another node graph in the
+    same DDS domain, a lockstep run as fast as possible in namespace ``loadgraph``, restarted
+    as it ends, and a CPU-bound test file run again and again). Processes are started here,
+    each in its own session, and ended by their process group id."""
+
+    def __init__(self, kind: str, env: dict[str, str], tmp: pathlib.Path) -> None:
+        self.kind, self.env, self.tmp = kind, env, tmp
+        self._procs: list[subprocess.Popen[bytes]] = []
+        self._stop = threading.Event()
+        self._threads: list[threading.Thread] = []
+
+    def _spawn(self, argv: list[str]) -> subprocess.Popen[bytes]:
+        proc = subprocess.Popen(argv, env=self.env, cwd=ROOT, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL, start_new_session=True)
+        self._procs.append(proc)
+        return proc
+
+    def _again(self, argv: list[str]) -> None:
+        while not self._stop.is_set():
+            proc = self._spawn(argv)
+            while proc.poll() is None and not self._stop.is_set():
+                time.sleep(0.2)
+
+    def __enter__(self) -> Load:
+        py = sys.executable
+        if self.kind == 'cpu2':
+            for _ in range(2):
+                self._spawn([py, '-c', 'while True: pass'])
+        elif self.kind == 'graph_and_tests':
+            graph = [py, '-m', 'auv_bringup.cli', 'launch', '--namespace', 'loadgraph',
+                     '--lockstep', '--real-time-factor', '0', '--depth', '20',
+                     '--stop-time', '600', '--log-dir', str(self.tmp / 'loadgraph')]
+            for argv in (graph, [py, *TEST_LOAD]):
+                thread = threading.Thread(target=self._again, args=(argv,), daemon=True)
+                thread.start()
+                self._threads.append(thread)
+        time.sleep(3.0)  # the load running before the measurement starts
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        for thread in self._threads:
+            thread.join(30)
+        for proc in self._procs:
+            if proc.poll() is None:
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(proc.pid, signal.SIGINT)
+        for proc in self._procs:
+            try:
+                proc.wait(30)
+            except subprocess.TimeoutExpired:
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait(10)
+
+
+def _recipe(name: str, env: dict[str, str], tmp: pathlib.Path) -> dict[str, Any]:
+    """Run one README recipe as a user does; what each node published against what the bag
+    holds, per topic."""
+    from auv_bringup.launch import GraphConfig, recorded_topics
+    from auv_bringup.recording_check import check_recording
+    from auv_sim.node_report import read_report
+
+    out = tmp / name
+    if name == 'demo':
+        bag, logs = out / 'graph_bag', out / 'logs'
+    else:
+        bag, logs = out, tmp / f'{name}.logs'
+    argv = [sys.executable, '-m', 'auv_bringup.cli', *RECIPES[name], str(out)]
+    load = os.getloadavg()[0]
+    wall = time.monotonic()
+    res = subprocess.run(argv, env=env, cwd=ROOT, capture_output=True, text=True, timeout=3600)
+    wall = time.monotonic() - wall
+    nodes = ('simulator', 'mission') if name == 'mission_pitch' else ('simulator', 'pilot')
+    reports = {n: read_report(logs / f'{n}.report.json') for n in nodes}
+    check = check_recording(bag, reports, recorded_topics(GraphConfig(record=str(bag))))
+    sim = reports.get('simulator') or {}
+    return {'exit_status': res.returncode,
+            'error': res.stderr.strip().splitlines()[-1] if res.returncode else None,
+            'wall_s': wall, 'load_average_1min_before': load,
+            'topics': {c.topic: {'published': c.published, 'recorded': c.recorded,
+                                 'ratio': c.ratio} for c in check.counts},
+            'min_ratio': min((c.ratio for c in check.counts), default=0.0),
+            'complete': check.complete, 'problems': check.problems,
+            'lockstep_missed': sim.get('lockstep_missed'),
+            'recorder_pacing_given_up': sim.get('recorder_pacing_given_up')}
+
+
+def run_completeness(env: dict[str, str], loads: tuple[str, ...] = LOADS,
+                     recipes: tuple[str, ...] = tuple(RECIPES)) -> dict[str, Any]:
+    """Messages recorded over messages published, per topic, for each recipe and load."""
+    out: dict[str, Any] = {'cpu_count': os.cpu_count(), 'recipes': {
+        name: 'auv ' + ' '.join(argv) + ' OUT' for name, argv in RECIPES.items()}}
+    with tempfile.TemporaryDirectory() as tmp_name:
+        for kind in loads:
+            tmp = pathlib.Path(tmp_name) / kind
+            tmp.mkdir()
+            with Load(kind, env, tmp):
+                out[kind] = {name: _recipe(name, env, tmp) for name in recipes}
+    lockstep = {k: [r for n, r in out[k].items() if n != 'realtime'] for k in loads}
+    out['lockstep_min_ratio_by_load'] = {k: min(r['min_ratio'] for r in rs)
+                                         for k, rs in lockstep.items()}
+    out['lockstep_min_ratio'] = min(out['lockstep_min_ratio_by_load'].values())
+    out['lockstep_all_whole'] = all(r['complete'] and r['exit_status'] == 0
+                                    for rs in lockstep.values() for r in rs)
+    out['realtime_min_ratio_by_load'] = {k: out[k]['realtime']['min_ratio'] for k in loads
+                                         if 'realtime' in out[k]}
+    out['goal'] = 'recorded / published = 1.000, every topic of every lockstep recipe and load'
+    out['goal_met'] = out['lockstep_all_whole'] and out['lockstep_min_ratio'] == 1.0
+    return out
+
+
+# -- start to first plane command --------------------------------------------------------------
+def _cpu_seconds(pid: int) -> float:
+    """CPU seconds (user + system) process ``pid`` has used so far (Linux ``/proc``)."""
+    fields = pathlib.Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
+def _node_cpu(launch_pid: int) -> dict[str, float]:
+    """CPU seconds used so far by the launcher and each node it started (by module name)."""
+    out = {'launcher': _cpu_seconds(launch_pid)}
+    for stat in pathlib.Path('/proc').glob('[0-9]*/stat'):
+        try:
+            ppid = int(stat.read_text().rsplit(')', 1)[1].split()[1])
+            if ppid != launch_pid:
+                continue
+            cmd = (stat.parent / 'cmdline').read_bytes().split(b'\0')
+            name = next((c.decode() for c in cmd if c.startswith(b'auv_')), '?')
+            out[name] = _cpu_seconds(int(stat.parent.name))
+        except (OSError, ValueError, IndexError):
+            continue
+    return out
+
+
+def _first_command(env: dict[str, str], tmp: pathlib.Path,
+                   i: int) -> tuple[float | None, dict[str, float]]:
+    """Wall s from starting a plain ``auv launch`` (real time) to the first BAR command a
+    subscriber that was listening before receives (None if none within 60 s), and the CPU
+    seconds the launcher and each node had used by then."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.signals import SignalHandlerOptions
+
+    from auv_msgs.msg import ActuatorSetpoint
+
+    context = Context()
+    rclpy.init(context=context, domain_id=int(env['ROS_DOMAIN_ID']),
+               signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        node = rclpy.create_node('first_command_probe', context=context)
+        got: list[float] = []
+        node.create_subscription(ActuatorSetpoint, '/auv/bar_command',
+                                 lambda _m: got.append(time.monotonic()),
+                                 QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        end = time.monotonic() + 1.0
+        while time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.05)
+        start = time.monotonic()
+        launch = subprocess.Popen([sys.executable, '-m', 'auv_bringup.cli', 'launch',
+                                   '--log-dir', str(tmp / f'startup{i}')], env=env, cwd=ROOT,
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        while not got and time.monotonic() - start < 60.0:
+            executor.spin_once(timeout_sec=0.01)
+        cpu = _node_cpu(launch.pid)
+        launch.send_signal(signal.SIGINT)
+        launch.wait(60)
+        executor.shutdown()
+        node.destroy_node()
+        return (got[0] - start if got else None), cpu
+    finally:
+        context.try_shutdown()
+
+
+def run_startup(env: dict[str, str], loads: tuple[str, ...] = LOADS,
+                repeats: int = 5) -> dict[str, Any]:
+    """Start-to-first-plane-command of a plain ``auv launch``, ``repeats`` times per load."""
+    out: dict[str, Any] = {'goal_s': 3.0}
+    with tempfile.TemporaryDirectory() as tmp_name:
+        for kind in loads:
+            tmp = pathlib.Path(tmp_name) / kind
+            tmp.mkdir()
+            with Load(kind, env, tmp):
+                load = os.getloadavg()[0]
+                runs = [_first_command(env, tmp, i) for i in range(repeats)]
+            times = [t for t, _ in runs]
+            ok = [t for t in times if t is not None]
+            cpu = {name: float(np.median([c.get(module, np.nan) for _, c in runs]))
+                   for name, module in (('launcher', 'launcher'),
+                                        ('pilot', 'auv_depth_lqr.node'),
+                                        ('simulator', 'auv_sim.node'))}
+            out[kind] = {'seconds': times, 'median_s': float(np.median(ok)) if ok else None,
+                         'max_s': max(ok) if ok else None,
+                         'load_average_1min_before': load,
+                         # CPU s each process used before the first command (median): what
+                         # the start costs whatever the load; on two idle cores the pilot and
+                         # the simulator start side by side after the launcher's checks
+                         'cpu_s_before_first_command': cpu,
+                         'cpu_s_critical_path': cpu['launcher'] + max(cpu['pilot'],
+                                                                      cpu['simulator'])}
+    out['goal_met'] = all(out[k]['median_s'] is not None and out[k]['median_s'] < 3.0
+                          for k in loads)
+    return out
+
+
+def _env() -> tuple[dict[str, str], Any]:
+    """The environment of the measured graphs: a DDS domain id reserved as the tests reserve
+    theirs (tests/conftest.py), localhost discovery."""
+    sys.path.insert(0, str(ROOT / 'tests'))
+    from conftest import reserve_domain_id
+
+    reservation = reserve_domain_id()
+    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'  # this process's probes too
+    env = dict(os.environ, ROS_DOMAIN_ID=str(reservation.domain_id))
+    return env, reservation
+
+
+SECTIONS = ('timing', 'completeness', 'startup')
+
+
+def run(sections: tuple[str, ...] = SECTIONS) -> dict[str, Any]:
+    """The graph's figures (each section with the machine's load when it ran)."""
+    env, reservation = _env()
+    try:
+        out: dict[str, Any] = {}
+        if 'timing' in sections:
+            out.update(run_timing(env))
+        if 'completeness' in sections:
+            out['completeness'] = run_completeness(env)
+        if 'startup' in sections:
+            out['startup'] = run_startup(env)
+        return out
+    finally:
+        reservation.release()
+
+
 if __name__ == '__main__':
-    figures = run()
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--only', nargs='+', choices=SECTIONS, default=list(SECTIONS),
+                        help='run these sections and keep the others of the results file')
+    args = parser.parse_args()
+    figures = run(tuple(args.only))
+    path = ROOT / 'bench' / 'results' / 'graph.json'
+    if set(args.only) != set(SECTIONS) and path.is_file():
+        figures = {**json.loads(path.read_text()), **figures}
     save_figures('graph', figures)
     print(json.dumps(figures, indent=2))

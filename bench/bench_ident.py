@@ -36,7 +36,7 @@ def run(repeats: int = 3) -> dict[str, Any]:
     from auv_bag import read_arrays
     from auv_ident.identify import compare_nelder_mead, identify
     from auv_ident.motion import needed_topics, records_from_topics
-    from auv_ident.simlog import SensorNoise, write_record
+    from auv_logs.simlog import SensorNoise, write_record
     from auv_sim.missions import load_mission, run_mission
     from auv_sim.params import load_vehicle
 

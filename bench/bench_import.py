@@ -4,7 +4,7 @@ The log: a rosbag2 bag (MCAP, zstd) of one hour at 50 Hz of ``nav_msgs/Odometry`
 ``sensor_msgs/Imu``, ``sensor_msgs/FluidPressure``, the custom fin message
 ``lab_msgs/msg/FinAngles`` and ``std_msgs/Float64`` propeller rpm (5 x 180 000 messages),
 with a smooth synthetic motion (pitch and heading oscillations, depth changes). It is imported
-through ``config/maps/ros2_custom_fins.yaml`` (:func:`auv_ident.realog.importer.import_log`:
+through ``config/maps/ros2_custom_fins.yaml`` (:func:`auv_logs.importer.import_log`:
 read, convert frames and units, hold onto the IMU stamps, segment) in a fresh process that
 reports its wall time and peak resident memory (``ru_maxrss``: Python, numpy and rosbags
 included). The reference, in another fresh process of the same run: rosbags' ``AnyReader``
@@ -26,7 +26,7 @@ import time
 import numpy as np
 from timing import save_figures
 
-from auv_ident.realog import synth
+from auv_logs import synth
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 MAP = ROOT / 'config' / 'maps' / 'ros2_custom_fins.yaml'
@@ -35,8 +35,8 @@ TOPICS = ('/odom', '/imu/data', '/pressure', '/fins', '/thruster/rpm')
 IMPORT = """
 import json, resource, sys, time
 t0 = time.perf_counter()
-from auv_ident.realog.importer import import_log
-from auv_ident.realog.mapping import load_map
+from auv_logs.importer import import_log
+from auv_logs.mapping import load_map
 t1 = time.perf_counter()
 log = import_log(load_map(sys.argv[1]), sys.argv[2])
 t2 = time.perf_counter()

@@ -1,9 +1,9 @@
 """Benchmark: the gap diagnosis on poor logs: the same flights logged at 2, 10 and 50 Hz.
 
 Each plant (the A18M with one effect the diagnosis is not told, or none) flies the
-15-minute closed-loop panel flight (:func:`auv_ident.gap.synth.panel_scenario`) with
+15-minute closed-loop panel flight (:func:`auv_gap.synth.panel_scenario`) with
 realistic sensor noise. The run is written as a vendor's whitespace text log
-(:func:`auv_ident.realog.synth.write_text`: depth in cm, roll, pitch, heading in degrees,
+(:func:`auv_logs.synth.write_text`: depth in cm, roll, pitch, heading in degrees,
 speed in cm/s, two elevators, a rudder, rpm; no sway, no heave velocity, no rates, commands
 sampled at the log's rows) every 25th, 5th and every 50 Hz sample, read back through
 ``config/maps/text_2hz_deg_cm.yaml`` (so ``q`` and ``w`` are derived, ``v`` assumed 0) and
@@ -99,12 +99,12 @@ def run(cases: list[str] | None = None, rates: list[float] | None = None,
 
 def panel(cases: list[str], rates: list[float]) -> dict[str, Any]:
     """The gap verdicts of ``cases`` at ``rates`` [Hz] and the reference (module docstring)."""
-    from auv_ident.gap import synth
-    from auv_ident.gap.diagnose import diagnose
-    from auv_ident.gap.logs import from_contract_arrays
-    from auv_ident.realog import synth as realsynth
-    from auv_ident.realog.importer import contract_arrays, import_log
-    from auv_ident.realog.mapping import load_map
+    from auv_gap import synth
+    from auv_gap.diagnose import diagnose
+    from auv_gap.logs import from_contract_arrays
+    from auv_logs import synth as realsynth
+    from auv_logs.importer import contract_arrays, import_log
+    from auv_logs.mapping import load_map
 
     vehicle = load_vehicle_file()
     logmap = load_map(MAP)
@@ -164,8 +164,8 @@ def ident_coverage(seeds: int, rate: float = 2.0) -> dict[str, Any]:
     import numpy as np
 
     from auv_ident import cli
-    from auv_ident.realog import synth as realsynth
-    from auv_ident.simlog import SensorNoise
+    from auv_logs import synth as realsynth
+    from auv_logs.simlog import SensorNoise
     from auv_sim.missions import load_mission, run_mission
 
     vehicle = load_vehicle_file()

@@ -154,7 +154,7 @@ def identify_truth(truth: VehicleParams, base_path: pathlib.Path, workdir: pathl
     force topic); returns the identified vehicle and the identification's coefficients
     (value, ci95)."""
     from auv_ident import cli
-    from auv_ident.simlog import SensorNoise, write_record
+    from auv_logs.simlog import SensorNoise, write_record
     from auv_sim.missions import load_mission, run_mission
 
     bags = []

@@ -7,7 +7,9 @@ settings designed from each vehicle file; the vehicle's speed loop holds the sur
 (:func:`auv_depth_lqr.closed_loop.run_closed_loop`, ``speed_time_constant`` 2 s). Reported per
 case: settling time (+-0.1 m), the time-optimal bound of the vehicle's own model
 (:func:`auv_depth_lqr.bound.settling_bound`) and their ratio (target <= 1.5), overshoot, peak
-pitch (limit 25 deg), plane saturation time.
+pitch (limit 25 deg), plane saturation time. ``bounds``: each bound with the grid time its
+plan settles at, the bands reached there and one grid step earlier, the solver's starts and
+its wall time.
 
 Part 2 (``model_error``): the A18M 40 -> 10 m at 2 m/s and the REMUS 20 -> 10 m at 1.5 m/s,
 the pilot designed on the vehicle file and the plant changed by one of
@@ -21,7 +23,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import pathlib
+import platform
 import time
 from typing import Any
 
@@ -76,25 +80,46 @@ def fly(design: VehicleParams, z0: float, z1: float, u0: float, bound: float,
     }
 
 
+def bound_figures(params: VehicleParams, z0: float, z1: float, u0: float
+                  ) -> tuple[float, dict[str, Any]]:
+    """The time-optimal bound [s] and how it was found: the first grid time a plan settles
+    at, the bands reached there and one step earlier [m], SLP starts, wall time [s]."""
+    t0 = time.perf_counter()
+    bound = settling_bound(params, z0, z1, u0, THETA_MAX)
+    return bound.settling_time, {
+        'time_optimal_bound_s': round(bound.settling_time, 3),
+        'grid_time_s': round(bound.grid_time, 3),
+        'band_reached_m': round(bound.band_reached, 4),
+        'earlier_band_m': round(bound.earlier_band, 4),
+        'solver_starts': bound.solves, 'wall_s': round(time.perf_counter() - t0, 1)}
+
+
 def run() -> dict[str, Any]:
     """Both parts; returns the figures."""
+    load_start = os.getloadavg()[0]
+    bounds: dict[str, Any] = {}
     vehicles: dict[str, Any] = {}
     for name in ('remus100', 'npsauv2'):
         params = load_vehicle(CONFIG / f'{name}.yaml')
-        vehicles[name] = {
-            f'{z0:g}->{z1:g}m': fly(params, z0, z1, 1.5,
-                                    settling_bound(params, z0, z1, 1.5, THETA_MAX).settling_time)
-            for z0, z1 in CHANGES}
+        vehicles[name] = {}
+        for z0, z1 in CHANGES:
+            key = f'{z0:g}->{z1:g}m'
+            bound, bounds[f'{name} {key} at 1.5 m/s'] = bound_figures(params, z0, z1, 1.5)
+            vehicles[name][key] = fly(params, z0, z1, 1.5, bound)
     errors: dict[str, Any] = {}
     for name, (z0, z1, u0) in ERROR_CASES.items():
         params = load_vehicle(CONFIG / f'{name}.yaml')
-        bound = settling_bound(params, z0, z1, u0, THETA_MAX).settling_time
+        bound, figures = bound_figures(params, z0, z1, u0)
+        bounds.setdefault(f'{name} {z0:g}->{z1:g}m at {u0:g} m/s', figures)  # once computed
         errors[f'{name} {z0:g}->{z1:g}m at {u0:g} m/s'] = {
             'none': fly(params, z0, z1, u0, bound, None, duration=200.0),
             **{error: fly(params, z0, z1, u0, bound, error, duration=200.0)
                for error in MODEL_ERRORS}}
     return {'speed_u0_m_s': 1.5, 'theta_max_deg': 25.0, 'speed_loop_s': SPEED_TAU,
-            'vehicles': vehicles, 'model_error': errors}
+            'vehicles': vehicles, 'model_error': errors, 'bounds': bounds,
+            'machine': {'python': platform.python_version(), 'cpus': os.cpu_count(),
+                        'load_average_1min_start': round(load_start, 2),
+                        'load_average_1min_end': round(os.getloadavg()[0], 2)}}
 
 
 if __name__ == '__main__':

@@ -449,3 +449,112 @@ def test_metadata_counts_are_only_a_hint(tmp_path: pathlib.Path) -> None:
     assert 0 < len(cut[STATE]) < N_STATE // 2
     for topic in ALL_TOPICS:
         np.testing.assert_array_equal(cut[topic], clean[topic][:len(cut[topic])])
+
+
+def _killed_recording(path: pathlib.Path, n: int = 400) -> list[tuple[str, int, int, bytes]]:
+    """A bag directory as a recorder killed mid-run leaves it: raw CDR messages with publish
+    times distinct from their log times, no metadata.yaml, the file cut in its middle.
+    Returns the messages written (topic, log time, publish time, bytes), in order."""
+    ts, T = _types()
+    written = []
+    qos = bag.qos_profiles_yaml('best_effort', 'volatile', 10)
+    with bag.BagWriter(path, compression='none', chunk_size=2048) as w:
+        w.add_topic(STATE, 'auv_msgs/msg/VehicleState')
+        w.add_topic('/auv/bar_command', 'auv_msgs/msg/ActuatorSetpoint', qos)
+        w.add_topic('/auv/helm_command', 'auv_msgs/msg/ActuatorSetpoint')  # never written
+        for i in range(n):
+            topic = STATE if i % 4 else '/auv/bar_command'
+            msg = (_state(i) if topic == STATE else
+                   T['auv_msgs/msg/ActuatorSetpoint'](_header(100.0 + 0.02 * i), 0.001 * i))
+            data = bytes(ts.serialize_cdr(msg, msg.__msgtype__))
+            log, pub = 5_000_000_000 + i * 10_000_000, 4_000_000_000 + i * 7_000_000
+            w.write(topic, data, log, pub)
+            written.append((topic, log, pub, data))
+    (path / 'metadata.yaml').unlink()
+    mcap = path / f'{path.name}_0.mcap'
+    data = mcap.read_bytes()
+    mcap.write_bytes(data[:len(data) // 2])
+    return written
+
+
+def test_repair_writes_every_whole_message_of_a_killed_recording(tmp_path: pathlib.Path
+                                                                  ) -> None:
+    from mcap.reader import make_reader
+    from rosbags.highlevel import AnyReader
+
+    damaged = tmp_path / 'killed'
+    written = _killed_recording(damaged)
+    # uncompressed: a message is whole before the cut if its bytes end before it
+    cut = (damaged / 'killed_0.mcap').read_bytes()
+    whole, pos = 0, 0
+    for _, _, _, data in written:
+        at = cut.find(data, pos)
+        if at < 0:
+            break
+        whole, pos = whole + 1, at + len(data)
+    assert 0 < whole < len(written)
+    with pytest.raises(BagError, match='auv bag repair BAG --out NEW'):
+        bag.read_arrays(damaged, [STATE])
+    report = bag.repair_bag(damaged, tmp_path / 'fixed')
+    assert report.messages == whole
+    assert report.counts == {STATE: sum(t == STATE for t, *_ in written[:whole]),
+                             '/auv/bar_command': sum(t != STATE for t, *_ in written[:whole]),
+                             '/auv/helm_command': 0}
+    assert report.damage is not None and f': {whole} whole messages before' in report.damage
+    assert f'recovered {whole} messages from {damaged}' in report.text()
+    with open(tmp_path / 'fixed' / 'fixed_0.mcap', 'rb') as fh:
+        reader = make_reader(fh)
+        got = [(ch.topic, m.log_time, m.publish_time, bytes(m.data))
+               for _, ch, m in reader.iter_messages(log_time_order=False)]
+        qos = {ch.topic: ch.metadata['offered_qos_profiles']
+               for ch in reader.get_summary().channels.values()}
+    assert got == written[:whole]  # bytes, log and publish times unchanged, in order
+    assert qos['/auv/bar_command'] == bag.qos_profiles_yaml('best_effort', 'volatile', 10)
+    with AnyReader([tmp_path / 'fixed']) as reader:  # rosbags takes the repaired bag
+        assert sum(1 for _ in reader.messages()) == whole
+    # repairing a whole bag copies it
+    again = bag.repair_bag(tmp_path / 'fixed', tmp_path / 'copy')
+    assert again.damage is None and again.counts == report.counts
+    with pytest.raises(BagError, match='exists already'):
+        bag.repair_bag(damaged, tmp_path / 'fixed')
+
+
+def test_corrupt_metadata_is_one_line(tmp_path: pathlib.Path) -> None:
+    write_full_bag(tmp_path / 'run')
+    (tmp_path / 'run' / 'metadata.yaml').write_text('rosbag2_bagfile_information:\n  topics: [\n')
+    for call in (lambda: bag.bag_topics(tmp_path / 'run'),
+                 lambda: bag.read_arrays(tmp_path / 'run', [STATE])):
+        with pytest.raises(BagError) as err:
+            call()
+        assert '\n' not in str(err.value)
+        assert str(err.value).startswith(f'bag metadata {tmp_path / "run" / "metadata.yaml"} '
+                                         'is unreadable: ')
+    # the repair reads the MCAP file without it
+    report = bag.repair_bag(tmp_path / 'run', tmp_path / 'fixed')
+    assert report.damage is None and report.counts[STATE] == N_STATE
+
+
+def test_auv_bag_info_and_repair_commands(tmp_path: pathlib.Path) -> None:
+    import subprocess
+    import sys
+
+    damaged = tmp_path / 'killed'
+    _killed_recording(damaged)
+
+    def auv(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run([sys.executable, '-m', 'auv_bringup.cli', 'bag', *args],
+                              capture_output=True, text=True, timeout=120)
+
+    info = auv('info', str(damaged))
+    assert info.returncode == 0, info.stderr
+    lines = info.stdout.splitlines()
+    assert lines[0].startswith('/auv/bar_command  auv_msgs/msg/ActuatorSetpoint  ')
+    assert lines[1] == '/auv/helm_command  auv_msgs/msg/ActuatorSetpoint  0 messages  no message'
+    assert lines[-1].startswith(f'damaged: bag {damaged / "killed_0.mcap"} is truncated at byte')
+    fixed = auv('repair', str(damaged), '--out', str(tmp_path / 'fixed'))
+    assert fixed.returncode == 0, fixed.stderr
+    assert fixed.stderr.startswith('recovered ') and 'what followed it is lost' in fixed.stderr
+    assert 'damaged' not in auv('info', str(tmp_path / 'fixed')).stdout
+    again = auv('repair', str(damaged), '--out', str(tmp_path / 'fixed'))
+    assert again.returncode == 1 and again.stderr.startswith('error: bag directory ')
+    assert again.stderr.count('\n') == 1

@@ -20,12 +20,12 @@ import numpy as np
 import pytest
 from conftest import A18M
 
-from auv_ident.campaign import engine, inputs, report
-from auv_ident.campaign.errors import CampaignError
-from auv_ident.campaign.montecarlo import Draw, run_chunk
-from auv_ident.campaign.runner import run_missions
-from auv_ident.campaign.synthetic import write_campaign
-from auv_ident.campaign.tasks import run_mission
+from auv_campaign import engine, inputs, report
+from auv_campaign.errors import CampaignError
+from auv_campaign.montecarlo import Draw, run_chunk
+from auv_campaign.runner import run_missions
+from auv_campaign.synthetic import write_campaign
+from auv_campaign.tasks import run_mission
 from auv_sim.params import load_vehicle
 
 N_MISSIONS = 4
@@ -257,9 +257,9 @@ def test_montecarlo_through_engine_equals_bare_runs(tmp_path: pathlib.Path) -> N
 
 
 def test_mission_time_from_summary_and_from_a_cut_bag(tmp_path: pathlib.Path) -> None:
-    from auv_ident.campaign.synthetic import short_scenario
-    from auv_ident.campaign.tasks import log_span
-    from auv_ident.gap import synth
+    from auv_campaign.synthetic import short_scenario
+    from auv_campaign.tasks import log_span
+    from auv_gap import synth
 
     t0_ns = 1_700_000_000 * 10**9
     log = synth.simulate(load_vehicle(A18M), None, short_scenario(30.0), seed=1)

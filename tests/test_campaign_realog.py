@@ -3,7 +3,7 @@ logs at 2 and 10 Hz, ROS 1 bags) read through the bundled maps, on a real local 
 the cache keyed by the map's content and the code version.
 
 The logs are simulated missions of ``config/a18m.yaml`` written by the third-party writers of
-:mod:`auv_ident.realog.synth` (rosbags' own writers, numpy text), with seeded
+:mod:`auv_logs.synth` (rosbags' own writers, numpy text), with seeded
 navigation-grade sensor noise. Oracles: the simulator's truth (the pitch damping ``CMuq`` set
 in each mission's vehicle file, drifting from mission to mission; the stamps written into
 the logs; the row of the log that was damaged by hand), never the code's own output.
@@ -21,10 +21,10 @@ import numpy as np
 import pytest
 from conftest import A18M
 
-from auv_ident.campaign.cache import code_version, tree_hash
-from auv_ident.campaign.tasks import run_mission
-from auv_ident.realog import synth
-from auv_ident.simlog import SensorNoise
+from auv_campaign.cache import code_version, tree_hash
+from auv_campaign.tasks import run_mission
+from auv_logs import synth
+from auv_logs.simlog import SensorNoise
 from auv_sim.environment import parse_environment
 from auv_sim.missions import load_mission
 from auv_sim.missions import run_mission as fly
@@ -174,7 +174,8 @@ def test_code_version_is_in_the_cache_key(text_logs: tuple[pathlib.Path, list[fl
     (pkg / '__pycache__' / 'a.cpython-311.pyc').write_bytes(b'\1')
     assert tree_hash([pkg]) == h2          # compiled files are not the source
     version = code_version()
-    assert version['packages'] == ['auv_ident', 'auv_sim'] and 'numpy' in version['libraries']
+    assert version['packages'] == ['auv_ident', 'auv_gap', 'auv_logs', 'auv_sim']
+    assert 'numpy' in version['libraries']
     # a record made by one code version is not served to another
     d, _ = text_logs
     log = str(d / 'dive_01.txt')
@@ -192,8 +193,8 @@ def test_code_version_is_in_the_cache_key(text_logs: tuple[pathlib.Path, list[fl
 
 
 def test_log_discovery_with_a_map(tmp_path: pathlib.Path) -> None:
-    from auv_ident.campaign import inputs
-    from auv_ident.campaign.errors import CampaignError
+    from auv_campaign import inputs
+    from auv_campaign.errors import CampaignError
 
     for name in ('a.txt', 'b.csv', 'c.log', 'd.dat', 'e.tsv', 'f.bag', 'g.mcap', 'h.yaml'):
         (tmp_path / name).write_text('x\n')

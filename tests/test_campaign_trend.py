@@ -1,4 +1,4 @@
-"""Drift and step tests of the campaign report (auv_ident.campaign.trend): hand-worked cases,
+"""Drift and step tests of the campaign report (auv_campaign.trend): hand-worked cases,
 a second method for the weighted slope (numpy.polyfit), and the false-alarm rate of the
 permutation tests on series with no change, also when the intervals are wrong by a factor."""
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from auv_ident.campaign import trend
+from auv_campaign import trend
 
 
 def test_hand_worked_line_and_step() -> None:

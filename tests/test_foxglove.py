@@ -56,8 +56,8 @@ def bridge(ros_env: dict[str, str]) -> Iterator[tuple[int, subprocess.Popen[str]
     try:
         line = reader.wait_for('foxglove: serving', 60.0)
         # every channel of the graph exists before a client can connect (a channel added while
-        # a client subscribes can be refused as unknown): the 8 topics and 3 pose topics
-        assert 'serving 11 topics' in line, line
+        # a client subscribes can be refused as unknown): the 9 topics and 3 pose topics
+        assert 'serving 12 topics' in line, line
         port = int(line.rsplit(':', 1)[1])
         yield port, proc, reader
     finally:
@@ -279,9 +279,8 @@ def test_launch_foxglove_serves_the_commands_of_the_closed_loop(
 
     def command_depth() -> None:
         depth_cmd.append(subprocess.run(
-            # the pilot's three depth-command subscriptions (latched, volatile, best effort)
-            # and the bridge's
-            [sys.executable, '-m', 'auv_bringup.cli', 'depth', '35', '--min-subscribers', '4',
+            # two subscriber nodes: the pilot and the bridge
+            [sys.executable, '-m', 'auv_bringup.cli', 'depth', '35', '--min-subscribers', '2',
              '--timeout', '30'], cwd=ROOT, env=ros_env, capture_output=True, text=True,
             timeout=60))
 
@@ -307,7 +306,11 @@ def test_launch_foxglove_serves_the_commands_of_the_closed_loop(
             raise
         if commander.is_alive():
             commander.join(60.0)
-    assert code == 0, launch.communicate()[1]
+    stderr = launch.communicate()[1]
+    assert code == 0, stderr
+    # the launcher says where to connect, and the layout to load
+    assert f'launch: Foxglove at ws://127.0.0.1:{port} (in a browser: https://app.foxglove.dev/' \
+        f'?ds=foxglove-websocket&ds.url=ws%3A%2F%2F127.0.0.1%3A{port}; layout ' in stderr, stderr
     assert depth_cmd and depth_cmd[0].returncode == 0, depth_cmd
     assert got.channels['/auv/bar_command']['schemaName'] == 'auv_msgs/msg/ActuatorSetpoint'
     assert got.channels['/auv/depth_command']['schemaName'] == 'std_msgs/msg/Float64'
@@ -394,3 +397,40 @@ def test_launch_sigkilled_leaves_no_orphan_node(ros_env: dict[str, str],
     assert not left, f'nodes left running after SIGKILL of auv launch: {left}'
     # the recorder got SIGTERM, not SIGKILL: it closed its bag with its metadata
     assert (bag / 'metadata.yaml').is_file()
+
+
+def test_the_layout_file_is_the_tools_output_and_names_served_topics() -> None:
+    """``config/foxglove/auv_graph_layout.json`` is what ``tools/foxglove_layout.py`` writes,
+    and every topic a panel plots is one the bridge serves."""
+    import importlib.util
+    import json
+
+    from auv_bringup.foxglove_node import HULL_TOPIC, POSE_TOPIC, TF_TOPIC
+    from auv_bringup.topics import KNOWN_TOPICS
+
+    spec = importlib.util.spec_from_file_location('foxglove_layout',
+                                                  ROOT / 'tools' / 'foxglove_layout.py')
+    assert spec is not None and spec.loader is not None
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    text = (ROOT / 'config' / 'foxglove' / 'auv_graph_layout.json').read_text()
+    assert text == tool.layout_json()
+    served = {t if t.startswith('/') else f'/auv/{t}' for t in KNOWN_TOPICS} | {
+        POSE_TOPIC, TF_TOPIC, HULL_TOPIC}
+    used: set[str] = set()
+
+    def walk(node: Any) -> None:
+        if isinstance(node, dict):
+            for key, value in node.items():
+                if key == 'topics':
+                    used.update(value)
+                elif key in ('value', 'topicToRender') and isinstance(value, str):
+                    used.add(value.split('.')[0])
+                walk(value)
+        elif isinstance(node, list):
+            for item in node:
+                walk(item)
+    walk(json.loads(text))
+    assert used == {'/auv/pose', '/auv/hull', '/auv/state', '/auv/depth_command',
+                    '/auv/bar_command', '/diagnostics'}
+    assert used <= served

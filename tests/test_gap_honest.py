@@ -17,8 +17,8 @@ from typing import Any
 import pytest
 from conftest import A18M
 
-from auv_ident.gap import synth
-from auv_ident.gap.diagnose import Diagnosis, diagnose
+from auv_gap import synth
+from auv_gap.diagnose import Diagnosis, diagnose
 from auv_sim.params import VehicleParams, load_vehicle
 
 #: case -> (changes to the vehicle file as factors, the simulator's environment document)

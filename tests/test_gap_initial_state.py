@@ -3,8 +3,8 @@ commands a log records only at its rows.
 
 Oracles: the simulator's true state behind an imported vendor text log (``w`` and ``q``
 derived by the import, not measured), against which the estimate of
-:meth:`auv_ident.gap.problem.Problem.estimate_initial` and its stated covariance are checked;
-and hand-worked command series for :func:`auv_ident.gap.logs.other_hold`.
+:meth:`auv_gap.problem.Problem.estimate_initial` and its stated covariance are checked;
+and hand-worked command series for :func:`auv_gap.logs.other_hold`.
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from test_import_gap_2hz import dive
 
-from auv_ident.gap.logs import FOH_STEPS, from_arrays, other_hold
+from auv_gap.logs import FOH_STEPS, from_arrays, other_hold
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 MAP = ROOT / 'config' / 'maps' / 'text_2hz_deg_cm.yaml'
@@ -24,11 +24,11 @@ W, Q, Z, TH = 8, 10, 2, 4
 @pytest.fixture(scope='module')
 def text_log(tmp_path_factory: pytest.TempPathFactory) -> tuple:  # type: ignore[type-arg]
     """A 5-minute closed-loop flight of the A18M logged as the vendor's 10 Hz text log."""
-    from auv_ident.gap import synth
-    from auv_ident.gap.logs import from_contract_arrays
-    from auv_ident.realog import synth as realsynth
-    from auv_ident.realog.importer import contract_arrays, import_log
-    from auv_ident.realog.mapping import load_map
+    from auv_gap import synth
+    from auv_gap.logs import from_contract_arrays
+    from auv_logs import synth as realsynth
+    from auv_logs.importer import contract_arrays, import_log
+    from auv_logs.mapping import load_map
     from auv_sim.params import load_vehicle
 
     vehicle = load_vehicle(ROOT / 'config' / 'a18m.yaml')
@@ -45,8 +45,8 @@ def test_initial_rates_fitted_to_depth_and_pitch_beat_the_differenced_rates(
     """At each window start the heave velocity and pitch rate fitted to the first seconds of
     measured depth and pitch are nearer the simulator's true state than the smoothed
     differenced rates, and their errors agree with the covariance the fit states."""
-    from auv_ident.gap.catalogue import Perturbation
-    from auv_ident.gap.problem import Problem
+    from auv_gap.catalogue import Perturbation
+    from auv_gap.problem import Problem
 
     vehicle, log, pieces = text_log
     pr = Problem(vehicle, pieces, window=20.0)
@@ -87,8 +87,8 @@ def test_each_model_fits_its_own_initial_states(text_log: tuple) -> None:  # typ
     """A model 20 N heavier than the plant fits its own initial heave velocity: over the
     first seconds it must sink less than the nominal model to match the same depths, so its
     fitted w0 is smaller (NED: down positive) in every window."""
-    from auv_ident.gap.catalogue import Perturbation
-    from auv_ident.gap.problem import EffectSet, Problem
+    from auv_gap.catalogue import Perturbation
+    from auv_gap.problem import EffectSet, Problem
 
     vehicle, _, pieces = text_log
     pr = Problem(vehicle, pieces, window=20.0)
@@ -104,7 +104,7 @@ def test_clean_10hz_text_log_has_no_gap_and_a_floor_below_the_differenced_one(
         text_log: tuple) -> None:  # type: ignore[type-arg]
     """The diagnosis of the clean flight: no gap, and the depth floor of the free runs well
     below the 0.3-0.5 m that free runs from differenced rates had."""
-    from auv_ident.gap.diagnose import diagnose
+    from auv_gap.diagnose import diagnose
 
     vehicle, _, pieces = text_log
     r = diagnose(vehicle, pieces, window=60.0).report
@@ -126,7 +126,7 @@ def test_other_hold_swaps_held_and_linear_commands_logged_at_the_rows() -> None:
     their own stamps have none."""
     t = np.arange(0.0, 10.0 + 1e-9, 0.5)
     v = np.where(t >= 2.0, 0.1, 0.0)
-    from auv_ident.gap.logs import first_order_hold
+    from auv_gap.logs import first_order_hold
     slow = first_order_hold(_log(0.5, t, v))  # type: ignore[arg-type]
     assert slow.linear_between_rows == ('bar',)
     st, va = slow.commands['bar']

@@ -1,7 +1,7 @@
 """The catalogue's newer effects found in short (5-minute) simulated logs: a current sheared
 with depth and drifting in time, depth and pitch sensor scale and latency, an added-mass
 error. The log is made by the simulator's implementation of the declared effect
-(auv_sim.environment), the diagnosis uses its own (auv_ident.gap.catalogue) and is told
+(auv_sim.environment), the diagnosis uses its own (auv_gap.catalogue) and is told
 nothing of the effect."""
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import pytest
 from conftest import A18M
 from test_gap_units import SHORT
 
-from auv_ident.gap.diagnose import diagnose
-from auv_ident.gap.synth import simulate
+from auv_gap.diagnose import diagnose
+from auv_gap.synth import simulate
 from auv_sim.params import load_vehicle
 
 #: effect -> its fields in the simulator's effects document (also the true values)

@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 from conftest import A18M, load_bench
 
-from auv_ident.gap import synth
-from auv_ident.gap.diagnose import Diagnosis, diagnose
-from auv_ident.gap.report import REPORT_KEYS, write_report
+from auv_gap import synth
+from auv_gap.diagnose import Diagnosis, diagnose
+from auv_gap.report import REPORT_KEYS, write_report
 from auv_sim.params import load_vehicle
 
 PANEL = load_bench('gap_panel')
@@ -75,7 +75,7 @@ def test_report_files(panel, tmp_path: pathlib.Path) -> None:  # type: ignore[no
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, '-m', 'auv_ident.gap_cli', *args],
+    return subprocess.run([sys.executable, '-m', 'auv_gap.cli', *args],
                           capture_output=True, text=True, timeout=300)
 
 
@@ -117,7 +117,7 @@ def test_cli_errors(tmp_path: pathlib.Path) -> None:
 
 
 def test_unknown_effect_is_an_error(vehicle) -> None:  # type: ignore[no-untyped-def]
-    from auv_ident.errors import GapError
+    from auv_gap.errors import GapError
     log = synth.simulate(vehicle, None, synth.panel_scenario(), seed=1, noise=np.zeros(12))
     with pytest.raises(GapError, match="unknown effect 'waves'"):
         diagnose(vehicle, log.gap_logs(), effects=['waves'])

@@ -10,12 +10,12 @@ import pytest
 from conftest import A18M
 from scipy import stats
 
-from auv_ident.gap import residuals
-from auv_ident.gap.catalogue import CATALOGUE, Parameter, Perturbation
-from auv_ident.gap.fit import FitResult
-from auv_ident.gap.problem import CH_INDEX, EffectSet, Problem
-from auv_ident.gap.synth import Scenario, simulate
-from auv_ident.gap.wording import describe
+from auv_gap import residuals
+from auv_gap.catalogue import CATALOGUE, Parameter, Perturbation
+from auv_gap.fit import FitResult
+from auv_gap.problem import CH_INDEX, EffectSet, Problem
+from auv_gap.synth import Scenario, simulate
+from auv_gap.wording import describe
 from auv_sim.params import load_vehicle
 
 SHORT = Scenario(duration=300.0, z0=60.0, u0=2.0,

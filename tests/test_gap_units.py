@@ -6,9 +6,8 @@ import numpy as np
 import pytest
 from conftest import A18M
 
-from auv_ident.errors import GapError
-from auv_ident.gap import catalogue
-from auv_ident.gap.catalogue import (
+from auv_gap import catalogue
+from auv_gap.catalogue import (
     CATALOGUE,
     Effect,
     Parameter,
@@ -16,9 +15,10 @@ from auv_ident.gap.catalogue import (
     register,
     separating_manoeuvre,
 )
-from auv_ident.gap.logs import from_arrays
-from auv_ident.gap.problem import CH_INDEX, EffectSet, Problem
-from auv_ident.gap.synth import Scenario, simulate
+from auv_gap.errors import GapError
+from auv_gap.logs import from_arrays
+from auv_gap.problem import CH_INDEX, EffectSet, Problem
+from auv_gap.synth import Scenario, simulate
 from auv_sim.environment import EFFECT_FIELDS, declare_effect, undeclare_effect
 from auv_sim.params import load_vehicle
 
@@ -107,7 +107,7 @@ def test_catalogue_effect_reproduces_the_simulator(vehicle, name: str) -> None: 
 
 
 def test_depth_sensor_bias_is_not_identifiable(vehicle) -> None:  # type: ignore
-    from auv_ident.gap.fit import EquationFit
+    from auv_gap.fit import EquationFit
     log = simulate(vehicle, {'effects': ORACLES['depth_sensor_bias'][0]}, SHORT, seed=1)
     pr = Problem(vehicle, log.gap_logs())
     fit = EquationFit(pr).fit(EffectSet(['depth_sensor_bias'], vehicle))
@@ -215,7 +215,7 @@ def test_cluster_covariance_of_parameters_that_change_nothing_is_unbounded() -> 
     """Residuals that do not depend on the parameters at all (an effect a short or slow log
     cannot see) identify nothing: infinite variance, hence an interval over the whole
     plausible range, and no linear-algebra error."""
-    from auv_ident.gap.fit import cluster_covariance
+    from auv_gap.fit import cluster_covariance
     r = np.random.default_rng(5).standard_normal(60)
     V, df = cluster_covariance(np.zeros((60, 2)), r, np.repeat(np.arange(3), 20))
     assert np.all(np.isinf(np.diag(V))) and np.all(df == 1.0)
@@ -225,7 +225,7 @@ def test_cluster_covariance_of_a_mean_by_hand() -> None:
     """The mean of G equal clusters: CR2 is the classic variance of the mean of the cluster
     means, sum (m_g - m)^2 / (G (G - 1)), and Bell-McCaffrey's degrees of freedom are G - 1;
     a parameter informed by one cluster only gets the fewest (1)."""
-    from auv_ident.gap.fit import cluster_covariance
+    from auv_gap.fit import cluster_covariance
     rng = np.random.default_rng(4)
     G, n = 6, 40
     y = rng.standard_normal(G * n) + np.repeat(rng.standard_normal(G), n)

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from auv_ident.gap.diagnose import decide_verdict, window_t_stat
+from auv_gap.diagnose import decide_verdict, window_t_stat
 
 BEST_WINDOWS = np.array([1.0, 1.0, 1.0, 1.0])
 
@@ -58,7 +58,7 @@ def test_a_rival_the_windows_tell_apart_leaves_thedecide_verdict_alone() -> None
 
 
 def test_residuals_that_cannot_be_tested_are_not_called_white() -> None:
-    from auv_ident.gap.residuals import Group, residual_tests
+    from auv_gap.residuals import Group, residual_tests
 
     white, findings, left = residual_tests([Group({'heave': [np.zeros(3), np.zeros(3)]}, {},
                                                   1.0, white=True)])
@@ -70,7 +70,7 @@ def test_short_held_out_windows_are_tested_over_fewer_lags() -> None:
     """Ten-sample pieces (the 10-s windows of a vehicle unstable without feedback): three
     lags. An alternating residual (+1, -1, ...) has autocorrelations -0.9, +0.8, -0.7 at lags
     1-3 over a 10-sample piece, so Ljung-Box flags it; white noise passes."""
-    from auv_ident.gap.residuals import Group, residual_tests
+    from auv_gap.residuals import Group, residual_tests
 
     alt = [np.array([(-1.0) ** k for k in range(10)]) for _ in range(6)]
     white, findings, left = residual_tests([Group({'pitch': alt}, {}, 1.0, white=True)])
@@ -92,8 +92,8 @@ def test_the_campaign_joint_fit_gives_no_values_for_velocities_the_import_derive
     from conftest import A18M
     from test_gap_units import SHORT
 
-    from auv_ident.campaign.tasks import joint_fit
-    from auv_ident.gap.synth import simulate
+    from auv_campaign.tasks import joint_fit
+    from auv_gap.synth import simulate
     from auv_sim.params import load_vehicle
 
     vehicle = load_vehicle(A18M)

@@ -18,7 +18,7 @@ import time
 
 import pytest
 
-from auv_ident.simlog import write_record
+from auv_logs.simlog import write_record
 from auv_sim.missions import parse_mission, run_mission
 from auv_sim.params import load_vehicle
 

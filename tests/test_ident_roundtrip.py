@@ -32,7 +32,7 @@ import pytest
 
 from auv_bag import BagWriter, typestore
 from auv_ident import cli
-from auv_ident.simlog import SensorNoise, write_record
+from auv_logs.simlog import SensorNoise, write_record
 from auv_sim.missions import load_mission, run_mission
 from auv_sim.params import load_vehicle
 

@@ -106,7 +106,7 @@ def test_surge_from_a_noise_free_2hz_text_log(tmp_path: pathlib.Path,
     2 Hz log equals the file's 48.0 to 3e-5 (the trapezoid rule on the samples alone gave
     48.017, +1.4 of the noisy log's standard errors)."""
     from auv_ident import cli
-    from auv_ident.realog import synth
+    from auv_logs import synth
     from auv_sim.missions import load_mission, run_mission
 
     rec = run_mission(base, load_mission('surge'))

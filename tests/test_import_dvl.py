@@ -17,9 +17,9 @@ import pathlib
 import numpy as np
 import pytest
 
-from auv_ident.realog.errors import MapError
-from auv_ident.realog.importer import import_log
-from auv_ident.realog.mapping import load_map
+from auv_logs.errors import MapError
+from auv_logs.importer import import_log
+from auv_logs.mapping import load_map
 
 MAP = """format: auv-log-map/1
 kind: text

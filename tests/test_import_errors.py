@@ -12,10 +12,10 @@ import sys
 import numpy as np
 import pytest
 
-from auv_ident.realog import synth
-from auv_ident.realog.errors import LogReadError, MapError, RealLogError
-from auv_ident.realog.importer import import_log, write_contract_bag
-from auv_ident.realog.mapping import load_map
+from auv_logs import synth
+from auv_logs.errors import LogReadError, MapError, RealLogError
+from auv_logs.importer import import_log, write_contract_bag
+from auv_logs.mapping import load_map
 from auv_sim.simulator import Record
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]

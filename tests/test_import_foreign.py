@@ -1,5 +1,5 @@
 """Logs written the way other people's tools write them (rosbags' own writers, plain Python
-text), not by :mod:`auv_ident.realog.synth`: each imported value is compared with numbers
+text), not by :mod:`auv_logs.synth`: each imported value is compared with numbers
 worked out by hand from what was written.
 
 * Text: a semicolon log without header with a UTF-8 byte-order mark (Windows tools), CRLF
@@ -36,9 +36,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from auv_ident.realog.errors import LogReadError, MapError, RealLogError
-from auv_ident.realog.importer import import_log
-from auv_ident.realog.mapping import load_map
+from auv_logs.errors import LogReadError, MapError, RealLogError
+from auv_logs.importer import import_log
+from auv_logs.mapping import load_map
 
 T0 = 1_710_000_000          # s, the vehicle's epoch clock
 RHO, P0, G = 1025.0, 101325.0, 9.80665
@@ -439,7 +439,8 @@ def test_bag_cut_short_is_one_line(tmp_path: pathlib.Path) -> None:
     f.write_bytes(f.read_bytes()[: f.stat().st_size * 6 // 10])
     m = _map(tmp_path, CLOCK_MAP.format(offsets=''))
     with pytest.raises(LogReadError, match=r'is truncated at byte \d+ .*whole messages before '
-                                           r'the damage were read$'):
+                                           r'the damage were read; `auv bag repair BAG --out '
+                                           r'NEW` writes'):
         import_log(m, cut)
     bare = tmp_path / 'empty.mcap'
     bare.write_bytes(b'')

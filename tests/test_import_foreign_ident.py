@@ -1,6 +1,6 @@
 """Vendor logs whose rows are irregular (jittered stamps, dropped rows) and whose command
 columns are logged at those rows: the gap diagnosis must still see that the commands are
-known only at the rows (``auv_ident.gap.logs.sampled_commands``) and take them as linear
+known only at the rows (``auv_gap.logs.sampled_commands``) and take them as linear
 between rows, whether the state was resampled by ``from_arrays`` or by the map's
 ``time.grid``. Before the fix the rows were compared with the uniform grid the state was
 interpolated onto, the commands were held at each row for a whole row (half a row late on
@@ -16,15 +16,15 @@ import pathlib
 
 import numpy as np
 
-from auv_ident.gap.logs import (
+from auv_gap.logs import (
     first_order_hold,
     from_arrays,
     from_contract_arrays,
     measurement_weighting,
     sampled_commands,
 )
-from auv_ident.realog.importer import contract_arrays, import_log
-from auv_ident.realog.mapping import load_map
+from auv_logs.importer import contract_arrays, import_log
+from auv_logs.mapping import load_map
 
 T0 = 1.7e9
 PERIOD = 0.2

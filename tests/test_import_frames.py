@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from auv_ident.realog.importer import import_log
-from auv_ident.realog.mapping import load_map
+from auv_logs.importer import import_log
+from auv_logs.mapping import load_map
 
 D = math.radians
 S5, C5 = math.sin(D(5)), math.cos(D(5))

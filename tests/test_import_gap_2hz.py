@@ -2,7 +2,7 @@
 carried into the diagnosis and its report, and an effect present gives the right answer or
 an honest one, never a confident wrong ``explained``.
 
-Oracles: the rules of :func:`auv_ident.gap.logs.measurement_weighting` worked by hand (which
+Oracles: the rules of :func:`auv_gap.logs.measurement_weighting` worked by hand (which
 free-run channels and equations a derived or assumed signal removes), and a plant whose
 effect is known (a buoyancy offset of 20 N, the diagnosis is not told). The panel over
 effects and log rates is in ``bench/bench_poor_data.py``.
@@ -14,7 +14,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from auv_ident.gap.logs import from_arrays, import_origins, measurement_weighting
+from auv_gap.logs import from_arrays, import_origins, measurement_weighting
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 MAP = ROOT / 'config' / 'maps' / 'text_2hz_deg_cm.yaml'
@@ -23,7 +23,7 @@ MAP = ROOT / 'config' / 'maps' / 'text_2hz_deg_cm.yaml'
 def dive():  # type: ignore[no-untyped-def]
     """A 5-minute closed-loop flight: depth changes of 20 and 15 m, three thrust levels and
     five BAR doublets."""
-    from auv_ident.gap import synth
+    from auv_gap import synth
     return synth.Scenario(duration=300.0, z0=60.0, u0=2.0,
                           depth=((0.0, 60.0), (60.0, 80.0), (200.0, 65.0)),
                           thrust=((0.0, 55.0), (150.0, 100.0), (280.0, 40.0)),
@@ -72,7 +72,7 @@ def test_a_10hz_log_is_slow_whatever_the_rounding_of_its_stamps() -> None:
     from 1000 s by 0.10000000000002274 s, from an epoch of 1.7e9 s by 0.09999990463256836 s;
     all these logs, commands at every row, have them taken as linear between rows; a 20 Hz
     log's are held."""
-    from auv_ident.gap.logs import first_order_hold, sampled_commands
+    from auv_gap.logs import first_order_hold, sampled_commands
     for t0, period, slow in ((0.7, 0.1, True), (1000.0, 0.1, True), (1.7e9, 0.1, True),
                              (0.7, 0.05, False)):
         t = t0 + np.arange(200) * period
@@ -85,7 +85,7 @@ def test_a_10hz_log_is_slow_whatever_the_rounding_of_its_stamps() -> None:
 
 
 def test_unknown_origin_is_an_error() -> None:
-    from auv_ident.errors import GapError
+    from auv_gap.errors import GapError
     with pytest.raises(GapError, match='origins given for unknown state signals'):
         _piece({'depth': 'derived: z'})
 
@@ -94,13 +94,13 @@ def test_2hz_text_log_with_a_buoyancy_offset(tmp_path: pathlib.Path) -> None:
     """A 5-minute closed-loop flight of a plant 20 N heavy, logged as the vendor's 2 Hz text
     log (q, w derived; v assumed): the import's marks reach the report, and the verdict names
     the buoyancy offset with 20 N inside its interval, or makes no confident claim."""
-    from auv_ident.gap import synth
-    from auv_ident.gap.diagnose import diagnose
-    from auv_ident.gap.logs import from_contract_arrays
-    from auv_ident.gap.report import write_report
-    from auv_ident.realog import synth as realsynth
-    from auv_ident.realog.importer import contract_arrays, import_log
-    from auv_ident.realog.mapping import load_map
+    from auv_gap import synth
+    from auv_gap.diagnose import diagnose
+    from auv_gap.logs import from_contract_arrays
+    from auv_gap.report import write_report
+    from auv_logs import synth as realsynth
+    from auv_logs.importer import contract_arrays, import_log
+    from auv_logs.mapping import load_map
     from auv_sim.params import load_vehicle
 
     vehicle = load_vehicle(ROOT / 'config' / 'a18m.yaml')

@@ -12,8 +12,8 @@ import pytest
 
 from auv_ident.cli import load_records
 from auv_ident.identify import identify
-from auv_ident.limits import as_logged, describe
-from auv_ident.simlog import write_record
+from auv_logs.limits import as_logged, describe
+from auv_logs.simlog import write_record
 from auv_sim.missions import load_mission, run_mission
 from auv_sim.params import load_vehicle
 

@@ -18,11 +18,11 @@ from typing import Any
 
 import numpy as np
 
+from auv_gap.logs import from_contract_arrays, measured_fins_vehicle
 from auv_ident import cli
-from auv_ident.gap.logs import from_contract_arrays, measured_fins_vehicle
-from auv_ident.realog.importer import contract_arrays, import_log
-from auv_ident.realog.mapping import load_map
-from auv_ident.simlog import SensorNoise
+from auv_logs.importer import contract_arrays, import_log
+from auv_logs.mapping import load_map
+from auv_logs.simlog import SensorNoise
 from auv_sim.missions import load_mission, run_mission
 from auv_sim.params import load_vehicle
 

@@ -12,7 +12,7 @@ import sys
 
 import pytest
 
-from auv_ident.realog import synth
+from auv_logs import synth
 from auv_sim.missions import parse_mission, run_mission
 from auv_sim.params import load_vehicle
 

@@ -12,8 +12,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from auv_ident.realog.importer import import_log
-from auv_ident.realog.mapping import load_map
+from auv_logs.importer import import_log
+from auv_logs.mapping import load_map
 
 D = math.radians
 MAP = """format: auv-log-map/1

@@ -24,11 +24,13 @@ import numpy as np
 import pytest
 
 from auv_bag import read_arrays
-from auv_ident import cli, gap_cli, import_cli
-from auv_ident.realog import synth
-from auv_ident.realog.importer import ContractLog, contract_arrays, import_log, read_provenance
-from auv_ident.realog.mapping import load_map
-from auv_ident.simlog import SensorNoise, write_record
+from auv_gap import cli as gap_cli
+from auv_ident import cli
+from auv_logs import cli as import_cli
+from auv_logs import synth
+from auv_logs.importer import ContractLog, contract_arrays, import_log, read_provenance
+from auv_logs.mapping import load_map
+from auv_logs.simlog import SensorNoise, write_record
 from auv_sim.missions import load_mission, run_mission
 from auv_sim.params import load_vehicle
 from auv_sim.simulator import Record
@@ -234,7 +236,7 @@ def test_gap_on_original_log_with_map_equals_gap_on_imported_bag(
 def test_columnar_and_per_message_readers_agree(logs: dict[str, pathlib.Path]) -> None:
     """MCAP storage is read by the columnar decoder; rosbags' per-message deserialisation
     (the second, independent path) must give the same stamps and values bit for bit."""
-    from auv_ident.realog.readers import read_bag
+    from auv_logs.readers import read_bag
 
     req = {'/odom': ['pose.pose.orientation.w', 'twist.twist.linear.x'],
            '/fins': ['port_elevator', 'lower_rudder'], '/thruster/rpm': ['data']}

@@ -10,7 +10,7 @@ import sys
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-PYTHON_PACKAGES = ('auv_bag', 'auv_sim', 'auv_depth_lqr', 'auv_ident', 'auv_bringup')
+PYTHON_PACKAGES = tuple(sorted(p.parent.name for p in (ROOT / 'src').glob('*/setup.py')))
 #: import name -> rosdep key, for imports whose key is not the import name itself
 ROSDEP_KEYS = {
     'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'yaml': 'python3-yaml',

@@ -150,9 +150,6 @@ def test_commands_from_latched_default_and_best_effort_publishers(ros_env, probe
         assert script.returncode == 0, script.stderr
         spin_until(probe, lambda: pilot.count('depth command 12 m accepted') > 0, DEADLINE_S,
                    "the user script's command")
-        # the latched subscription cannot match it: said, not silent; another one serves it
-        spin_until(probe, lambda: pilot.count('another subscription of the pilot receives')
-                   > 0, DEADLINE_S, 'the incompatible-QoS report')
         # a best-effort publisher (sent again until it arrives: best effort may drop)
         quick = probe.create_publisher(Float64, '/auv/depth_command', BEST_EFFORT)
         spin_until(probe, lambda: pilot.count('depth command 18 m accepted') > 0, DEADLINE_S,
@@ -171,6 +168,9 @@ def test_commands_from_latched_default_and_best_effort_publishers(ros_env, probe
     assert pilot.count('depth command 22 m accepted') == 1, pilot.output
     assert pilot.count('depth command 15 m accepted') == 1, pilot.output
     assert pilot.count('incompatible with every depth-command subscription') == 0
+    # the false claim of earlier versions ("another subscription of the pilot receives its
+    # commands", also for a command lost before the match) is gone
+    assert pilot.count('another subscription of the pilot receives') == 0
 
 
 def diagnostics_of(statuses: list[DiagnosticStatus]) -> dict[str, str]:
@@ -364,3 +364,50 @@ def test_odometry_input_gives_the_vehicle_state_commands_on_remapped_topics(
     values = [bars['state'][s] for s in sorted(bars['state'])]
     assert len(values) == 80 and len(set(values)) > 40  # the pilot acted on the sequence
     assert max(abs(bars['state'][s] - bars['odom'][s]) for s in bars['state']) <= 1e-9
+
+
+def test_lockstep_answers_states_stamped_in_floating_point(ros_env, probe) -> None:
+    """A simulator that stamps ``Time(seconds=k * 0.02)`` is a nanosecond off some control
+    instants (rclpy truncates 4.1e9 - 5e-7 to 4099999999 ns): the lockstep pilot answers every
+    state within 1 us of an instant, with the state's own stamp, and no other state; a state
+    5 us off an instant gets no answer and one warning."""
+    from rclpy.time import Time
+
+    pilot = PilotProcess(ros_env, '-p', 'lockstep:=true', '-p', 'state_timeout:=5.0')
+    answers: dict[int, float] = {}
+    probe.create_subscription(
+        ActuatorSetpoint, '/auv/bar_command',
+        lambda m: answers.__setitem__(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec,
+                                      m.value), 200)
+    state_pub = probe.create_publisher(VehicleState, '/auv/state', 200)
+    stamps = [Time(seconds=k * 0.02).nanoseconds for k in range(500)]  # 10 s at 50 Hz
+    instants = [ns for k, ns in enumerate(stamps) if k % 5 == 0]
+    # the case of the report: instants that float stamps miss by a nanosecond
+    off = [ns for ns in instants if ns % 100_000_000]
+    assert 4_099_999_999 in off and all(abs(ns % 100_000_000 - 50_000_000) > 49_999_000
+                                        for ns in off), off
+    try:
+        pilot.wait_ready()
+        spin_until(probe, lambda: state_pub.get_subscription_count() >= 1, DEADLINE_S,
+                   'the state subscription')
+        for ns in stamps:
+            msg = level_state()
+            msg.header.stamp = Time(nanoseconds=ns).to_msg()
+            state_pub.publish(msg)
+            if ns in instants:
+                spin_until(probe, lambda s=ns: s in answers, DEADLINE_S,
+                           f'the answer to the state at {ns} ns')
+        near = 10 * 10**9 + 5_000  # 5 us after the instant of 10 s
+        msg = level_state()
+        msg.header.stamp = Time(nanoseconds=near).to_msg()
+        state_pub.publish(msg)
+        spin_until(probe, lambda: pilot.count('is near a control instant') > 0, DEADLINE_S,
+                   'the near-miss warning')
+        end = time.monotonic() + 1.0  # an answer, if one were sent, arrives meanwhile
+        while time.monotonic() < end:
+            rclpy.spin_once(probe, timeout_sec=0.05)
+    finally:
+        pilot.stop()
+    assert sorted(answers) == instants
+    assert near not in answers
+    assert pilot.count('is near a control instant') == 1

@@ -201,3 +201,30 @@ def test_realtime_priority_moves_the_threads_to_sched_fifo_or_says_why_not(ros_e
     finally:
         proc.terminate()
         proc.wait(10)
+
+
+def test_auv_pilot_takes_ros_arguments_as_the_docs_show(ros_env) -> None:
+    """``auv pilot --ros-args -p depth_min:=2.0`` (docs/pilot-interfaces.md) starts the pilot
+    with that envelope; a bad value is one line ``error: ...``, exit 1."""
+    auv = [sys.executable, '-m', 'auv_bringup.cli', 'pilot']
+    proc = subprocess.Popen([*auv, '--ros-args', '-p', 'depth_min:=2.0', '-p',
+                             'depth_max:=80.0', '-p', 'depth_command_mode:=clamp'],
+                            env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
+    try:
+        assert proc.stdout is not None
+        line = ''
+        deadline = time.monotonic() + DEADLINE_S
+        while 'depth envelope' not in line:
+            assert time.monotonic() < deadline and proc.poll() is None, line
+            line = proc.stdout.readline()
+        assert 'depth envelope [2, 80] m (clamp outside)' in line, line
+    finally:
+        proc.terminate()
+        proc.wait(30)
+    assert proc.returncode == 0
+    bad = subprocess.run([*auv, '--ros-args', '-p', 'depth_min:=500.0'], env=ros_env,
+                         capture_output=True, text=True, timeout=DEADLINE_S)
+    assert bad.returncode == 1
+    assert bad.stderr.count('\n') == 1 and bad.stderr.startswith('error: '), bad.stderr
+    assert 'depth_min' in bad.stderr

@@ -1,8 +1,10 @@
 """The time-optimal settling bound (auv_depth_lqr.bound) on the nonlinear A18M vertical plane.
 
 The bound's plan is checked on its own: simulated again, it must keep every limit and stay in
-the band from the claimed time on; one grid step earlier must be infeasible; and the pilot
-flying the same change on the same model can only be slower.
+the band from its grid time on; one grid step earlier no start reaches the band (a plan
+shifted one step earlier, one with a step cut from its middle, a smooth depth path); and the
+pilot flying the same change on the same model can only be slower. The other vehicles and
+the perturbation of the last digits: tests/test_settling_bound_vehicles.py.
 """
 from __future__ import annotations
 
@@ -12,7 +14,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from auv_depth_lqr.bound import PlaneModel, feasible, settling_bound
+from auv_depth_lqr.bound import TOLERANCE, BoundProblem, PlaneModel, feasible, settling_bound
 from auv_depth_lqr.closed_loop import run_closed_loop
 from auv_depth_lqr.errors import DesignError
 from auv_depth_lqr.metrics import step_metrics
@@ -43,22 +45,36 @@ def test_the_plan_keeps_every_limit_and_settles_when_claimed(params, bound) -> N
     trim_bar = model.plane.trim(U0).bar
     steps = np.diff(np.r_[trim_bar, bound.bar])
     assert np.max(np.abs(steps)) <= params.bar_rate * STEP + 1e-9
-    assert np.max(np.abs(states[:, 3])) <= THETA_MAX + 1e-3
-    settled = bound.t >= bound.settling_time - 1e-9
-    assert np.max(np.abs(states[settled, 2] - Z1)) <= 0.1 + 1e-3
+    assert np.max(np.abs(states[:, 3])) <= THETA_MAX + TOLERANCE
+    settled = bound.t >= bound.grid_time - 1e-9
+    assert np.max(np.abs(states[settled, 2] - Z1)) <= 0.1
+    assert np.max(np.abs(states[settled, 2] - Z1)) == pytest.approx(bound.band_reached)
+    assert bound.grid_time - STEP < bound.settling_time <= bound.grid_time
     assert bound.settling_time > bound.kinematic_bound  # 5 m at 2 m/s: 5.9 s kinematic
 
 
-def test_one_step_earlier_is_infeasible(params, bound) -> None:  # type: ignore[no-untyped-def]
-    model = PlaneModel(params, U0, STEP)
-    trim = model.plane.trim(U0)
-    n = int(round(bound.settling_time / STEP)) - 1
-    n_hold = int(math.ceil(HOLD / STEP))
-    start = np.r_[bound.bar[:n], np.full(n_hold, trim.bar)]
-    ok, _ = feasible(model, bound.states[0], np.array([trim.w, 0.0, Z1, trim.theta]),
-                      trim.bar, Z1, n, start,
-                      (params.bar_max, params.bar_rate * STEP, THETA_MAX, 0.1))
-    assert not ok
+def test_one_step_earlier_no_start_reaches_the_band(params, bound) -> None:  # type: ignore[no-untyped-def]
+    problem = BoundProblem.build(params, Z0, Z1, U0, THETA_MAX, params.bar_max,
+                                 params.bar_rate, 0.1, STEP, HOLD)
+    n = int(round(bound.grid_time / STEP)) - 1
+    N = n + problem.n_hold
+    # the plan one step earlier: its first step dropped, or one cut from its middle
+    shifted = (bound.bar[1:N + 1], bound.states[1:N + 2])
+    mid = n // 2
+    cut = (np.r_[bound.bar[:mid], bound.bar[mid + 1:]][:N],
+           np.vstack([bound.states[:mid + 1], bound.states[mid + 2:]])[:N + 1])
+    # a smooth depth path reaching the target at the earlier time, at the limit's pitch
+    s = np.clip(np.arange(N + 1) / n, 0.0, 1.0)
+    z = Z0 + (Z1 - Z0) * (10 * s**3 - 15 * s**4 + 6 * s**5)
+    theta = problem.start[3] + np.arcsin(np.clip(-np.gradient(z, STEP) / U0,
+                                                 -math.sin(THETA_MAX), math.sin(THETA_MAX)))
+    path = (np.full(N, problem.bar_trim),
+            np.column_stack([np.full(N + 1, problem.start[0]), np.gradient(theta, STEP), z,
+                             theta]))
+    for plan, reference in (shifted, cut, path):
+        ok, found = feasible(problem, n, plan, reference, converge=True)
+        assert not ok
+        assert found.reached > 0.1 or found.violation > TOLERANCE
 
 
 def test_the_pilot_cannot_beat_the_bound(params, bound) -> None:  # type: ignore[no-untyped-def]

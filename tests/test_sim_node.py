@@ -15,7 +15,8 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from typing import Any
 
 import numpy as np
 import pytest
@@ -93,6 +94,36 @@ def probe(context: Context, name: str) -> tuple[Node, SingleThreadedExecutor]:
 def start_node(env: dict[str, str], args: list[str], log: pathlib.Path) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, '-m', 'auv_sim.node', *args], cwd=ROOT, env=env,
                             stdout=subprocess.DEVNULL, stderr=log.open('w'))
+
+
+def answer_until_exit(proc: subprocess.Popen, log: pathlib.Path, node: Node,
+                      executor: SingleThreadedExecutor, bar_pub: Any, pending: list[int],
+                      stamp_of: Callable[[int], Any], value: float, timeout: float) -> list[int]:
+    """Play the pilot's side of lockstep until the simulator exits: answer each control
+    instant in ``pending`` [ns] (filled by a state subscription) with a BAR command of
+    ``value`` [rad] stamped ``stamp_of(instant)``; returns the stamps sent [ns]. Ends the
+    simulator if it is still running at ``timeout`` (wall s), and ``node``."""
+    answered = []
+    deadline = time.monotonic() + timeout
+    try:
+        while proc.poll() is None:
+            assert time.monotonic() < deadline, log.read_text()
+            executor.spin_once(timeout_sec=0.01)
+            if pending and bar_pub.get_subscription_count() > 0:
+                for ns in pending:
+                    msg = ActuatorSetpoint()
+                    msg.header.stamp = stamp_of(ns)
+                    msg.value = value
+                    bar_pub.publish(msg)
+                    answered.append(stamp_to_ns(msg.header.stamp))
+                pending.clear()
+    finally:
+        if proc.poll() is None:
+            proc.terminate()
+            proc.wait(10)
+        executor.shutdown(timeout_sec=0.0)
+        node.destroy_node()
+    return answered
 
 
 def test_lockstep_bar_commands_move_depth_and_pitch_as_offline(
@@ -347,7 +378,6 @@ def test_lockstep_answer_given_while_the_simulator_waits_for_a_recorder_is_taken
     node.create_publisher(Time, '/auv/recorder/progress', 10)
     ctrl_ns = round(CONTROL_PERIOD * NS)
     pending: list[int] = []
-    answered: list[int] = []
 
     def on_state(msg: VehicleState) -> None:
         ns = stamp_to_ns(msg.header.stamp)
@@ -364,28 +394,90 @@ def test_lockstep_answer_given_while_the_simulator_waits_for_a_recorder_is_taken
                             str(CONTROL_PERIOD), '--lockstep-timeout', '10',
                             '--lockstep-startup-timeout', '30', '--stop-time', '12',
                             '--start-subscribers', '1'], log)
-    try:
-        deadline = time.monotonic() + 60.0
-        while proc.poll() is None:
-            assert time.monotonic() < deadline, log.read_text()
-            executor.spin_once(timeout_sec=0.01)
-            if pending and bar_pub.get_subscription_count() > 0:
-                for ns in pending:
-                    msg = ActuatorSetpoint()
-                    msg.header.stamp = stamp_from_ns(ns)
-                    msg.value = trim_bar
-                    bar_pub.publish(msg)
-                    answered.append(ns)
-                pending.clear()
-    finally:
-        if proc.poll() is None:
-            proc.terminate()
-            proc.wait(10)
-        executor.shutdown(timeout_sec=0.0)
-        node.destroy_node()
+    answered = answer_until_exit(proc, log, node, executor, bar_pub, pending, stamp_from_ns,
+                                 trim_bar, 60.0)
     text = log.read_text()
     assert proc.returncode == 0, text
     assert 10 * NS in answered
     assert 'recorder pacing: no progress within 5.0 s at t = 10.00 s' in text, text
     assert 'ignored bar command' not in text and 'no bar command stamped' not in text, text
     assert 'stopped at t = 12.000 s' in text, text
+
+
+def test_lockstep_takes_answers_stamped_in_floating_point_and_reports(
+        rclpy_context: tuple[Context, dict[str, str]], tmp_path: pathlib.Path) -> None:
+    """A controller that stamps its answers in floating point on the 50 Hz grid,
+    ``Time(seconds=j * 0.02)``, is a nanosecond off some instants (4.1 s is 4099999999 ns):
+    each answer still releases the simulator at its instant. The report written at exit counts
+    what was published and no missed instant."""
+    import json
+
+    from rclpy.time import Time
+
+    context, env = rclpy_context
+    log = tmp_path / 'node.log'
+    report = tmp_path / 'report.json'
+    node, executor = probe(context, 'sim_float_stamps_test')
+    pending: list[int] = []
+
+    def on_state(msg: VehicleState) -> None:
+        ns = stamp_to_ns(msg.header.stamp)
+        if ns % round(CONTROL_PERIOD * NS) == 0:
+            pending.append(ns)
+
+    node.create_subscription(VehicleState, '/auv/state', on_state, QOS)
+    bar_pub = node.create_publisher(ActuatorSetpoint, '/auv/bar_command', QOS)
+    trim_bar = float(build_setup(SimSettings()).x0[12])
+    proc = start_node(env, ['--lockstep', '--real-time-factor', '0', '--control-period',
+                            str(CONTROL_PERIOD), '--lockstep-timeout', '30',
+                            '--lockstep-startup-timeout', '60', '--stop-time', '9',
+                            '--report-file', str(report)], log)
+    # the instant k * 0.1 s stamped as the 50 Hz sample 5 k, in floating point
+    answered = answer_until_exit(
+        proc, log, node, executor, bar_pub, pending,
+        lambda ns: Time(seconds=5 * round(ns / (CONTROL_PERIOD * NS)) * 0.02).to_msg(),
+        trim_bar, 120.0)
+    text = log.read_text()
+    assert proc.returncode == 0, text
+    early = [ns for ns in answered if ns % round(CONTROL_PERIOD * NS)]  # a nanosecond off
+    assert early and all(ns % round(CONTROL_PERIOD * NS) == round(CONTROL_PERIOD * NS) - 1
+                         for ns in early), early
+    assert len(answered) == 91  # 0 .. 9 s every 0.1 s
+    assert 'ignored bar command' not in text and 'no bar command stamped' not in text, text
+    got = json.loads(report.read_text())
+    assert got['lockstep_missed'] == 0 and got['t_end'] == pytest.approx(9.0)
+    # 50 Hz for 9 s and the last instant, each stream once
+    assert got['published'] == {'/auv/state': 451, '/auv/odom': 451,
+                                '/auv/hydrodynamic_forces': 451, '/clock': 451}
+
+
+def test_another_simulator_on_the_namespace_is_refused(
+        rclpy_context: tuple[Context, dict[str, str]], tmp_path: pathlib.Path) -> None:
+    """A node already publishing /auv/state (another graph's simulator): the simulator ends
+    with one line naming it, exit status 1, before it publishes anything."""
+    context, env = rclpy_context
+    node, executor = probe(context, 'other_simulator')
+    node.create_publisher(VehicleState, '/auv/state', QOS)
+    clocks: list[int] = []
+    node.create_subscription(Clock, '/clock', lambda m: clocks.append(1), QOS)
+    log = tmp_path / 'node.log'
+    proc = start_node(env, ['--real-time-factor', '1', '--start-subscribers', '1'], log)
+    try:
+        deadline = time.monotonic() + 120.0
+        while proc.poll() is None:
+            assert time.monotonic() < deadline, log.read_text()
+            executor.spin_once(timeout_sec=0.05)
+    finally:
+        if proc.poll() is None:
+            proc.terminate()
+            proc.wait(10)
+        node.destroy_node()
+    text = log.read_text()
+    assert proc.returncode == 1, text
+    errors = [line for line in text.splitlines() if line.startswith('error: ')]
+    # the other node named once discovery has its name, else "another node"
+    assert len(errors) == 1 and errors[0].endswith(
+        ' publishes /auv/state already: another graph runs on namespace /auv (stop it, or give '
+        'this one its own namespace)'), text
+    assert errors[0].split()[1] in ('/other_simulator', 'another'), errors
+    assert clocks == []

@@ -1,4 +1,4 @@
-"""The one simulated-log writer (auv_ident.simlog.write_record): commands as sent or as
+"""The one simulated-log writer (auv_logs.simlog.write_record): commands as sent or as
 applied, a log-time offset, seeded sensor noise; read back with auv_bag's reader."""
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from auv_bag import read_arrays
-from auv_ident.errors import IdentError
-from auv_ident.simlog import SensorNoise, write_record
+from auv_logs.errors import LogError
+from auv_logs.simlog import SensorNoise, write_record
 from auv_sim.environment import Environment
 from auv_sim.params import VehicleParams, load_vehicle
 from auv_sim.simulator import Record, Simulator, record
@@ -81,5 +81,5 @@ def test_noise_is_seeded_with_the_declared_levels(vehicle: VehicleParams,
 def test_unknown_command_channel_is_named(vehicle: VehicleParams,
                                          tmp_path: pathlib.Path) -> None:
     rec, sent = _delayed_run(vehicle)
-    with pytest.raises(IdentError, match="unknown channel 'rudder'"):
+    with pytest.raises(LogError, match="unknown channel 'rudder'"):
         write_record(tmp_path / 'x.mcap', rec, sent_commands={'rudder': sent})

@@ -1,4 +1,4 @@
-"""Synthetic gap logs (auv_ident.gap.synth): flown by the project's pilot, written by simlog.
+"""Synthetic gap logs (auv_gap.synth): flown by the project's pilot, written by simlog.
 
 Oracles: the project's offline closed loop (:func:`auv_depth_lqr.closed_loop.run_closed_loop`)
 flying the same depth change; a fresh pilot replayed on the logged states; the hand-written
@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from auv_depth_lqr.closed_loop import run_closed_loop
-from auv_ident.gap import synth
-from auv_ident.gap.logs import load_bag
-from auv_ident.simlog import SensorNoise
+from auv_gap import synth
+from auv_gap.logs import load_bag
+from auv_logs.simlog import SensorNoise
 from auv_sim.params import VehicleParams, load_vehicle
 from auv_sim.trim import VerticalPlane
 

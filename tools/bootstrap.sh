@@ -44,7 +44,8 @@ fi
 
 # 2. colcon build of the workspace (messages and the ament_python packages)
 stamp=$(cd "$ROOT" && find src -type f \( -path 'src/auv_msgs/*' -o -name package.xml \
-          -o -name setup.py -o -name setup.cfg -o -path '*/resource/*' \) -print0 \
+          -o -name setup.py -o -name setup.cfg -o -path '*/resource/*' \
+          -o -path 'src/auv_contract/config/*' \) -print0 \
         | sort -z | xargs -0 sha1sum | sha1sum | cut -d' ' -f1)
 if [ ! -f "$ROOT/install/.build-stamp" ] || [ "$(cat "$ROOT/install/.build-stamp")" != "$stamp" ]; then
   log "colcon build (messages and packages)"
@@ -60,18 +61,22 @@ fi
 
 # 3. The source packages on the venv's path (edits take effect at once), and the `auv` command.
 site=$("$VENV/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
+# the ament_python packages: every src/<pkg> with a setup.py
+PKGS=$(cd "$ROOT/src" && for f in */setup.py; do printf '%s ' "${f%/setup.py}"; done)
+prefix=""
+for pkg in auv_msgs $PKGS; do prefix="$prefix$ROOT/install/$pkg:"; done
 {
-  for pkg in auv_bag auv_sim auv_depth_lqr auv_ident auv_bringup; do echo "$ROOT/src/$pkg"; done
+  for pkg in $PKGS; do echo "$ROOT/src/$pkg"; done
   echo "$ROOT/install/auv_msgs/lib/python3.11/site-packages"
   # after the sources: the installed packages' metadata, for the ros2-run executables in
   # install/<pkg>/lib/<pkg>/ (their modules resolve to the sources above)
-  for pkg in auv_bag auv_sim auv_depth_lqr auv_ident auv_bringup; do
+  for pkg in $PKGS; do
     echo "$ROOT/install/$pkg/lib/python3.11/site-packages"
   done
 } > "$site/auv_workspace.pth"
 cat > "$VENV/bin/auv-env" <<SH
 # Environment of the workspace: source it, or prefix a command with it (auv-env CMD...).
-export AMENT_PREFIX_PATH="$ROOT/install/auv_msgs:$ROOT/install/auv_bag:$ROOT/install/auv_sim:$ROOT/install/auv_depth_lqr:$ROOT/install/auv_ident:$ROOT/install/auv_bringup:$VENV\${AMENT_PREFIX_PATH:+:\$AMENT_PREFIX_PATH}"
+export AMENT_PREFIX_PATH="$prefix$VENV\${AMENT_PREFIX_PATH:+:\$AMENT_PREFIX_PATH}"
 export LD_LIBRARY_PATH="$ROOT/install/auv_msgs/lib\${LD_LIBRARY_PATH:+:\$LD_LIBRARY_PATH}"
 export PATH="$VENV/bin:\$PATH"
 export AUV_ROOT="$ROOT"

@@ -4,7 +4,7 @@
 The three missions (surge, pitch, yaw) are simulated once with the vehicle file; for each of
 ``--runs`` replications, white sensor noise (default: :meth:`SensorNoise.realistic`, depth
 0.02 m, angles 0.1 deg, velocities 0.01 m/s, rates 0.1 deg/s) is added to the logged state
-by :func:`auv_ident.simlog.measured_state`, as :func:`auv_ident.simlog.write_record` adds
+by :func:`auv_logs.simlog.measured_state`, as :func:`auv_logs.simlog.write_record` adds
 it (``numpy.random.default_rng(seed)``, one draw per mission), the forces are reconstructed
 from the noisy motion (:func:`auv_ident.motion.records_from_topics`, in-memory topic arrays
 instead of bags) and the coefficients identified (:func:`auv_ident.identify.identify`).
@@ -40,7 +40,7 @@ def topic_arrays(rec: Any, noise: Any, seed: int) -> dict[str, np.ndarray]:
     """The topic arrays a bag of ``rec`` written by ``write_record(..., forces=False,
     noise=noise, seed=seed)`` reads back as (state with noise; command change points)."""
     from auv_ident.motion import COMMAND_TOPICS, STATE_FIELDS, STATE_TOPIC
-    from auv_ident.simlog import applied_commands, measured_state
+    from auv_logs.simlog import applied_commands, measured_state
 
     meas = measured_state(rec, noise, seed)
     t = np.round(np.asarray(rec.t, float) * 1e9) / 1e9
@@ -75,7 +75,7 @@ def identify_replication(base: Any, recs: dict[str, Any], noise: Any, seeds: tup
 def run(runs: int, first: int, errors: str, vehicle: pathlib.Path, scale: float,
         window_s: float, verbose: bool) -> dict[str, dict[str, Any]]:
     """Coverage statistics per coefficient over ``runs`` replications (see module doc)."""
-    from auv_ident.simlog import SensorNoise
+    from auv_logs.simlog import SensorNoise
     from auv_sim.missions import load_mission, run_mission
     from auv_sim.params import load_vehicle
 

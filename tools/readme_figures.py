@@ -1,14 +1,15 @@
-"""The README's table of figures, generated from the benchmark results files.
+"""The tables of figures, generated from the benchmark results files.
 
-Every figure in the table is read from ``bench/results/<name>.json`` (written by ``make bench``
-or by ``python bench/bench_<name>.py``): a cell is a template whose fields
-``{name:dotted.key:format}`` name the results file, the key path inside it and the Python
-format of the value. The table sits in README.md between the lines ``<!-- figures:begin -->``
-and ``<!-- figures:end -->``.
+Every figure is read from ``bench/results/<name>.json`` (written by ``make bench`` or by
+``python bench/bench_<name>.py``): a cell is a template whose fields ``{name:dotted.key:format}``
+name the results file, the key path inside it and the Python format of the value. The full
+table (:data:`ROWS`) sits in ``docs/benchmarks.md``, the key figures (:data:`KEY_ROWS`, the
+same rows) in README.md, each between the lines ``<!-- figures:begin -->`` and
+``<!-- figures:end -->``.
 
-Run: ``python tools/readme_figures.py`` rewrites the block; ``--check`` exits 1 (and says which
-line differs) when the README does not match the results files. ``tests/test_readme_figures.py``
-runs the check.
+Run: ``python tools/readme_figures.py`` rewrites both blocks; ``--check`` exits 1 (and says
+which line differs) when a file does not match the results files.
+``tests/test_readme_figures.py`` runs the check.
 """
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ from typing import Any
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 RESULTS = ROOT / 'bench' / 'results'
 README = ROOT / 'README.md'
+BENCHMARKS = ROOT / 'docs' / 'benchmarks.md'
 BEGIN, END = '<!-- figures:begin -->', '<!-- figures:end -->'
 
 _CL = 'closed_loop:results.default'
@@ -62,6 +64,30 @@ ROWS: list[tuple[str, str, str]] = [
      '{closed_loop:all_pass_default}', 'True'),
     ('lockstep graph real-time factor (3 processes; the recorder keeps every message)',
      '{graph:lockstep.real_time_factor:.1f}', '>= 20'),
+    ('README recipes in lockstep (`launch --lockstep --real-time-factor 0 --record`, '
+     '`--mission pitch --real-time-factor 0 --record`, the demo): messages recorded / '
+     'published, lowest topic; machine as it is / two CPU-bound processes beside / another '
+     'node graph and a test file beside (load average)',
+     '{graph:completeness.lockstep_min_ratio_by_load.idle:.3f} / '
+     '{graph:completeness.lockstep_min_ratio_by_load.cpu2:.3f} / '
+     '{graph:completeness.lockstep_min_ratio_by_load.graph_and_tests:.3f} '
+     '(load {graph:completeness.idle.mission_pitch.load_average_1min_before:.0f} / '
+     '{graph:completeness.cpu2.mission_pitch.load_average_1min_before:.0f} / '
+     '{graph:completeness.graph_and_tests.mission_pitch.load_average_1min_before:.0f})',
+     '1.000'),
+    ('the same, real time (`launch --depth 10 --record`, 30 s)',
+     '{graph:completeness.realtime_min_ratio_by_load.idle:.3f} / '
+     '{graph:completeness.realtime_min_ratio_by_load.cpu2:.3f} / '
+     '{graph:completeness.realtime_min_ratio_by_load.graph_and_tests:.3f}', ''),
+    ('start to first plane command, plain `auv launch`, median of 5: as it is / two CPU-bound '
+     'beside / another graph and tests beside (load average); CPU s before it, launcher + '
+     'max(pilot, simulator)',
+     '{graph:startup.idle.median_s:.1f} / {graph:startup.cpu2.median_s:.1f} / '
+     '{graph:startup.graph_and_tests.median_s:.1f} s '
+     '(load {graph:startup.idle.load_average_1min_before:.0f} / '
+     '{graph:startup.cpu2.load_average_1min_before:.0f} / '
+     '{graph:startup.graph_and_tests.load_average_1min_before:.0f}); '
+     '{graph:startup.idle.cpu_s_critical_path:.1f} s', '< 3 s'),
     ('pilot publish period, wall clock, DDS source stamps: median, p99 jitter '
      '(as received by the recorder)',
      '{graph:timer.period_median_ms:.2f} ms, {graph:timer.jitter_p99_ms:.2f} ms '
@@ -99,6 +125,9 @@ ROWS: list[tuple[str, str, str]] = [
      '{vehicles:vehicles.npsauv2.20->10m.settling_over_time_optimal_bound:.2f} / '
      '{vehicles:vehicles.npsauv2.10->30m.settling_over_time_optimal_bound:.2f} / '
      '{vehicles:vehicles.npsauv2.5->40m.settling_over_time_optimal_bound:.2f}', '<= 1.5'),
+    ('time-optimal settling bound, 8 changes of the three vehicles: largest move when the speed '
+     'or every coefficient changes in its twelfth digit',
+     '{bound:largest_spread_s:.3f} s', '< 0.1 s'),
     ('gap honesty panel: right effect in the catalogue (else not `explained`); model '
      'coefficients named; out-of-catalogue cases wrongly `explained`; false alarms on clean '
      'logs; median held-out shrink (in the catalogue); true values inside their 95 % intervals',
@@ -173,6 +202,20 @@ ROWS: list[tuple[str, str, str]] = [
      '{foxglove:summary.bridge_cpu_percent.median:.1f} % of a core', ''),
 ]
 
+#: The rows the README shows (by their first cell); the rest are in docs/benchmarks.md.
+KEY_ROWS = {
+    'single-vehicle RK4 step (4 model evaluations)',
+    '40 m -> 10 m at 2 m/s: settling to +-0.1 m',
+    'lockstep graph real-time factor (3 processes; the recorder keeps every message)',
+    'README recipes in lockstep (`launch --lockstep --real-time-factor 0 --record`, '
+    '`--mission pitch --real-time-factor 0 --record`, the demo): messages recorded / '
+    'published, lowest topic; machine as it is / two CPU-bound processes beside / another '
+    'node graph and a test file beside (load average)',
+    'identification, one hour of 50 Hz data: from forces / from motion',
+    'gap diagnosis, 20-minute 50 Hz log',
+    'REMUS 100 at 1.5 m/s, 20 -> 10 / 10 -> 30 / 5 -> 40 m: settling over the time-optimal bound',
+}
+
 _FIELD = re.compile(r'\{([a-z_0-9]+):([^:{}]+):?([^{}]*)\}')
 
 
@@ -210,47 +253,58 @@ def render(template: str, results: dict[str, Any]) -> str:
     return _FIELD.sub(one, template)
 
 
-def table() -> str:
-    """The block between the markers, from the results files."""
+def table(rows: list[tuple[str, str, str]] | None = None) -> str:
+    """The block between the markers for ``rows`` (default: all), from the results files."""
     results: dict[str, Any] = {}
     lines = ['| what | figure | target |', '| --- | --- | --- |']
     lines += [f'| {what} | {render(figure, results)} | {target} |'
-              for what, figure, target in ROWS]
+              for what, figure, target in (ROWS if rows is None else rows)]
     return '\n'.join([BEGIN, *lines, END])
 
 
-def _block(text: str) -> tuple[int, int]:
+def key_rows() -> list[tuple[str, str, str]]:
+    """The rows of :data:`KEY_ROWS`, in the full table's order."""
+    missing = KEY_ROWS - {what for what, _, _ in ROWS}
+    if missing:
+        raise FigureError(f'KEY_ROWS names rows that ROWS does not hold: {sorted(missing)}')
+    return [row for row in ROWS if row[0] in KEY_ROWS]
+
+
+def _block(path: pathlib.Path, text: str) -> tuple[int, int]:
     start, end = text.find(BEGIN), text.find(END)
     if start < 0 or end < start:
-        raise FigureError(f'{README} has no {BEGIN} ... {END} block')
+        raise FigureError(f'{path} has no {BEGIN} ... {END} block')
     return start, end + len(END)
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--check', action='store_true',
-                        help='only check that README.md matches the results files')
+                        help='only check that README.md and docs/benchmarks.md match the '
+                             'results files')
     args = parser.parse_args(argv)
-    try:
-        text = README.read_text()
-        start, end = _block(text)
-        new = table()
-    except FigureError as exc:
-        print(f'error: {exc}', file=sys.stderr)
-        return 1
-    if args.check:
-        old = text[start:end].splitlines()
-        for a, b in zip(old, new.splitlines(), strict=False):
-            if a != b:
-                print(f'error: README figures differ from bench/results:\n  README: {a}\n  '
-                      f'results: {b}', file=sys.stderr)
-                return 1
-        if len(old) != len(new.splitlines()):
-            print('error: README figures table has a different number of rows than '
-                  'tools/readme_figures.py', file=sys.stderr)
+    for path, rows in ((BENCHMARKS, None), (README, 'key')):
+        try:
+            text = path.read_text()
+            start, end = _block(path, text)
+            new = table(key_rows() if rows else None)
+        except FigureError as exc:
+            print(f'error: {exc}', file=sys.stderr)
             return 1
-        return 0
-    README.write_text(text[:start] + new + text[end:])
+        name = path.relative_to(ROOT)
+        if args.check:
+            old = text[start:end].splitlines()
+            for a, b in zip(old, new.splitlines(), strict=False):
+                if a != b:
+                    print(f'error: {name} figures differ from bench/results:\n  {name}: {a}\n'
+                          f'  results: {b}', file=sys.stderr)
+                    return 1
+            if len(old) != len(new.splitlines()):
+                print(f'error: {name} figures table has a different number of rows than '
+                      'tools/readme_figures.py', file=sys.stderr)
+                return 1
+            continue
+        path.write_text(text[:start] + new + text[end:])
     return 0
 
 

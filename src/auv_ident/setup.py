@@ -14,8 +14,8 @@ setup(
     zip_safe=True,
     maintainer='AUV depth-control maintainers',
     maintainer_email='maintainers@auv-depth.dev',
-    description=('Hydrodynamic coefficient identification, sim-to-real gap diagnosis, '
-                 'and the identification node.'),
+    description=('Hydrodynamic coefficient identification from logs, starting vehicle '
+                 'files, and the identification node.'),
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

@@ -44,6 +44,18 @@ class Block(NamedTuple):
     log_time: np.ndarray  # ns
     offset: np.ndarray  # start of the CDR data in ``data`` (bytes)
     length: np.ndarray  # CDR data length (bytes)
+    #: publish times (ns) of loose messages; None in a chunk, where each message record holds
+    #: its publish time in the 8 bytes before its data (see :func:`publish_times`)
+    publish_time: np.ndarray | None = None
+
+
+def publish_times(block: Block) -> np.ndarray:
+    """The publish times (ns, int64) of a block's messages."""
+    if block.publish_time is not None:
+        return block.publish_time
+    if not len(block.offset):
+        return np.empty(0, np.int64)
+    return gather(block.data, block.offset - 8, 8).view('<u8')[:, 0].astype(np.int64)
 
 
 class ChannelInfo(NamedTuple):
@@ -52,6 +64,7 @@ class ChannelInfo(NamedTuple):
     topic: str
     schema_id: int
     encoding: str
+    metadata: tuple[tuple[str, str], ...] = ()  # e.g. ('offered_qos_profiles', '<yaml>')
 
 
 class UnreadableRecord(Exception):
@@ -108,7 +121,8 @@ class Definitions:
             else:
                 chan = Channel.read(stream)
                 self.channels[chan.id] = ChannelInfo(chan.topic, chan.schema_id,
-                                                     chan.message_encoding)
+                                                     chan.message_encoding,
+                                                     tuple(chan.metadata.items()))
         except (McapError, struct.error, UnicodeDecodeError) as exc:
             raise UnreadableRecord(str(exc)) from None
 
@@ -234,7 +248,8 @@ def loose_block(messages: Sequence[Message]) -> Block:
     return Block(b''.join(m.data for m in messages),
                  np.fromiter((m.channel_id for m in messages), np.int64, len(messages)),
                  np.fromiter((m.log_time for m in messages), np.int64, len(messages)),
-                 offset, sizes)
+                 offset, sizes,
+                 np.fromiter((m.publish_time for m in messages), np.int64, len(messages)))
 
 
 def _lists_to_arrays(*lists: list[int]) -> tuple[np.ndarray, ...]:

@@ -10,6 +10,8 @@ import pathlib
 from io import StringIO
 from typing import Any
 
+from auv_contract import parse_yaml
+
 from .errors import BagError
 
 __all__ = ['DEFAULT_QOS_DEPTH', 'bag_contents', 'bag_files', 'parse_yaml', 'qos_profiles_yaml',
@@ -57,18 +59,6 @@ def yaml_dump(data: Any) -> str:
     return out.getvalue()
 
 
-def parse_yaml(text: str) -> Any:
-    """Parse YAML text (PyYAML's C loader when present: ``metadata.yaml`` in ~1 ms)."""
-    try:
-        import yaml
-
-        return yaml.load(text, Loader=getattr(yaml, 'CSafeLoader', yaml.SafeLoader))
-    except ImportError:
-        from ruamel.yaml import YAML
-
-        return YAML(typ='safe').load(text)
-
-
 def bag_files(path: str | os.PathLike[str]) -> list[pathlib.Path]:
     """The ``.mcap`` files of a bag, in recording order.
 
@@ -96,7 +86,7 @@ def bag_contents(path: str | os.PathLike[str]) -> tuple[list[pathlib.Path], dict
             storage = info.get('storage_identifier', 'mcap')
             names = list(info['relative_file_paths'])
         except Exception as exc:
-            raise BagError(f'bag metadata {meta} is unreadable: {exc}') from None
+            raise BagError(f'bag metadata {meta} is unreadable: {_one_line(exc)}') from None
         if storage != 'mcap':
             raise BagError(f'bag {p} uses {storage} storage; only mcap is supported')
         files = [p / name for name in names]
@@ -126,5 +116,11 @@ def topics_from_metadata(meta: pathlib.Path) -> dict[str, str]:
         info = parse_yaml(meta.read_text())['rosbag2_bagfile_information']
         return {t['topic_metadata']['name']: str(t['topic_metadata']['type'])
                 for t in info['topics_with_message_count']}
-    except (KeyError, TypeError) as exc:
-        raise BagError(f'bag metadata {meta} is unreadable: {exc}') from None
+    except Exception as exc:  # YAML, I/O, encoding and layout errors alike: one line
+        raise BagError(f'bag metadata {meta} is unreadable: {_one_line(exc)}') from None
+
+
+def _one_line(exc: BaseException) -> str:
+    """An exception's text on one line (YAML parser errors span several)."""
+    text = ' '.join(str(exc).split())
+    return text if len(text) <= 200 else text[:197] + '...'

@@ -33,7 +33,11 @@ from .metadata import bag_contents, bag_files, topics_from_metadata
 from .scan import ProgressCallback, Scanner
 from .typestore import bag_store, normalize_msgtype, typestore
 
-__all__ = ['BagArrays', 'BagMessage', 'bag_topics', 'read_arrays', 'read_messages']
+__all__ = ['REPAIR_HINT', 'BagArrays', 'BagMessage', 'bag_topics', 'read_arrays',
+           'read_messages']
+
+#: What a damaged bag's error adds: how to get a bag every reader takes.
+REPAIR_HINT = '`auv bag repair BAG --out NEW` writes the whole messages to a readable bag'
 
 
 class BagArrays(dict[str, np.ndarray]):
@@ -122,7 +126,7 @@ def read_arrays(
         if damage is not None:
             break
     if damage is not None and not allow_truncated:
-        raise BagError(damage)
+        raise BagError(f'{damage}; {REPAIR_HINT}')
     _check_topics(path, topics, present)
 
     result = BagArrays()
@@ -251,7 +255,7 @@ def read_messages(
                         msg = _deserialize(store, data, msgtype, chan.topic, file)
                     yield BagMessage(chan.topic, msgtype, log_ns, data, msg)
         except Damage as dmg:
-            raise BagError(dmg.message(whole)) from None
+            raise BagError(f'{dmg.message(whole)}; {REPAIR_HINT}') from None
         done_bytes += scanner.size
 
 

@@ -262,7 +262,7 @@ class Scanner:
                 raise self._damage('corrupt', pos, 'a record inside a chunk is cut short')
             if len(head.offset):
                 block = Block(data, *(np.concatenate([x, y]) for x, y in
-                                      zip(head[1:], block[1:])))
+                                      zip(head[1:5], block[1:5])))
         if block is None:
             block, complete = walk_chunk(data, self.defs)
             if not complete:

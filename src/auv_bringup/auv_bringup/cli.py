@@ -34,15 +34,17 @@ SUBCOMMANDS: dict[str, Subcommand] = {
     'record': Subcommand('auv_bringup.record_node', 'record topics to an MCAP bag'),
     'foxglove': Subcommand('auv_bringup.foxglove_node', 'live topics on a Foxglove WebSocket'),
     'play': Subcommand('auv_bringup.play_node', 'replay a bag on its topics'),
-    'depth': Subcommand('auv_bringup.depth', 'publish one depth command (m, positive down)'),
+    'bag': Subcommand('auv_bringup.bag_cli', 'look at a bag; repair a damaged one'),
+    'depth': Subcommand('auv_bringup.depth', "command a depth (m, positive down), wait for "
+                        "the pilot's answer"),
     'run': Subcommand('auv_bringup.run', 'offline batch run written as a bag'),
     'mission': Subcommand('auv_bringup.mission_node', 'fly a scripted mission through the graph'),
     'design': Subcommand('auv_depth_lqr.cli', 'trim, linearisation and LQR gains as JSON'),
     'ident': Subcommand('auv_ident.cli', 'identify coefficients from bags'),
-    'gap': Subcommand('auv_ident.gap_cli', 'sim-to-real gap diagnosis'),
-    'import': Subcommand('auv_ident.import_cli', 'real logs through a map -> contract bag'),
+    'gap': Subcommand('auv_gap.cli', 'sim-to-real gap diagnosis'),
+    'import': Subcommand('auv_logs.cli', 'real logs through a map -> contract bag'),
     'vehicle-init': Subcommand('auv_ident.vehicle_init', 'starting vehicle file from L, D, m'),
-    'campaign': Subcommand('auv_ident.campaign.cli', 'ident/gap over many logs, Monte Carlo'),
+    'campaign': Subcommand('auv_campaign.cli', 'ident/gap over many logs, Monte Carlo'),
     'demo': Subcommand('auv_bringup.demo', 'the end-to-end demonstration'),
 }
 

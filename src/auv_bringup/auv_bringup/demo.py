@@ -29,13 +29,14 @@ import numpy as np
 from auv_bag import read_arrays
 from auv_bringup.errors import RunError
 from auv_bringup.launch import GraphConfig, run_graph
+from auv_bringup.options import check_number
 from auv_bringup.plots import plot_depth_run
+from auv_contract import STATE_FIELDS, config_path
 from auv_depth_lqr.closed_loop import run_closed_loop
 from auv_depth_lqr.metrics import step_metrics
 from auv_depth_lqr.pilot import PilotSettings
 from auv_sim.params import load_vehicle
 
-ROOT = pathlib.Path(__file__).resolve().parents[3]
 STATE_KEYS = ('t', 'x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r')
 
 
@@ -45,7 +46,7 @@ def say(text: str) -> None:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--out', default='out/demo', help='output directory')
-    parser.add_argument('--vehicle', default=str(ROOT / 'config' / 'a18m.yaml'),
+    parser.add_argument('--vehicle', default=str(config_path('a18m.yaml')),
                         help='vehicle file (default: config/a18m.yaml)')
     parser.add_argument('--from-depth', type=float, default=40.0, help='[m]')
     parser.add_argument('--to-depth', type=float, default=10.0, help='[m]')
@@ -75,6 +76,9 @@ def graph_run(args: argparse.Namespace, out: pathlib.Path) -> dict[str, np.ndarr
 
 
 def run(args: argparse.Namespace) -> int:
+    check_number('--from-depth', args.from_depth, unit='m')
+    check_number('--to-depth', args.to_depth, unit='m')
+    check_number('--duration', args.duration, above=0.0, unit='s')
     out = pathlib.Path(args.out)
     if out.exists():
         shutil.rmtree(out)
@@ -108,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
     rec = offline.record
     common, i_off, i_graph = np.intersect1d(np.round(rec.t, 6), np.round(st['t'], 6),
                                             return_indices=True)
-    cols = ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r')
+    cols = STATE_FIELDS
     diff = max(float(np.max(np.abs(rec.measured[i_off, j] - st[c][i_graph])))
                for j, c in enumerate(cols)) if len(common) else math.nan
     summary['lockstep_vs_offline'] = {'samples_compared': int(len(common)),

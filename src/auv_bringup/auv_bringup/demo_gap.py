@@ -14,19 +14,18 @@ import sys
 from typing import Any
 
 from auv_bringup.errors import RunError
-from auv_ident.gap.synth import simulate, write_bag
+from auv_contract import config_path
+from auv_gap.synth import simulate, write_bag
 from auv_sim.environment import load_environment
 from auv_sim.params import VehicleParams
 
-ROOT = pathlib.Path(__file__).resolve().parents[3]
-HIDDEN = ROOT / 'config' / 'effects' / 'demo_hidden.yaml'
-
 
 def gap_step(params: VehicleParams, vehicle_file: str, out: pathlib.Path,
-             hidden: pathlib.Path = HIDDEN) -> dict[str, Any]:
-    """Make the real log, run ``auv gap`` on it; returns the figures for the summary."""
+             hidden: pathlib.Path | None = None) -> dict[str, Any]:
+    """Make the real log (``hidden``: its effects file, by default the shipped
+    ``effects/demo_hidden.yaml``), run ``auv gap`` on it; returns the figures for the summary."""
     out.mkdir(parents=True, exist_ok=True)
-    env = load_environment(hidden)
+    env = load_environment(hidden or config_path('effects', 'demo_hidden.yaml'))
     log = simulate(params, env, seed=7)
     bag = out / 'real_log'
     write_bag(bag, log)

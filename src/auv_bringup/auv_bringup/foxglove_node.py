@@ -1,6 +1,6 @@
 """Serve the live topics on a Foxglove WebSocket (``auv foxglove``, ``auv launch --foxglove``).
 
-Each topic of the graph (:data:`auv_bringup.record_node.KNOWN_TOPICS` by default) is
+Each topic of the graph (:data:`auv_bringup.topics.KNOWN_TOPICS` by default) is
 subscribed raw over DDS and its CDR bytes are forwarded unchanged to a Foxglove channel of the
 same name, with the message's ``ros2msg`` definition as schema (``cdr`` encoding): Foxglove
 decodes and plots every field as a ROS 2 tool would.
@@ -24,13 +24,15 @@ before any, the DDS receive time.
 Quality of service: the streams (:data:`STREAM_TOPICS`: state, odometry, forces, clock) are
 subscribed best effort, keep last 10: they match reliable and best-effort publishers and never
 make a publisher resend, so a viewer cannot slow a run, and a sample lost on the way is lost to
-the viewer only. Commands are sent once or at a low rate and must not be lost: the depth
-command is subscribed as the depth pilot subscribes it (reliable, transient local, last 1: the
-latest command is received even if it was published before the bridge started), the other
-topics reliable, keep last 10. A reliable subscription does not match a best-effort publisher:
-when one appears on a topic, the bridge follows it best effort. The node prints one line
-``foxglove: serving N topics on ws://HOST:PORT`` on stderr once its subscriptions exist and the
-server listens (with ``--port 0`` the port the system chose). SIGINT/SIGTERM stop it (exit 0).
+the viewer only. Commands are sent once or at a low rate and must not be lost: the commands,
+``/diagnostics`` and the other topics are subscribed reliable and volatile, keep last 10
+(volatile, as the depth pilot's lasting subscriptions: a transient-local one would make every
+volatile publisher of a script warn of incompatible durability; a depth command published
+before the bridge started is therefore not shown). A reliable subscription does not match a
+best-effort publisher: when one appears on a topic, the bridge follows it best effort. The
+node prints one line ``foxglove: serving N topics on ws://HOST:PORT`` on stderr once its
+subscriptions exist and the server listens (with ``--port 0`` the port the system chose).
+SIGINT/SIGTERM stop it (exit 0).
 """
 from __future__ import annotations
 
@@ -38,7 +40,6 @@ import argparse
 import errno
 import functools
 import math
-import pathlib
 import signal
 import socket
 import sys
@@ -48,15 +49,10 @@ from typing import Any, NamedTuple
 
 from auv_bringup.cli import CliError, standalone
 from auv_bringup.errors import BridgeError
-from auv_bringup.record_node import (
-    KNOWN_TOPICS,
-    NAMESPACE,
-    header_stamp,
-    known_types,
-    message_class,
-)
+from auv_bringup.record_node import message_class
+from auv_bringup.topics import KNOWN_TOPICS, NAMESPACE, header_stamp, known_types
+from auv_contract import config_path
 
-VEHICLE = pathlib.Path(__file__).resolve().parents[3] / 'config' / 'a18m.yaml'
 DEFAULT_PORT = 8765  # Foxglove's default WebSocket port
 DEFAULT_HOST = '127.0.0.1'
 ODOM_TOPIC = '/auv/odom'
@@ -69,8 +65,6 @@ HULL_COLOR = (0.95, 0.75, 0.1, 0.8)  # RGBA, a yellow hull
 QUATERNION_NORM_TOLERANCE = 1e-3  # |1 - |q|| above which an orientation is rejected
 #: Topics subscribed best effort (high-rate streams; see the module docstring).
 STREAM_TOPICS = frozenset({'/auv/state', '/auv/odom', '/auv/hydrodynamic_forces', CLOCK_TOPIC})
-#: Topics subscribed reliable and transient local, as their subscribers in the graph do.
-LATCHED_TOPICS = frozenset({'/auv/depth_command'})
 GRAPH_POLL = 0.5  # s between looks at the graph (new topic types, best-effort publishers)
 WARN_PERIOD = 5.0  # s between two warnings about bad messages on one topic
 SPIN_SLICE = 0.1  # s, longest wait of the spin loop (a stop is seen this promptly)
@@ -142,7 +136,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--no-pose', action='store_true',
                         help=f'do not derive {POSE_TOPIC}, {TF_TOPIC} and {HULL_TOPIC} from '
                              f'{ODOM_TOPIC}')
-    parser.add_argument('--vehicle', default=str(VEHICLE),
+    parser.add_argument('--vehicle', default=str(config_path('a18m.yaml')),
                         help='vehicle file: the hull drawn in 3D (default: %(default)s)')
 
 
@@ -193,7 +187,7 @@ class Bridge:
         return len(self._channels) + sum(c is not None for c in derived)
 
     def _subscribe(self, topic: str, msgtype: str, reliable: bool) -> None:
-        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        from rclpy.qos import QoSProfile, ReliabilityPolicy
 
         cls = message_class(msgtype)
         if topic not in self._channels:
@@ -207,9 +201,6 @@ class Bridge:
             self.node.destroy_subscription(old[0])
         if not reliable:
             qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
-        elif topic in LATCHED_TOPICS:
-            qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
         else:
             qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
         with_header = 'header' in cls.get_fields_and_field_types()

@@ -1,10 +1,15 @@
 """Replay a bag on its topics (``auv play``, ``ros2 run auv_bringup player``).
 
 Messages are published as the serialized CDR bytes stored in the bag (no deserialization), at
-their original spacing in log time divided by ``--rate``. With ``--clock`` the bag time is
-published on ``/clock`` (rosgraph_msgs/Clock) so nodes on simulated time follow the bag; a
-``/clock`` topic stored in the bag is then not replayed. The whole bag is read before the
-first message goes out, so a damaged bag is an error before anything is published.
+their original spacing in log time divided by ``--rate``. With ``--clock`` the time base of the
+messages is published on ``/clock`` (rosgraph_msgs/Clock) at ``HZ`` wall hertz, so nodes on
+simulated time follow the bag: the stamp of the latest stamped message replayed (a header
+stamp, or a recorded ``/clock`` value; simulated time for a bag of the simulated graph), never
+going back, from the first stamped message's stamp on; the log time (receive time) only for a
+bag without any stamped message, which is said. A ``/clock`` topic stored in the bag is then
+not replayed. ``--wait-for-subscribers`` waits for a subscriber on every topic that has
+messages to replay (and ``/clock``). The whole bag is read before the first message goes out,
+so a damaged bag is an error before anything is published.
 """
 from __future__ import annotations
 
@@ -18,8 +23,10 @@ from typing import Any
 
 from auv_bringup.cli import CliError, standalone
 from auv_bringup.record_node import message_class
+from auv_bringup.topics import header_stamp
 
 CLOCK_TOPIC = '/clock'
+NS = 1_000_000_000
 ACK_TIMEOUT = 5.0  # s, longest wait at the end for reliable delivery
 
 
@@ -36,8 +43,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--delay', type=float, default=0.0, metavar='S',
                         help='wait this long before the first message (s)')
     parser.add_argument('--wait-for-subscribers', action='store_true',
-                        help='start only when every replayed topic (and /clock with --clock) '
-                             'has a subscriber')
+                        help='start only when every topic with messages to replay (and /clock '
+                             'with --clock) has a subscriber')
     parser.add_argument('--wait-timeout', type=float, default=10.0, metavar='S',
                         help='deadline of --wait-for-subscribers (s)')
     parser.add_argument('--qos-depth', type=int, default=1000, metavar='N',
@@ -49,6 +56,8 @@ def _check(args: argparse.Namespace) -> None:
         raise CliError(f'--rate must be a positive number, got {args.rate}')
     if args.clock is not None and not (math.isfinite(args.clock) and args.clock > 0):
         raise CliError(f'--clock must be a positive frequency in Hz, got {args.clock}')
+    if args.qos_depth < 1:
+        raise CliError(f'--qos-depth must be at least 1, got {args.qos_depth}')
     for opt in ('delay', 'wait_timeout'):
         value = getattr(args, opt)
         if not (math.isfinite(value) and value >= 0):
@@ -64,10 +73,20 @@ def run(args: argparse.Namespace) -> int:
     topics = list(present) if args.topics is None else list(dict.fromkeys(args.topics))
     if args.clock is not None and CLOCK_TOPIC in topics:
         topics.remove(CLOCK_TOPIC)
+    stamped = stamped_topics(args.bag, present)
     messages = [(m.log_time, m.topic, m.data)
                 for m in read_messages(args.bag, topics, decode=False)]
     messages.sort(key=lambda m: m[0])  # stable: equal times keep the recording order
     classes = {topic: message_class(present[topic]) for topic in topics}
+    base = None
+    if args.clock is not None:
+        # the bag's own /clock counts for the time base even though it is not replayed
+        base = time_base(sorted(((m.log_time, m.topic, m.data) for m in read_messages(
+            args.bag, [t for t in present if t in stamped], decode=False)),
+            key=lambda m: m[0]), stamped, [m[0] for m in messages])
+        if base is None:
+            print('play: no stamped message in the bag: /clock follows the log (receive) '
+                  'time', file=sys.stderr)
 
     import rclpy
     from rclpy.duration import Duration
@@ -91,12 +110,15 @@ def run(args: argparse.Namespace) -> int:
 
             clock_pub = node.create_publisher(Clock, CLOCK_TOPIC, qos)
         if args.wait_for_subscribers:
-            waited = dict(pubs, **({CLOCK_TOPIC: clock_pub} if clock_pub else {}))
+            with_messages = {m[1] for m in messages}
+            waited = {t: p for t, p in pubs.items() if t in with_messages}
+            if clock_pub is not None:
+                waited[CLOCK_TOPIC] = clock_pub
             _wait_for_subscribers(waited, args.wait_timeout, stop)
         if args.delay:
             _sleep_until(time.monotonic() + args.delay, stop)
         while not stop['signal']:
-            _play_once(messages, pubs, clock_pub, args, stop)
+            _play_once(messages, pubs, clock_pub, args, stop, base)
             if not args.loop:
                 break
         for pub in [*pubs.values(), *([clock_pub] if clock_pub else [])]:
@@ -144,9 +166,47 @@ def _clock_message(t_ns: int) -> Any:
     return Clock(clock=Time(sec=sec, nanosec=nsec))
 
 
+def stamped_topics(bag: str, present: dict[str, str]) -> set[str]:
+    """Topics of ``bag`` whose messages open with a stamp: a ``std_msgs/Header`` or, as
+    ``rosgraph_msgs/Clock``, a ``builtin_interfaces/Time`` (types the project's typestore
+    knows; others count as unstamped)."""
+    from auv_bag import typestore
+
+    fielddefs = typestore().fielddefs
+    out = set()
+    for topic, msgtype in present.items():
+        fields = fielddefs.get(msgtype, ((), []))[1]
+        if fields and fields[0][1][1] in ('std_msgs/msg/Header', 'builtin_interfaces/msg/Time'):
+            out.add(topic)
+    return out
+
+
+def time_base(stamped_messages: list[tuple[int, str, bytes]], stamped: set[str],
+              log_times: list[int]) -> list[int] | None:
+    """The clock value [ns] in force when each replayed message (log times ``log_times``,
+    sorted) goes out: the largest stamp among the stamped messages logged up to it, and the
+    first stamp before any; None when there is no stamped message."""
+    stamps = [(log_ns, header_stamp(data)) for log_ns, topic, data in stamped_messages
+              if topic in stamped]
+    stamps_ns = [(log_ns, st[0] * NS + st[1]) for log_ns, st in stamps if st is not None]
+    if not stamps_ns:
+        return None
+    out = []
+    latest = stamps_ns[0][1]
+    j = 0
+    for log_ns in log_times:
+        while j < len(stamps_ns) and stamps_ns[j][0] <= log_ns:
+            latest = max(latest, stamps_ns[j][1])
+            j += 1
+        out.append(latest)
+    return out
+
+
 def _play_once(messages: list[tuple[int, str, bytes]], pubs: dict[str, Any], clock_pub: Any,
-               args: argparse.Namespace, stop: dict[str, int]) -> None:
-    """Publish every message at its log time, scaled by the rate; /clock in between."""
+               args: argparse.Namespace, stop: dict[str, int],
+               base: list[int] | None = None) -> None:
+    """Publish every message at its log time, scaled by the rate; /clock in between, on the
+    messages' time base ``base`` (one value per message; None: the log time)."""
     if not messages:
         return
     t0 = messages[0][0]
@@ -154,15 +214,18 @@ def _play_once(messages: list[tuple[int, str, bytes]], pubs: dict[str, Any], clo
     clock_period = 1.0 / args.clock if clock_pub is not None else math.inf
     next_clock = start
 
-    def bag_time(now: float) -> int:
-        return t0 + int((now - start) * args.rate * 1e9)
+    def clock_now(now: float, i: int) -> int:
+        """Clock value before message ``i`` goes out, ``now`` wall s."""
+        if base is not None:
+            return base[max(0, i - 1)]
+        return min(t0 + int((now - start) * args.rate * 1e9), messages[i][0])
 
-    for log_ns, topic, data in messages:
+    for i, (log_ns, topic, data) in enumerate(messages):
         target = start + (log_ns - t0) * 1e-9 / args.rate
         while not stop['signal']:
             now = time.monotonic()
             if clock_pub is not None and now >= next_clock:
-                clock_pub.publish(_clock_message(min(bag_time(now), log_ns)))
+                clock_pub.publish(_clock_message(clock_now(now, i)))
                 next_clock = max(next_clock + clock_period, now)
                 continue
             if now >= target:
@@ -172,7 +235,7 @@ def _play_once(messages: list[tuple[int, str, bytes]], pubs: dict[str, Any], clo
             return
         pubs[topic].publish(data)
     if clock_pub is not None:
-        clock_pub.publish(_clock_message(messages[-1][0]))
+        clock_pub.publish(_clock_message(base[-1] if base is not None else messages[-1][0]))
 
 
 def main() -> None:

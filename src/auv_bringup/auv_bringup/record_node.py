@@ -33,39 +33,25 @@ import gc
 import importlib
 import math
 import signal
-import struct
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from types import FrameType
 from typing import Any
 
 from auv_bringup.cli import CliError, standalone
-from auv_bringup.launch import topic_basename
+from auv_bringup.topics import (
+    DEFAULT_TOPICS,
+    KNOWN_TOPICS,
+    NAMESPACE,
+    PACED_TOPICS,
+    header_stamp,
+    known_types,
+    topic_basename,
+)
 
-#: Types of the project's topics (architecture contract), subscribed without waiting; names
-#: relative to the recorder's namespace (``/auv`` unless remapped with ``-r __ns:=...``).
-KNOWN_TOPICS: dict[str, str] = {
-    'state': 'auv_msgs/msg/VehicleState',
-    'odom': 'nav_msgs/msg/Odometry',
-    'hydrodynamic_forces': 'auv_msgs/msg/HydrodynamicForces',
-    'bar_command': 'auv_msgs/msg/ActuatorSetpoint',
-    'helm_command': 'auv_msgs/msg/ActuatorSetpoint',
-    'thrust_command': 'auv_msgs/msg/ActuatorSetpoint',
-    'depth_command': 'std_msgs/msg/Float64',
-    '/clock': 'rosgraph_msgs/msg/Clock',
-}
-NAMESPACE = '/auv'  # the recorder node's default namespace
-#: Streams stamped alike on every sample or control instant, whose progress the recorder
-#: reports (each message opens with its stamp: a ``std_msgs/Header`` or the clock's time).
-PACED_TOPICS = ('state', 'odom', 'hydrodynamic_forces', 'bar_command', '/clock')
-DEFAULT_TOPICS = list(KNOWN_TOPICS)
-
-
-def known_types(node: Any) -> dict[str, str]:
-    """:data:`KNOWN_TOPICS` by their names resolved for ``node`` (an rclpy node: relative
-    names in its namespace, e.g. ``/auv/state``) -> message type."""
-    return {node.resolve_topic_name(name): msgtype for name, msgtype in KNOWN_TOPICS.items()}
+__all__ = ['DEFAULT_TOPICS', 'KNOWN_TOPICS', 'NAMESPACE', 'PACED_TOPICS', 'Recorder',
+           'header_stamp', 'known_types', 'message_class']
 
 DRAIN_QUIET = 0.3  # s without a new message that ends the drain after a stop
 DRAIN_MAX = 3.0  # s, longest drain after a stop
@@ -116,16 +102,6 @@ def message_class(msgtype: str) -> Any:
                        'workspace built and sourced?)') from None
 
 
-def header_stamp(data: bytes) -> tuple[int, int] | None:
-    """``(sec, nanosec)`` of the ``std_msgs/Header`` that opens a CDR-serialized message (after
-    its 4-byte encapsulation header, little- or big-endian); ``None`` if too short."""
-    if len(data) < 12:
-        return None
-    order = '<' if data[1] == 1 else '>'
-    sec, nanosec = struct.unpack_from(f'{order}iI', data, 4)
-    return int(sec), int(nanosec)
-
-
 def _default_out() -> str:
     return time.strftime('out/bags/rosbag2_%Y_%m_%d-%H_%M_%S')
 
@@ -134,13 +110,16 @@ class Recorder:
     """Raw subscriptions feeding a :class:`auv_bag.BagWriter`."""
 
     def __init__(self, node: Any, writer: Any, topics: list[str], qos_depth: int,
-                 await_publishers: Sequence[str] = (), await_timeout: float = 30.0) -> None:
+                 await_publishers: Sequence[str] = (), await_timeout: float = 30.0,
+                 stopped: Callable[[], bool] = lambda: False) -> None:
         from builtin_interfaces.msg import Time
         from rclpy.qos import QoSProfile, ReliabilityPolicy
 
         from auv_sim.node import PROGRESS_QOS, PROGRESS_TOPIC
 
         self.node = node
+        self._stopped = stopped
+        self.lost: dict[str, int] = {}  # topic -> samples DDS reported lost to a subscription
         self._time = Time
         self._progress = node.create_publisher(Time, PROGRESS_TOPIC, PROGRESS_QOS)
         self._state_topic = node.resolve_topic_name('state')
@@ -179,7 +158,7 @@ class Recorder:
         subs = [self.subscriptions[n][0] for n in map(self.node.resolve_topic_name, topics)
                 if n in self.subscriptions]
         deadline = time.monotonic() + timeout
-        while any(sub.get_publisher_count() < 1 for sub in subs):
+        while any(sub.get_publisher_count() < 1 for sub in subs) and not self._stopped():
             if time.monotonic() >= deadline:
                 missing = [sub.topic_name for sub in subs if sub.get_publisher_count() < 1]
                 self.node.get_logger().warning(
@@ -189,6 +168,8 @@ class Recorder:
             time.sleep(0.005)
 
     def _subscribe(self, topic: str, msgtype: str, reliable: bool) -> None:
+        from rclpy.event_handler import SubscriptionEventCallbacks
+
         from auv_bag import qos_profiles_yaml
 
         cls = message_class(msgtype)
@@ -199,7 +180,9 @@ class Recorder:
             'reliable' if reliable else 'best_effort', 'volatile', self._reliable.depth))
         sub = self.node.create_subscription(
             cls, topic, functools.partial(self._on_message, topic),
-            self._reliable if reliable else self._best_effort, raw=True)
+            self._reliable if reliable else self._best_effort, raw=True,
+            event_callbacks=SubscriptionEventCallbacks(
+                message_lost=functools.partial(self._on_lost, topic)))
         self.subscriptions[topic] = (sub, reliable)
 
     def _on_message(self, topic: str, data: bytes, info: dict[str, int]) -> None:
@@ -216,6 +199,12 @@ class Recorder:
             if taken is None:
                 return
             self._write(topic, taken[0], taken[1])
+
+    def _on_lost(self, topic: str, info: Any) -> None:
+        """DDS says samples of ``topic`` were lost to this subscription: said, never silent."""
+        self.lost[topic] = int(info.total_count)
+        self.node.get_logger().error(f'{topic}: {info.total_count_change} message(s) lost on '
+                                     f'the way to the recorder ({info.total_count} in all)')
 
     def report_progress(self) -> None:
         """Report the paced messages written since the last report if that is
@@ -319,7 +308,8 @@ def run(args: argparse.Namespace) -> int:
         writer = BagWriter(out, compression=args.compression,
                            flush_interval=args.flush_interval)
         recorder = Recorder(node, writer, list(dict.fromkeys(args.topics)), args.qos_depth,
-                            args.await_publishers, args.await_timeout)
+                            args.await_publishers, args.await_timeout,
+                            stopped=lambda: bool(stop['signal']))
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         print(f'recording {len(args.topics)} topics to {out}', file=sys.stderr, flush=True)
@@ -345,7 +335,9 @@ def run(args: argparse.Namespace) -> int:
             elif time.monotonic() - quiet_from > DRAIN_QUIET:
                 break
         writer.close()
-        print(f'recorded {recorder.count} messages to {out}', file=sys.stderr, flush=True)
+        print(f'recorded {recorder.count} messages to {out}'
+              + (f'; lost on the way: {recorder.lost}' if recorder.lost else ''),
+              file=sys.stderr, flush=True)
         executor.shutdown()
         node.destroy_node()
     finally:

@@ -12,24 +12,22 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
-import pathlib
 import sys
 
 from auv_bringup.errors import RunError
+from auv_bringup.options import check_number
+from auv_contract import config_path
 from auv_depth_lqr.closed_loop import run_closed_loop
 from auv_depth_lqr.metrics import step_metrics
 from auv_depth_lqr.pilot import PilotSettings
-from auv_ident.simlog import SensorNoise, write_record
+from auv_logs.simlog import SensorNoise, write_record
 from auv_sim.environment import load_environment
 from auv_sim.missions import load_mission, run_mission
 from auv_sim.params import load_vehicle
 
-ROOT = pathlib.Path(__file__).resolve().parents[3]
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument('--vehicle', default=str(ROOT / 'config' / 'a18m.yaml'),
+    parser.add_argument('--vehicle', default=str(config_path('a18m.yaml')),
                         help='vehicle file of the simulated vehicle and of the pilot '
                              '(default: config/a18m.yaml)')
     parser.add_argument('--effects', default=None, help='effects file of the "real" vehicle')
@@ -56,7 +54,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--out', required=True, help='bag directory (or .mcap file) to write')
 
 
+def check_options(args: argparse.Namespace) -> None:
+    """Every number of ``auv run`` checked before anything runs (one-line CliError)."""
+    check_number('--depth', args.depth, unit='m')
+    check_number('--initial-depth', args.initial_depth, unit='m')
+    check_number('--speed', args.speed, above=0.0, unit='m/s')
+    check_number('--duration', args.duration, above=0.0, unit='s')
+    check_number('--water-speed', args.water_speed, above=0.0, unit='m/s')
+    check_number('--speed-hold', args.speed_hold, above=0.0, unit='s')
+    check_number('--seed', args.seed, minimum=0)
+
+
 def run(args: argparse.Namespace) -> int:
+    check_options(args)
     params = load_vehicle(args.vehicle)
     env = load_environment(args.effects)
     noise = SensorNoise.realistic() if args.noise else None
@@ -66,14 +76,11 @@ def run(args: argparse.Namespace) -> int:
         summary = {'bag': args.out, 'messages': n, 'mission': args.mission,
                    'duration_s': float(rec.t[-1] - rec.t[0])}
     else:
-        if not math.isfinite(args.depth):
-            raise RunError(f'--depth {args.depth} is not a finite depth in metres')
-        if not params.depth_min <= args.depth <= params.depth_max:
-            raise RunError(f'--depth {args.depth} m is outside the vehicle envelope '
-                           f'[{params.depth_min}, {params.depth_max}] m')
+        for option, z in (('--depth', args.depth), ('--initial-depth', args.initial_depth)):
+            if not params.depth_min <= z <= params.depth_max:
+                raise RunError(f'{option} {z:g} m is outside the vehicle envelope '
+                               f'[{params.depth_min:g}, {params.depth_max:g}] m')
         hold = args.speed_hold
-        if hold is not None and not (math.isfinite(hold) and hold > 0.0):
-            raise RunError(f'--speed-hold {hold} must be a time constant > 0 s')
         settings = PilotSettings(weights=args.weights, water_speed=args.water_speed)
         cl = run_closed_loop(params, [(0.0, args.depth)], args.duration,
                              z0=args.initial_depth, u0=args.speed, environment=env,

@@ -3,13 +3,25 @@
 Topics, relative to the node's namespace (``/auv`` unless remapped with ``-r __ns:=/auv1``;
 each topic also with ``-r state:=/nav/state`` etc.):
 
-* ``depth_command`` (std_msgs/Float64, metres down) from any publisher: three subscriptions
-  on the topic — reliable + transient-local (a latched command, also one sent before the pilot
-  started), reliable + volatile (a default-QoS script, ``ros2 topic pub``) and best-effort +
-  volatile (a best-effort publisher) — so that every publisher matches at least one; a
-  sample that arrives through more than one is applied once (same publisher and sequence
-  number). An incompatible-QoS event is logged: a warning when the publisher matches none of
-  the pilot's subscriptions (its commands are lost), an info line when another one serves it.
+* ``depth_command`` (std_msgs/Float64, metres down) from any publisher: reliable + volatile
+  (a default-QoS script, ``ros2 topic pub``, a latched publisher such as ``auv depth``) and
+  best-effort + volatile (a best-effort publisher), so that every publisher matches, without
+  an incompatible-QoS warning on the publisher's side; and for the first
+  :data:`LATCHED_WINDOW` wall seconds after start also reliable + transient-local, which takes
+  a command latched before the pilot started (it is then removed: a transient-local
+  subscription makes every volatile publisher warn of incompatible durability). A sample that
+  arrives through more than one is applied once (same publisher and sequence number). What is
+  lost is said (:mod:`auv_depth_lqr.command_intake`): a warning, and WARN on ``/diagnostics``,
+  when a publisher's first sample to arrive is not its first (the earlier ones were published
+  before DDS matched it with the pilot) or when a publisher leaves without a sample having
+  arrived (a script that published once right after ``create_publisher``).
+* the answer to every depth command: ``depth_command_answer``
+  (diagnostic_msgs/DiagnosticStatus, reliable, transient local, last 20; level OK accepted,
+  WARN clamped or refused; ``values``: ``value_m``, ``result`` (accepted, clamped, refused),
+  ``depth_m`` (the command in force), ``reason``, ``publisher`` (the command's publisher GID,
+  hex) and ``sequence`` (its publication sequence number)), also in the ``/diagnostics`` status
+  at once (``last_command_*``; WARN after a refusal until a command is accepted).
+  ``auv depth`` waits for it and exits non-zero on a refusal.
 * the state: ``state`` (auv_msgs/VehicleState, NED/FRD) or, with ``state_source:=odometry``,
   ``odom`` (nav_msgs/Odometry, ``odom_frame`` ``enu_flu`` (REP-105) or ``ned_frd``, see
   :mod:`auv_depth_lqr.state_input`); reliable by default, best effort with
@@ -26,9 +38,11 @@ each topic also with ``-r state:=/nav/state`` etc.):
 
 All logic is in :class:`auv_depth_lqr.pilot.DepthPilot`; this module converts messages.
 
-Lockstep (parameter ``lockstep``, with the simulator's ``lockstep``): no timer; each state
-whose stamp is a control instant ``k / rate`` gets its BAR command stamped with that same
-instant, so the simulator can wait for it (see :mod:`auv_sim.node`).
+Lockstep (parameter ``lockstep``, with the simulator's ``lockstep``; ``docs/lockstep.md``): no
+timer; each state whose stamp is a control instant ``k / rate`` (within 1 us, see
+:func:`auv_sim.sim_settings.control_instant`) gets its BAR command stamped with the state's
+own stamp, so the simulator can wait for it (see :mod:`auv_sim.node`). A state stamped within
+1 ms of an instant but farther than 1 us gets no answer and one warning.
 
 Parameters (validated at start: a bad one ends the node with one line ``error: ...`` and exit
 status 1; and on change, where a bad one is refused with a reason): ``vehicle_file``,
@@ -46,7 +60,12 @@ at start only: ``diagnostics_period`` [s], ``state_source`` (``vehicle_state`` o
 ``odometry``), ``state_reliability``, ``realtime_priority`` (0-99; 0 = normal scheduling),
 ``start_subscribers`` (before its first command the node waits, at most ``startup_timeout``
 [s], until ``bar_command`` has this many matched subscriptions, so that a recorder started
-with the graph misses none of the first commands; 0 = do not wait).
+with the graph misses none of the first commands; 0 = do not wait),
+``diagnostics_subscribers`` (the same for ``/diagnostics`` before its first status),
+``report_file`` (JSON written at exit: messages published per topic; '' none).
+
+On SIGINT or SIGTERM the node waits (at most :data:`ACK_TIMEOUT` s) until its reliable
+subscribers have acknowledged what it published, writes its report and exits 0.
 
 Real-time scheduling (``realtime_priority`` > 0): at start the node's threads move to
 ``SCHED_FIFO`` at that priority, as a control loop on a vehicle runs, so other processes do
@@ -61,12 +80,11 @@ the command is published as soon as it is computed.
 """
 
 import argparse
-import collections
 import functools
 import gc
 import math
 import os
-import pathlib
+import signal
 import sys
 import time
 from typing import Any
@@ -77,8 +95,15 @@ import rclpy.executors
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
-from rclpy.clock import ROSClock
-from rclpy.event_handler import QoSRequestedIncompatibleQoSInfo, SubscriptionEventCallbacks
+from rclpy.clock import Clock, ROSClock
+from rclpy.clock_type import ClockType
+from rclpy.duration import Duration
+from rclpy.event_handler import (
+    QoSRequestedIncompatibleQoSInfo,
+    QoSSubscriptionMatchedInfo,
+    SubscriptionEventCallbacks,
+)
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import (
     DurabilityPolicy,
@@ -88,10 +113,20 @@ from rclpy.qos import (
     ReliabilityPolicy,
     qos_check_compatible,
 )
+from rclpy.signals import SignalHandlerOptions
 from rclpy.timer import Timer, TimerInfo
 from std_msgs.msg import Float64
 
+from auv_contract import DEPTH_ANSWER_TOPIC, config_path, topic_basename
 from auv_depth_lqr.authority import LOW, UNKNOWN
+from auv_depth_lqr.command_intake import (
+    ACCEPTED,
+    CLAMPED,
+    REFUSED,
+    CommandAnswer,
+    CommandIntake,
+    gid_text,
+)
 from auv_depth_lqr.controller import PlaneState
 from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
 from auv_depth_lqr.pilot import DepthPilot, PilotSettings
@@ -99,7 +134,9 @@ from auv_depth_lqr.recovery import RecoverySettings
 from auv_depth_lqr.state_input import ODOM_FRAMES, plane_state_from_odometry
 from auv_msgs.msg import ActuatorSetpoint, VehicleState
 from auv_sim.errors import AuvSimError
+from auv_sim.node_report import write_report
 from auv_sim.params import load_vehicle
+from auv_sim.sim_settings import control_instant
 
 NS_PER_S = 1_000_000_000
 DEFAULT_NAMESPACE = '/auv'
@@ -111,7 +148,8 @@ NODE_NAME = 'depth_pilot'
 #: only on what it has written, so a shorter history lost the first commands of fast runs.
 BAR_HISTORY = 1000
 
-#: The depth-command subscriptions: together they match every publisher (see module docstring).
+#: The depth-command subscriptions: together they match every publisher (see module docstring);
+#: ``latched`` lives only for the first :data:`LATCHED_WINDOW` s.
 COMMAND_QOS: dict[str, QoSProfile] = {
     'latched': QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                           durability=DurabilityPolicy.TRANSIENT_LOCAL),
@@ -125,8 +163,20 @@ STATE_RELIABILITY = {'reliable': ReliabilityPolicy.RELIABLE,
 STATE_SOURCES = ('vehicle_state', 'odometry')
 COMMAND_MODES = ('refuse', 'clamp')
 START_ONLY = ('realtime_priority', 'state_source', 'state_reliability',
-              'diagnostics_period', 'start_subscribers', 'startup_timeout')
+              'diagnostics_period', 'start_subscribers', 'startup_timeout',
+              'diagnostics_subscribers', 'report_file')
 _SEEN_COMMANDS = 64  # depth-command samples remembered to apply each once
+#: Wall s after start during which a transient-local depth-command subscription takes a
+#: command latched before the pilot started (then removed; see the module docstring).
+LATCHED_WINDOW = 10.0
+_DEPARTURE_SETTLE = 0.5  # wall s after a publisher left before the graph is looked at
+_NEAR_INSTANT_NS = 1_000_000  # a state this close to a control instant was meant as one
+ANSWER_TOPIC = topic_basename(DEPTH_ANSWER_TOPIC)  # relative: /auv/depth_command_answer
+#: The answers: reliable, transient local (a waiting ``auv depth`` that matches late still
+#: gets its answer), last 20.
+ANSWER_QOS = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
+ACK_TIMEOUT = 2.0  # wall s, longest wait at exit for the subscribers' acknowledgements
 _LEVELS = {'ok': DiagnosticStatus.OK, 'recovery': DiagnosticStatus.WARN,
            'no_state': DiagnosticStatus.WARN, 'stale': DiagnosticStatus.ERROR}
 
@@ -155,10 +205,8 @@ _FLAGS: dict[str, bool] = {'lockstep': False, 'recovery': True}
 
 
 def default_vehicle_file() -> str:
-    """``config/a18m.yaml`` of the workspace (``AUV_ROOT``) or of the source tree."""
-    root = os.environ.get('AUV_ROOT')
-    base = pathlib.Path(root) if root else pathlib.Path(__file__).resolve().parents[3]
-    return str(base / 'config' / 'a18m.yaml')
+    """The shipped ``a18m.yaml`` (:func:`auv_contract.config_path`)."""
+    return str(config_path('a18m.yaml'))
 
 
 def checked_values(values: dict[str, Any]) -> dict[str, Any]:
@@ -227,11 +275,18 @@ class DepthPilotNode(Node):
         self.declare_parameter('realtime_priority', 0)
         self.realtime_priority = _priority(self.get_parameter('realtime_priority').value)
         self.declare_parameter('start_subscribers', 0)
+        self.declare_parameter('diagnostics_subscribers', 0)
         self.declare_parameter('startup_timeout', 10.0, numbers)
+        self.declare_parameter('report_file', '')
         self.start_subscribers, self.startup_timeout = _start_wait(
             self.get_parameter('start_subscribers').value,
             self.get_parameter('startup_timeout').value)
+        self.diagnostics_subscribers, _ = _start_wait(
+            self.get_parameter('diagnostics_subscribers').value, self.startup_timeout)
+        self.report_file = str(self.get_parameter('report_file').value)
         self._subscribers_awaited = self.start_subscribers == 0
+        self._diagnostics_awaited = self.diagnostics_subscribers == 0
+        self.published: dict[str, int] = {}  # topic -> messages published
         values = checked_values(self._values({}))
         self.pilot = pilot_from_values(values)
         self.command_mode = values['depth_command_mode']
@@ -240,14 +295,24 @@ class DepthPilotNode(Node):
         # reliable, last BAR_HISTORY: a sample a reader lost is resent from this history
         self.pub = self.create_publisher(ActuatorSetpoint, 'bar_command', BAR_HISTORY)
         self.pub_diagnostics = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
-        self._seen: collections.OrderedDict[tuple[Any, ...], None] = collections.OrderedDict()
+        self.pub_answer = self.create_publisher(DiagnosticStatus, ANSWER_TOPIC, ANSWER_QOS)
+        self.intake = CommandIntake(_SEEN_COMMANDS)
         self._last_refusal = ''
+        self.last_answer: CommandAnswer | None = None
+        self._command_warning = ''  # a refusal or loss, until a command is accepted
+        self._matched = (0, 0)  # (total, current) publishers of the reliable subscription
+        self._near_miss_warned = False
         self.command_subscriptions = {
             name: self.create_subscription(
-                Float64, 'depth_command', self._on_depth, qos,
+                Float64, 'depth_command', functools.partial(self._on_depth, name), qos,
                 event_callbacks=SubscriptionEventCallbacks(
-                    incompatible_qos=functools.partial(self._on_command_incompatible, name)))
+                    incompatible_qos=functools.partial(self._on_command_incompatible, name),
+                    matched=self._on_command_matched if name == 'reliable' else None))
             for name, qos in COMMAND_QOS.items()}
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self._latched_end = self.create_timer(LATCHED_WINDOW, self._end_latched_window,
+                                              clock=self._steady)
+        self._departure_check: Timer | None = None
         state_qos = QoSProfile(depth=50,
                                reliability=STATE_RELIABILITY[values['state_reliability']])
         state_events = SubscriptionEventCallbacks(incompatible_qos=self._on_state_incompatible)
@@ -309,42 +374,107 @@ class DepthPilotNode(Node):
         self._pending_timer = False
 
     # -- depth commands ----------------------------------------------------------------------
-    def _first_time(self, info: Any) -> bool:
-        """True the first time a sample (publisher, sequence number) is seen."""
-        gid = info.get('publisher_gid') if isinstance(info, dict) else None
-        gid_bytes = bytes(gid['data']) if isinstance(gid, dict) and 'data' in gid else None
-        seq = info.get('publication_sequence_number') if isinstance(info, dict) else None
-        if gid_bytes is None or seq is None:
-            return True  # no identity to compare: apply (a repeated value changes nothing)
-        key = (gid_bytes, seq)
-        if key in self._seen:
-            return False
-        self._seen[key] = None
-        while len(self._seen) > _SEEN_COMMANDS:
-            self._seen.popitem(last=False)
-        return True
-
-    def _on_depth(self, msg: Float64, info: Any) -> None:
-        if not self._first_time(info):
+    def _on_depth(self, subscription: str, msg: Float64, info: Any) -> None:
+        gid, seq = _sample_identity(info)
+        self.intake.arrived(gid, subscription == 'reliable')
+        if not self.intake.first_time(gid, seq):
             return
+        # a latched publisher's late joiner gets only its last sample, by design
+        missed = self.intake.missed_before(gid, seq, volatile=subscription != 'latched')
+        if missed:
+            self._lost(f'{missed} earlier depth command(s) of {self._publisher_name(gid)} did '
+                       'not reach the pilot (published before DDS matched the publisher with '
+                       'the pilot: wait for the match before publishing, see '
+                       'docs/pilot-interfaces.md)')
         clamp = self.command_mode == 'clamp'
+        answer: CommandAnswer
         try:
             z = self.pilot.set_depth_command(msg.data, clamp=clamp)
         except InvalidInputError as exc:
-            self.get_logger().warning(f'rejected: {exc}')
             self._last_refusal = str(exc)
-            return
-        if z != msg.data:
-            self.get_logger().warning(
-                f'depth command {msg.data:g} m outside the envelope [{self.pilot.depth_min:g}, '
-                f'{self.pilot.depth_max:g}] m: clamped to {z:g} m')
+            answer = CommandAnswer(msg.data, REFUSED, self.pilot.z_ref, str(exc),
+                                   gid_text(gid), seq or 0)
+            self.get_logger().warning(f'rejected: {exc}')
         else:
-            self.get_logger().info(f'depth command {z:g} m accepted')
+            if z != msg.data:
+                answer = CommandAnswer(
+                    msg.data, CLAMPED, z, f'outside the envelope [{self.pilot.depth_min:g}, '
+                    f'{self.pilot.depth_max:g}] m', gid_text(gid), seq or 0)
+                self.get_logger().warning(
+                    f'depth command {msg.data:g} m outside the envelope '
+                    f'[{self.pilot.depth_min:g}, {self.pilot.depth_max:g}] m: clamped to '
+                    f'{z:g} m')
+            else:
+                answer = CommandAnswer(msg.data, ACCEPTED, z, '', gid_text(gid), seq or 0)
+                self.get_logger().info(f'depth command {z:g} m accepted')
+        self._answer(answer)
+
+    def _answer(self, answer: CommandAnswer) -> None:
+        """Publish the answer to a command (answer topic, and /diagnostics at once)."""
+        self.last_answer = answer
+        if answer.result == REFUSED:
+            self._command_warning = answer.text()
+        elif answer.result == ACCEPTED:
+            self._command_warning = ''
+        status = DiagnosticStatus()
+        status.level = DiagnosticStatus.OK if answer.result == ACCEPTED else DiagnosticStatus.WARN
+        status.name = f'{self.get_fully_qualified_name()}: depth command'
+        status.message = answer.text()
+        status.hardware_id = self.get_namespace()
+        status.values = [KeyValue(key=k, value=v) for k, v in _answer_values(answer).items()]
+        self._count(self.pub_answer)
+        self.pub_answer.publish(status)
+        self._publish_diagnostics()
+
+    def _lost(self, text: str) -> None:
+        """A depth command that did not arrive: a warning, and WARN on /diagnostics."""
+        self.get_logger().warning(text)
+        self._command_warning = text
+        self._publish_diagnostics()
+
+    def _publisher_name(self, gid: bytes | None) -> str:
+        topic = self.command_subscriptions['reliable'].topic_name
+        for i in self.get_publishers_info_by_topic(topic):
+            if bytes(i.endpoint_gid) == gid:
+                return f'publisher {i.node_namespace.rstrip("/")}/{i.node_name}'
+        return 'a publisher'
+
+    def _on_command_matched(self, info: QoSSubscriptionMatchedInfo) -> None:
+        # the status is coalesced: a publisher that matched and left between two events shows
+        # as total + 1, current + 0; the graph lists a departed publisher a little later
+        self._matched = (info.total_count, info.current_count)
+        if info.total_count > info.current_count and self._departure_check is None:
+            self._departure_check = self.create_timer(_DEPARTURE_SETTLE, self._check_departures,
+                                                      clock=self._steady)
+
+    def _check_departures(self) -> None:
+        if self._departure_check is not None:
+            self.destroy_timer(self._departure_check)
+            self._departure_check = None
+        topic = self.command_subscriptions['reliable'].topic_name
+        present = {bytes(i.endpoint_gid) for i in self.get_publishers_info_by_topic(topic)}
+        silent = self.intake.silent_departures(*self._matched, present)
+        if silent:
+            self._lost(f'{silent} publisher(s) of {topic} left without a depth command reaching '
+                       'the pilot: if it published, the command was lost (published before '
+                       'DDS matched it with the pilot; wait for the match before publishing, '
+                       'see docs/pilot-interfaces.md)')
+
+    def _end_latched_window(self) -> None:
+        """End of the start-up window: the transient-local subscription goes (see module
+        docstring)."""
+        self.destroy_timer(self._latched_end)
+        latched = self.command_subscriptions.pop('latched', None)
+        if latched is not None:
+            self.destroy_subscription(latched)
 
     def _on_command_incompatible(self, name: str, info: QoSRequestedIncompatibleQoSInfo,
                                  ) -> None:
         policy = _policy_name(info.last_policy_kind)
-        topic = self.command_subscriptions[name].topic_name
+        subscription = self.command_subscriptions.get(name)
+        if subscription is None:
+            return
+        topic = subscription.topic_name
         lost = []
         for pub in self.get_publishers_info_by_topic(topic):
             if all(qos_check_compatible(pub.qos_profile, qos)[0] == QoSCompatibility.ERROR
@@ -355,10 +485,12 @@ class DepthPilotNode(Node):
             self.get_logger().warning(
                 f'{topic}: publisher(s) {", ".join(lost)} incompatible with every depth-command '
                 f'subscription (last policy: {policy}): their commands do not arrive')
-        else:
+        elif name == 'latched':
             self.get_logger().info(
-                f'{topic}: a publisher offers a {policy} the {name} subscription does not '
-                'match; another subscription of the pilot receives its commands')
+                f'{topic}: a volatile publisher does not match the start-up subscription for '
+                f'latched commands ({policy}; it goes {LATCHED_WINDOW:g} s after start); its '
+                'commands arrive through the reliable subscription once DDS has matched it '
+                'with the pilot')
 
     def _on_state_incompatible(self, info: QoSRequestedIncompatibleQoSInfo) -> None:
         policy = _policy_name(info.last_policy_kind)
@@ -402,8 +534,16 @@ class DepthPilotNode(Node):
             self._configure_timer()
         if self.lockstep:
             stamp_ns = stamp.sec * NS_PER_S + stamp.nanosec
-            if stamp_ns % self.control_ns == 0:
+            if control_instant(stamp_ns, self.control_ns) is not None:
                 self._publish(stamp, self._now())
+            elif not self._near_miss_warned and abs(
+                    stamp_ns - round(stamp_ns / self.control_ns) * self.control_ns) \
+                    < _NEAR_INSTANT_NS:
+                self._near_miss_warned = True
+                self.get_logger().warning(
+                    f'lockstep: state stamped {stamp_ns} ns is near a control instant but more '
+                    'than 1 us off it: not answered (stamp control instants as integer '
+                    'nanoseconds, k * period)')
 
     # -- output ------------------------------------------------------------------------------
     def _on_timer(self, info: TimerInfo) -> None:
@@ -445,22 +585,31 @@ class DepthPilotNode(Node):
             wait = out_ns - time.time_ns()
             if wait > 0:
                 time.sleep(wait / NS_PER_S)
+        self._count(self.pub)
         self.pub.publish(out)
         if changed:
             self._publish_diagnostics()
 
+    def _count(self, publisher: Any) -> None:
+        topic = publisher.topic_name
+        self.published[topic] = self.published.get(topic, 0) + 1
+
     def _await_subscribers(self) -> None:
-        """Before the first command: wait, at most ``startup_timeout`` wall seconds, until
-        ``bar_command`` has ``start_subscribers`` matched subscriptions (DDS matches each
-        subscription on its own; a command published before is lost to it)."""
+        """Before the first command: wait until ``bar_command`` has ``start_subscribers``
+        matched subscriptions (DDS matches each subscription on its own; a command published
+        before is lost to it)."""
         self._subscribers_awaited = True
+        self._await_matched(self.pub, self.start_subscribers)
+
+    def _await_matched(self, publisher: Any, wanted: int) -> None:
+        """Wait, at most ``startup_timeout`` wall seconds, until ``publisher`` has ``wanted``
+        matched subscriptions; then publish anyway, with a warning."""
         deadline = time.monotonic() + self.startup_timeout
-        while self.pub.get_subscription_count() < self.start_subscribers:
+        while publisher.get_subscription_count() < wanted:
             if time.monotonic() >= deadline:
                 self.get_logger().warning(
-                    f'{self.pub.get_subscription_count()} of {self.start_subscribers} '
-                    f'bar_command subscribers after {self.startup_timeout:g} s; publishing '
-                    'anyway')
+                    f'{publisher.get_subscription_count()} of {wanted} {publisher.topic_name} '
+                    f'subscribers after {self.startup_timeout:g} s; publishing anyway')
                 return
             time.sleep(0.005)
 
@@ -514,6 +663,10 @@ class DepthPilotNode(Node):
     def _publish_diagnostics(self) -> None:
         """The pilot's DiagnosticStatus (depth control) and its plane authority on
         ``/diagnostics`` (ROS convention)."""
+        if not self._diagnostics_awaited:
+            # before the first status: the subscribers of the graph (a recorder) matched
+            self._diagnostics_awaited = True
+            self._await_matched(self.pub_diagnostics, self.diagnostics_subscribers)
         pilot = self.pilot
         status = pilot.status
         verdict = pilot.verdict
@@ -521,6 +674,9 @@ class DepthPilotNode(Node):
         out.level = _LEVELS.get(status, DiagnosticStatus.ERROR)
         out.name = f'{self.get_fully_qualified_name()}: depth control'
         out.message = self._status_text(status)
+        if self._command_warning:
+            out.level = max(out.level, DiagnosticStatus.WARN)
+            out.message = f'{out.message}; {self._command_warning}'
         out.hardware_id = self.get_namespace()
         values = {
             'status': status,
@@ -535,11 +691,49 @@ class DepthPilotNode(Node):
                                         else f'{verdict.residual:+.3f}'),
             **pilot.learning_diagnostics(),
         }
+        if self.last_answer is not None:
+            values.update({f'last_command_{k}': v
+                           for k, v in _answer_values(self.last_answer).items()})
         out.values = [KeyValue(key=k, value=v) for k, v in values.items()]
         array = DiagnosticArray()
         array.header.stamp = self.get_clock().now().to_msg()
         array.status = [out, self._authority_status()]
+        self._count(self.pub_diagnostics)
         self.pub_diagnostics.publish(array)
+
+    def wait_for_acknowledgements(self, timeout: float = ACK_TIMEOUT) -> list[str]:
+        """Wait (``timeout`` wall s in all) until every reliable subscriber acknowledged what
+        the node published; returns the topics still unacknowledged."""
+        end = time.monotonic() + timeout
+        late = []
+        for pub in (self.pub, self.pub_diagnostics, self.pub_answer):
+            left = max(0.0, end - time.monotonic())
+            if not pub.wait_for_all_acked(Duration(nanoseconds=int(left * NS_PER_S))):
+                late.append(pub.topic_name)
+        return late
+
+    def report(self) -> dict[str, Any]:
+        """What the node published (``report_file``)."""
+        return {'node': self.get_fully_qualified_name(), 'published': dict(self.published)}
+
+
+def _sample_identity(info: Any) -> tuple[bytes | None, int | None]:
+    """(publisher GID, publication sequence number) of a sample from its message info, each
+    None when the middleware does not give it."""
+    if not isinstance(info, dict):
+        return None, None
+    gid = info.get('publisher_gid')
+    gid_bytes = bytes(gid['data']) if isinstance(gid, dict) and 'data' in gid else None
+    seq = info.get('publication_sequence_number')
+    return gid_bytes, seq if isinstance(seq, int) else None
+
+
+def _answer_values(answer: CommandAnswer) -> dict[str, str]:
+    """The answer's fields as diagnostic key/values (see the module docstring)."""
+    return {'value_m': f'{answer.value:g}', 'result': answer.result,
+            'depth_m': 'none' if answer.depth is None else f'{answer.depth:g}',
+            'reason': answer.reason, 'publisher': answer.publisher,
+            'sequence': str(answer.sequence)}
 
 
 def _policy_name(kind: int) -> str:
@@ -588,18 +782,23 @@ def apply_realtime_priority(priority: int) -> str | None:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """``auv pilot`` options; ROS parameters go after ``--ros-args -p name:=value``."""
-    parser.add_argument('ros_args', nargs=argparse.REMAINDER,
-                        help='ROS arguments, e.g. --ros-args -p rate:=10.0 -p lockstep:=true')
+    parser.add_argument('--ros-args', dest='ros_args', nargs=argparse.REMAINDER, default=None,
+                        help='ROS arguments, e.g. --ros-args -p rate:=10.0 -p lockstep:=true '
+                             '-r __ns:=/auv1')
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the node until SIGINT/SIGTERM; 1 with a one-line error on bad parameters."""
-    return main(['depth_pilot', *getattr(args, 'ros_args', [])])
+    ros_args = getattr(args, 'ros_args', None)
+    return main(['depth_pilot', *(['--ros-args', *ros_args] if ros_args else [])])
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv if argv is None else argv
-    rclpy.init(args=argv)
+    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
+    stop: list[int] = []
+    previous = {sig: signal.signal(sig, lambda signum, _frame: stop.append(signum))
+                for sig in (signal.SIGINT, signal.SIGTERM)}
     node = None
     try:
         node = DepthPilotNode()
@@ -614,19 +813,27 @@ def main(argv: list[str] | None = None) -> int:
         # cyclic collector, whose full passes over it would otherwise pause a control step.
         gc.collect()
         gc.freeze()
-        rclpy.spin(node)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        while not stop:
+            executor.spin_once(timeout_sec=0.1)
+        late = node.wait_for_acknowledgements()
+        if late:
+            node.get_logger().warning(f'not acknowledged within {ACK_TIMEOUT:g} s by every '
+                                      f'subscriber: {", ".join(late)}')
     except (AuvLqrError, AuvSimError, rclpy.exceptions.ParameterException) as exc:
         print(f'error: {exc}', file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        pass
     except rclpy.executors.ExternalShutdownException:
         pass
     finally:
         if node is not None:
+            write_report(node.report_file, node.report())
             node.destroy_node()
         if rclpy.ok():
             rclpy.try_shutdown()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     return 0
 
 

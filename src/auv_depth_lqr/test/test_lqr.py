@@ -72,6 +72,17 @@ def test_gain_solves_discrete_riccati_with_cross_term() -> None:
                                np.sort_complex(np.linalg.eigvals(P - G @ res.K)), atol=1e-10)
 
 
+@pytest.mark.parametrize('A', [A_4_4, A_4_2, A_4_3])
+def test_gain_equals_python_controls_dlqr(A: np.ndarray) -> None:
+    """The same discrete weights through python-control's ``dlqr`` (a second implementation)
+    give the same gain, Riccati solution and closed-loop eigenvalues."""
+    res = lqrd(A, B_REPORT, np.diag([1.0, 10.0, 1.0, 10.0, 0.01]), [[100.0]], 0.1)
+    K, S, E = control.dlqr(res.Phi, res.Gamma, res.Qd, res.Rd, res.Nd)
+    np.testing.assert_allclose(res.K, K, rtol=1e-9, atol=0.0)
+    np.testing.assert_allclose(res.S, S, rtol=1e-9, atol=1e-12 * np.max(np.abs(S)))
+    np.testing.assert_allclose(np.sort_complex(res.E), np.sort_complex(E), atol=1e-10)
+
+
 def test_large_weights_do_not_degrade_the_exponential() -> None:
     """Weights are scaled out of the matrix exponential: Qd, Rd scale exactly with them."""
     small = lqrd(A_4_4, B_REPORT, Q_5 / 1e8, R_5 / 1e8, TS_REPORT)

@@ -1,2 +1,2 @@
-"""Bag I/O, hydrodynamic coefficient identification, sim-to-real gap diagnosis, and the
-identification node."""
+"""Identification of a vehicle's hydrodynamic coefficients from logs, the starting vehicle
+file from main dimensions (``auv vehicle-init``), and the identification node."""

@@ -17,6 +17,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from auv_contract import COMMAND_TOPICS, MEASURED_TOPICS, config_path
 from auv_ident.errors import IdentError, IdentificationError, NotIdentifiableError
 from auv_ident.identify import (
     EQUATIONS,
@@ -27,21 +28,10 @@ from auv_ident.identify import (
     compare_nelder_mead,
     identify,
 )
-from auv_ident.motion import (
-    COMMAND_TOPICS,
-    MEASURED_TOPICS,
-    SOURCES,
-    WINDOW_S,
-    choose_source,
-    needed_topics,
-    records_from_topics,
-)
+from auv_ident.motion import SOURCES, WINDOW_S, choose_source, needed_topics, records_from_topics
 from auv_ident.report import write_outputs
 from auv_sim.cli_options import add_vehicle_option
 from auv_sim.params import VehicleParams, load_vehicle
-
-ROOT = pathlib.Path(__file__).resolve().parents[3]
-DEFAULT_BASE = ROOT / 'config' / 'a18m.yaml'
 
 Progress = Callable[[str], None]
 
@@ -59,7 +49,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--map', default=None, metavar='MAP',
                         help='read the original logs through this mapping file (as `auv '
                              'import` does, without writing a bag); forces from motion')
-    add_vehicle_option(parser, default=str(DEFAULT_BASE), old_names=('--base',),
+    add_vehicle_option(parser, default=str(config_path('a18m.yaml')), old_names=('--base',),
                        help_text='vehicle file the identified values replace')
     parser.add_argument('--out', required=True, help='output directory')
     parser.add_argument('--fit-c0', action='store_true',
@@ -96,7 +86,7 @@ def load_records(bags: Sequence[str], base: VehicleParams, source: str = 'auto',
 
     ``auto`` uses the force topic when every bag has it, else the motion of every bag.
     Logged commands outside the vehicle file's limits are used as logged and counted into
-    ``limits`` (see :mod:`auv_ident.limits`).
+    ``limits`` (see :mod:`auv_logs.limits`).
     """
     limits = {} if limits is None else limits
     from auv_bag import bag_topics, read_arrays
@@ -132,9 +122,9 @@ def load_records(bags: Sequence[str], base: VehicleParams, source: str = 'auto',
 def records_as_logged(arrays: Any, base: VehicleParams, source: str, name: str,
                        window_s: float, limits: dict[str, Any]) -> list[ForceRecord]:
     """Force records with the actuator limits widened to the logged commands
-    (:mod:`auv_ident.limits`: used as logged, never clipped); what lay outside the vehicle
+    (:mod:`auv_logs.limits`: used as logged, never clipped); what lay outside the vehicle
     file's limits is merged into ``limits`` (channel -> count, total, range)."""
-    from auv_ident.limits import as_logged
+    from auv_logs.limits import as_logged
 
     commands = {ch: (arrays[tp]['t'], arrays[tp]['value']) for ch, tp in COMMAND_TOPICS.items()
                 if tp in arrays}
@@ -191,7 +181,7 @@ def unsupported_equations(imports: Sequence[dict[str, Any]], requested: Sequence
 def bag_imports(bags: Sequence[str]) -> list[dict[str, Any]]:
     """The import reports in the provenance of bags ``auv import`` wrote (none for others):
     the same knowledge of derived and assumed signals as ``--map`` gives."""
-    from auv_ident.realog.importer import read_provenance
+    from auv_logs.importer import read_provenance
 
     out: list[dict[str, Any]] = []
     for bag in bags:
@@ -204,10 +194,10 @@ def load_records_from_map(map_path: str, logs: Sequence[str], base: VehicleParam
                           window_s: float = WINDOW_S, progress: Progress | None = None,
                           limits: dict[str, Any] | None = None
                           ) -> tuple[list[ForceRecord], list[dict[str, Any]]]:
-    """Import the original logs through a map (:mod:`auv_ident.realog`) into the contract's
+    """Import the original logs through a map (:mod:`auv_logs`) into the contract's
     arrays and build force records from motion exactly as from the imported bag; returns the
     records and each log's import report."""
-    from auv_ident.realog.importer import contract_arrays, import_logs
+    from auv_logs.importer import contract_arrays, import_logs
 
     _, imported = import_logs(map_path, logs)
     records: list[ForceRecord] = []
@@ -286,7 +276,7 @@ def run(args: argparse.Namespace) -> int:
             for eq, why in extra['not_identifiable'].items():
                 stderr_progress(f'{eq}: {why}')
     stderr_progress(f'force source: {source}')
-    from auv_ident.limits import describe
+    from auv_logs.limits import describe
     for line in describe(limits):
         stderr_progress(line)
     extra['logged_outside_limits'] = limits

@@ -52,17 +52,19 @@ import numpy as np
 from numba import njit
 from scipy.signal import savgol_coeffs, savgol_filter
 
+from auv_contract import (
+    COMMAND_TOPICS,
+    FORCES_TOPIC,
+    MEASURED_TOPICS,
+    STATE_FIELDS,
+    STATE_TOPIC,
+)
 from auv_ident.errors import IdentificationError
 from auv_ident.identify import ForceRecord, NoisePropagation
 from auv_sim.environment import Environment
 from auv_sim.model import NX, actuator_steps, wrench_series
 from auv_sim.params import VehicleParams, mass_matrix
 
-STATE_TOPIC = '/auv/state'
-FORCES_TOPIC = '/auv/hydrodynamic_forces'
-COMMAND_TOPICS = {'bar': '/auv/bar_command', 'helm': '/auv/helm_command',
-                  'thrust': '/auv/thrust_command'}
-STATE_FIELDS = ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r')
 FORCE_FIELDS = tuple(f'hydrodynamic_{k}_{a}' for k in ('force', 'torque') for a in 'xyz')
 #: Savitzky-Golay window [s] (see module docstring).
 WINDOW_S = 1.0
@@ -224,7 +226,6 @@ def actuator_positions(t: np.ndarray, commands: Mapping[str, tuple[np.ndarray, n
 
 
 #: Measured actuator topics of the contract and the channel each replaces.
-MEASURED_TOPICS = {'bar': '/auv/bar_measured', 'helm': '/auv/helm_measured'}
 Series = tuple[np.ndarray, np.ndarray]
 
 

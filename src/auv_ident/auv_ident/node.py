@@ -11,7 +11,7 @@ coefficients. With ``estimate_period > 0`` it publishes the running estimate as 
 (std_msgs/String on ``~/estimate``) every so many seconds.
 
 With ``--map MAP --logs LOG...`` it first reads a real vehicle's original logs through the
-mapping file (:mod:`auv_ident.realog`, as ``auv ident --map`` does) into its buffers, as if
+mapping file (:mod:`auv_logs`, as ``auv ident --map`` does) into its buffers, as if
 their contract topics had been received, then goes on accumulating live topics.
 
 Parameters: ``vehicle_file`` (the vehicle file the identified values replace), ``out``
@@ -33,17 +33,10 @@ from typing import Any
 
 import numpy as np
 
+from auv_contract import COMMAND_TOPICS, FORCES_TOPIC, STATE_FIELDS, STATE_TOPIC
 from auv_ident.errors import IdentError
 from auv_ident.identify import EQUATIONS, ERROR_METHODS
-from auv_ident.motion import (
-    COMMAND_TOPICS,
-    FORCE_FIELDS,
-    FORCES_TOPIC,
-    SOURCES,
-    STATE_FIELDS,
-    STATE_TOPIC,
-    WINDOW_S,
-)
+from auv_ident.motion import FORCE_FIELDS, SOURCES, WINDOW_S
 from auv_sim.cli_options import add_vehicle_option
 
 NODE_NAME = 'identifier'
@@ -123,8 +116,8 @@ def _make_node(overrides: dict[str, Any]) -> Any:
     from std_msgs.msg import String
     from std_srvs.srv import Trigger
 
+    from auv_contract import config_path
     from auv_ident.cli import (
-        DEFAULT_BASE,
         identify_and_report,
         records_as_logged,
         unsupported_equations,
@@ -138,7 +131,7 @@ def _make_node(overrides: dict[str, Any]) -> Any:
         def __init__(self) -> None:
             super().__init__(NODE_NAME, parameter_overrides=[
                 Parameter(k, value=v) for k, v in overrides.items()])
-            self.declare_parameter('vehicle_file', str(DEFAULT_BASE))
+            self.declare_parameter('vehicle_file', str(config_path('a18m.yaml')))
             self.declare_parameter('out', 'out/ident')
             self.declare_parameter('source', 'auto')
             self.declare_parameter('fit_c0', False)
@@ -180,7 +173,7 @@ def _make_node(overrides: dict[str, Any]) -> Any:
 
         def preload(self, map_path: str, logs: Sequence[str]) -> None:
             """Read original logs through a map into the buffers (contract arrays)."""
-            from auv_ident.realog.importer import contract_arrays, import_logs
+            from auv_logs.importer import contract_arrays, import_logs
 
             _, imported = import_logs(map_path, logs)
             for lg in imported:

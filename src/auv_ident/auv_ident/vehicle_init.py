@@ -31,6 +31,7 @@ import pathlib
 import sys
 from collections.abc import Sequence
 
+from auv_contract import config_path
 from auv_ident.errors import IdentError
 from auv_sim.params import (
     VehicleParams,
@@ -39,9 +40,6 @@ from auv_sim.params import (
     save_vehicle,
     vehicle_document,
 )
-
-ROOT = pathlib.Path(__file__).resolve().parents[3]
-DEFAULT_REFERENCE = ROOT / 'config' / 'remus100.yaml'
 
 
 class VehicleInitError(IdentError, ValueError):
@@ -137,7 +135,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--diameter', type=float, required=True, help='hull diameter [m]')
     parser.add_argument('--mass', type=float, required=True, help='mass in air [kg]')
     parser.add_argument('--name', default='my_auv', help='vehicle name')
-    parser.add_argument('--reference', default=str(DEFAULT_REFERENCE),
+    parser.add_argument('--reference', default=str(config_path('remus100.yaml')),
                         help='vehicle file scaled from (default: config/remus100.yaml)')
     parser.add_argument('--out', required=True, help='vehicle file to write')
 

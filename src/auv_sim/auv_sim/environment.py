@@ -14,7 +14,7 @@ diagnosis is not told. Units: SI, radians; currents in NED [m/s].
 
 :data:`EFFECT_FIELDS` is the one registry of effects: names, fields, units and the value
 meaning "absent". The simulator implements them here; the gap diagnosis's catalogue
-(:mod:`auv_ident.gap.catalogue`) declares its effects against the same registry and
+(:mod:`auv_gap.catalogue`) declares its effects against the same registry and
 implements them apart, so a test that makes a log with one and explains it with the other
 compares two implementations of one declared effect.
 """
@@ -27,8 +27,8 @@ import pathlib
 from typing import Any
 
 import numpy as np
-import yaml
 
+from auv_contract import YamlError, read_yaml
 from auv_sim.errors import ParameterError
 from auv_sim.model import (
     E_BARBIAS,
@@ -310,9 +310,9 @@ def load_environment(path: str | pathlib.Path | None) -> Environment:
         return Environment()
     path = pathlib.Path(path)
     try:
-        doc = yaml.safe_load(path.read_text())
+        doc = read_yaml(path)
     except OSError as exc:
         raise ParameterError(f'cannot read effects file {path}: {exc.strerror}') from None
-    except yaml.YAMLError:
-        raise ParameterError(f'{path}: malformed YAML') from None
+    except YamlError as exc:
+        raise ParameterError(str(exc)) from None
     return parse_environment(doc, str(path))

@@ -15,3 +15,7 @@ class DivergenceError(AuvSimError, FloatingPointError):
 
 class TrimError(AuvSimError, ArithmeticError):
     """No trim (equilibrium) point could be found."""
+
+
+class GraphConflictError(AuvSimError, RuntimeError):
+    """Another node publishes the simulator's state topic: a second graph on one namespace."""

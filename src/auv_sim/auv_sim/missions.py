@@ -14,15 +14,13 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-import yaml
 
+from auv_contract import CHANNELS, YamlError, config_path, read_yaml
 from auv_sim.environment import Environment
 from auv_sim.errors import ParameterError
 from auv_sim.params import VehicleParams
-from auv_sim.simulator import CHANNELS, Record, Simulator, record
+from auv_sim.simulator import Record, Simulator, record
 from auv_sim.trim import VerticalPlane
-
-MISSION_DIR = pathlib.Path(__file__).resolve().parents[3] / 'config' / 'missions'
 
 
 @dataclasses.dataclass(frozen=True)
@@ -68,14 +66,15 @@ def parse_mission(doc: Any, where: str = '<memory>') -> Mission:
 def load_mission(name_or_path: str | pathlib.Path) -> Mission:
     """Load a mission by file path or by name of a file in ``config/missions``."""
     path = pathlib.Path(name_or_path)
-    if not path.exists() and (MISSION_DIR / f'{name_or_path}.yaml').exists():
-        path = MISSION_DIR / f'{name_or_path}.yaml'
+    shipped = config_path('missions', f'{name_or_path}.yaml')
+    if not path.exists() and shipped.exists():
+        path = shipped
     try:
-        doc = yaml.safe_load(path.read_text())
+        doc = read_yaml(path)
     except OSError as exc:
         raise ParameterError(f'cannot read mission {name_or_path}: {exc.strerror}') from None
-    except yaml.YAMLError:
-        raise ParameterError(f'{path}: malformed YAML') from None
+    except YamlError as exc:
+        raise ParameterError(str(exc)) from None
     return parse_mission(doc, str(path))
 
 

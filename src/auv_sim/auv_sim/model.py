@@ -25,6 +25,7 @@ import numpy as np
 from numba import njit, prange
 from numba.misc.special import literally
 
+from auv_contract import CHANNELS, STATE_FIELDS
 from auv_sim.params import PARAM_NAMES
 
 _I = {name: i for i, name in enumerate(PARAM_NAMES)}
@@ -66,8 +67,7 @@ E_BDRIFT = 20       # buoyancy change in time: B(t) = B + rate t [N/s] from t = 
 ENV_SIZE = 21
 
 NX = 15
-STATE_NAMES = ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r',
-               'bar', 'helm', 'thrust')
+STATE_NAMES = STATE_FIELDS + CHANNELS
 _INV_LN10 = 1.0 / np.log(10.0)
 RE_MIN = 1.0e5  # below this the ITTC-1957 line is not valid; C_XF is held at its value here
 
@@ -566,96 +566,73 @@ def surge_held_dynamics(t, x, cmd, P, env, prof, xdot, work):  # type: ignore[no
         xdot[6 + i] -= P[I_MINV + 6 * i] * a
 
 
-#: Integration modes of :func:`_rk4` (compile-time constants).
+#: Integration modes of :func:`_rk4` (compile-time constants): the right-hand side
+#: :func:`_rhs` evaluates.
 MODE_ACTUATORS, MODE_VEHICLE, MODE_PRESCRIBED, MODE_SURGE_HELD = 0, 1, 2, 3
 _NO_C = np.zeros((1, 6))
 _NO_ACT = np.zeros((1, 3))
+#: The classic RK4 tableau: stage times ``c`` [fraction of the step] and the weight ``a`` of
+#: the previous stage in each stage's state (the output weights 1/6, 2/6, 2/6, 1/6 are
+#: written out in :func:`_rk4`); and the row of the prescribed actuator grid (half steps)
+#: each stage reads.
+_RK4_C = (0.0, 0.5, 0.5, 1.0)
+_RK4_A = (0.0, 0.5, 0.5, 1.0)
+_RK4_ROW = (0, 1, 1, 2)
+
+
+@njit(cache=True, inline='always')
+def _rhs(mode, t, x, cmd, P, env, prof, C, xdot, work, scratch):  # type: ignore
+    """The right-hand side ``xdot`` of integration ``mode`` at ``(t, x)``: :data:`MODE_VEHICLE`
+    :func:`dynamics`, :data:`MODE_ACTUATORS` :func:`actuator_dynamics`, :data:`MODE_PRESCRIBED`
+    :func:`dynamics_extra` (the extra wrench of ``C``; ``cmd`` unused), :data:`MODE_SURGE_HELD`
+    :func:`surge_held_dynamics`."""
+    if mode == MODE_SURGE_HELD:
+        surge_held_dynamics(t, x, cmd, P, env, prof, xdot, work)
+    elif mode == MODE_VEHICLE:
+        dynamics(t, x, cmd, P, env, prof, xdot, work)
+    elif mode == MODE_ACTUATORS:
+        actuator_dynamics(t, x, cmd, P, env, prof, xdot, work)
+    else:
+        dynamics_extra(t, x, P, env, prof, C, xdot, work, scratch)
 
 
 @njit(cache=True)
 def _rk4(t0, x, cmd, P, env, prof, dt, nsteps, mode, C, act, f0):  # type: ignore
-    """Classic RK4, the one integrator of the model; returns as :func:`rk4_steps`.
+    """Classic RK4 (tableau :data:`_RK4_C`, :data:`_RK4_A`), the one integrator of the
+    model; returns as :func:`rk4_steps`.
 
-    ``mode`` (a compile-time constant: one specialisation each, the other branches pruned; a
-    run-time branch costs the vehicle 30 % in speed) chooses the right-hand side:
-    :data:`MODE_VEHICLE` :func:`dynamics`, :data:`MODE_ACTUATORS` :func:`actuator_dynamics`,
-    :data:`MODE_PRESCRIBED` :func:`dynamics_extra` with the actuator positions read at each
-    stage from ``act`` (rows ``f0 + 2 s``, ``+ 1``, ``+ 2`` for step ``s``: a grid of half
-    steps) and the extra wrench of ``C``; ``cmd`` is then unused; :data:`MODE_SURGE_HELD`
-    :func:`surge_held_dynamics`. The stages have the dtype of ``x``: a complex state
-    (complex-step derivatives) is integrated in complex arithmetic.
+    ``mode`` (a compile-time constant: one specialisation each, the other branches of
+    :func:`_rhs` pruned; a run-time branch costs the vehicle 30 % in speed) chooses the
+    right-hand side. In :data:`MODE_PRESCRIBED` the actuator positions are read at each stage
+    from ``act`` (row ``f0 + 2 s + _RK4_ROW[j]`` for stage ``j`` of step ``s``: a grid of half
+    steps). The stages have the dtype of ``x``: a complex state (complex-step derivatives) is
+    integrated in complex arithmetic.
     """
     literally(mode)
     n = x.shape[0]
-    k1 = np.empty_like(x)
-    k2 = np.empty_like(x)
-    k3 = np.empty_like(x)
-    k4 = np.empty_like(x)
+    k = (np.empty_like(x), np.empty_like(x), np.empty_like(x), np.empty_like(x))
     xt = np.empty_like(x)
     work = np.zeros((4, 6)) + 0.0 * x[0]
     scratch = np.zeros(NB_EXTRA + 6) + 0.0 * x[0]
     for s in range(nsteps):
         t = t0 + s * dt
-        if mode == 2:
-            for i in range(3):
-                x[12 + i] = act[f0 + 2 * s, i]
-        if mode == 3:
-            surge_held_dynamics(t, x, cmd, P, env, prof, k1, work)
-        elif mode == 1:
-            dynamics(t, x, cmd, P, env, prof, k1, work)
-        elif mode == 0:
-            actuator_dynamics(t, x, cmd, P, env, prof, k1, work)
-        else:
-            dynamics_extra(t, x, P, env, prof, C, k1, work, scratch)
-        for i in range(n):
-            xt[i] = x[i] + 0.5 * dt * k1[i]
-        if mode == 2:
-            for i in range(3):
-                xt[12 + i] = act[f0 + 2 * s + 1, i]
-        if mode == 3:
-            surge_held_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
-        elif mode == 1:
-            dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
-        elif mode == 0:
-            actuator_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k2, work)
-        else:
-            dynamics_extra(t + 0.5 * dt, xt, P, env, prof, C, k2, work, scratch)
-        for i in range(n):
-            xt[i] = x[i] + 0.5 * dt * k2[i]
-        if mode == 2:
-            for i in range(3):
-                xt[12 + i] = act[f0 + 2 * s + 1, i]
-        if mode == 3:
-            surge_held_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
-        elif mode == 1:
-            dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
-        elif mode == 0:
-            actuator_dynamics(t + 0.5 * dt, xt, cmd, P, env, prof, k3, work)
-        else:
-            dynamics_extra(t + 0.5 * dt, xt, P, env, prof, C, k3, work, scratch)
-        for i in range(n):
-            xt[i] = x[i] + dt * k3[i]
-        if mode == 2:
-            for i in range(3):
-                xt[12 + i] = act[f0 + 2 * s + 2, i]
-        if mode == 3:
-            surge_held_dynamics(t + dt, xt, cmd, P, env, prof, k4, work)
-        elif mode == 1:
-            dynamics(t + dt, xt, cmd, P, env, prof, k4, work)
-        elif mode == 0:
-            actuator_dynamics(t + dt, xt, cmd, P, env, prof, k4, work)
-        else:
-            dynamics_extra(t + dt, xt, P, env, prof, C, k4, work, scratch)
+        for j in range(4):
+            for i in range(n):
+                xt[i] = x[i] if j == 0 else x[i] + _RK4_A[j] * dt * k[j - 1][i]
+            if mode == MODE_PRESCRIBED:
+                for i in range(3):
+                    xt[12 + i] = act[f0 + 2 * s + _RK4_ROW[j], i]
+            _rhs(mode, t + _RK4_C[j] * dt, xt, cmd, P, env, prof, C, k[j], work, scratch)
         ok = True
         for i in range(n):
-            xt[i] = x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            xt[i] = x[i] + dt / 6.0 * (k[0][i] + 2.0 * k[1][i] + 2.0 * k[2][i] + k[3][i])
             if not np.isfinite(xt[i]):
                 ok = False
         if not ok:
             return s
         for i in range(n):
             x[i] = xt[i]
-        if mode == 2:
+        if mode == MODE_PRESCRIBED:
             for i in range(3):
                 x[12 + i] = act[f0 + 2 * s + 2, i]
     return -1
@@ -668,7 +645,7 @@ def rk4_steps(t0, x, cmd, P, env, prof, dt, nsteps):  # type: ignore[no-untyped-
     Returns -1 on success, else the index of the first step whose result is non-finite
     (``x`` then holds the last finite state).
     """
-    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, 1, _NO_C, _NO_ACT, 0)
+    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, MODE_VEHICLE, _NO_C, _NO_ACT, 0)
 
 
 @njit(cache=True)
@@ -680,7 +657,7 @@ def rk4_prescribed(t0, x, P, env, prof, dt, nsteps, C, act, f0):  # type: ignore
     NB_EXTRA x 6) added: the model a diagnosis runs against a log. Returns as
     :func:`rk4_steps`."""
     cmd = np.zeros(3)
-    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, 2, C, act, f0)
+    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, MODE_PRESCRIBED, C, act, f0)
 
 
 @njit(cache=True)
@@ -692,7 +669,7 @@ def actuator_steps(x, cmd, P, dt, nsteps):  # type: ignore[no-untyped-def]
     not depend on the vehicle states). Returns as :func:`rk4_steps`."""
     env = np.zeros(ENV_SIZE)
     prof = np.zeros((0, 4))
-    return _rk4(0.0, x, cmd, P, env, prof, dt, nsteps, 0, _NO_C, _NO_ACT, 0)
+    return _rk4(0.0, x, cmd, P, env, prof, dt, nsteps, MODE_ACTUATORS, _NO_C, _NO_ACT, 0)
 
 
 @njit(cache=True)
@@ -700,7 +677,7 @@ def surge_held_steps(t0, x, cmd, P, env, prof, dt, nsteps):  # type: ignore[no-u
     """:func:`rk4_steps` of :func:`surge_held_dynamics` (the surge speed ``x[6]`` held by a
     perfect speed loop). ``x`` may be complex (complex-step derivatives). Returns as
     :func:`rk4_steps`."""
-    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, 3, _NO_C, _NO_ACT, 0)
+    return _rk4(t0, x, cmd, P, env, prof, dt, nsteps, MODE_SURGE_HELD, _NO_C, _NO_ACT, 0)
 
 
 @njit(cache=True)

@@ -11,7 +11,12 @@ none), ``publish_rate`` [Hz], ``dt`` [s] (0: the vehicle file's), ``real_time_fa
 fast as possible), ``use_sim_clock``, ``initial_trim``, ``initial_depth`` [m],
 ``initial_speed`` [m/s], ``initial_pitch`` [rad], ``initial_heading`` [rad], ``lockstep``,
 ``control_period`` [s], ``lockstep_timeout`` and ``lockstep_startup_timeout`` [wall s],
-``stop_time`` [s of simulated time; 0: run until stopped]. Only
+``lockstep_channels`` (``bar``; ``bar,helm,thrust`` for a mission), ``start_subscribers``
+(``state``) and ``start_stream_subscribers`` (``odom``, ``hydrodynamic_forces``, ``/clock``):
+subscribers to wait for before t = 0, ``await_recorder`` (wait for a recorder's progress before
+t = 0), ``recorder_timeout`` [wall s], ``stop_time`` [s of simulated time; 0: run until
+stopped], ``report_file`` (JSON written at exit: messages published per topic, control
+instants that went on without their answer, whether the recorder pacing gave up). Only
 ``publish_rate``, ``real_time_factor`` and ``lockstep_timeout`` may change while it runs.
 
 Topics (namespace ``/auv`` by default, remappable with ``-r __ns:=...``):
@@ -33,31 +38,34 @@ simulated time and ``/clock`` is published; otherwise stamps are the wall clock.
 is paced by the wall clock scaled by ``real_time_factor``; with 0 it runs as fast as it can,
 still serving its subscriptions between publish instants so commands arrive.
 
-Lockstep protocol (``lockstep:=true``, simulated time only). The other side is the depth
-pilot (or any controller); it makes a graph run deterministic and as fast as the processes
-allow:
+Lockstep protocol (``lockstep:=true``, simulated time only; written out with its rationale
+in ``docs/lockstep.md``). The other side is the depth pilot, a mission or any controller; it
+makes a graph run deterministic and as fast as the processes allow:
 
 1. Before ``t = 0`` the simulator waits (at most ``lockstep_startup_timeout`` wall seconds)
-   until its ``state`` publisher has a matched subscriber and its ``bar_command`` subscription
-   a matched publisher.
+   until its ``state`` or ``odom`` publisher has a matched subscriber and the subscription of
+   every lockstep channel a matched publisher.
 2. The control instants are ``t_k = k * control_period`` (a whole number of steps). At each,
    the simulator publishes ``state`` (with ``odom``, forces and ``/clock``) stamped ``t_k`` and
-   does not advance past ``t_k`` until it receives a ``bar_command`` whose ``header.stamp``
-   equals ``t_k`` exactly (compared as integer nanoseconds). That command is applied at
-   ``t_k`` and held (zero-order hold) until the next instant's command. A NaN or out-of-range
-   answer is rejected as usual (the last valid command stays) but still releases the wait.
-3. If no such command arrives within ``lockstep_timeout`` wall seconds, the simulator logs a
-   warning and goes on with the last valid command. With a ``stop_time`` that is a control
-   instant, the simulator also waits for the answer to that last state before it exits, so
-   a recording holds the whole exchange.
-4. A ``bar_command`` stamped otherwise (late, early, or unstamped) is ignored with a warning:
-   only answers to the awaited instant act, which is what makes the run deterministic.
-   ``helm_command`` and ``thrust_command`` are not part of the protocol; they act when they
-   arrive.
+   does not advance past ``t_k`` until it has received, on every channel of
+   ``lockstep_channels`` (``bar_command`` by default), a command whose ``header.stamp`` is
+   ``t_k`` within :data:`LOCKSTEP_TOLERANCE_NS` (1 us: a stamp computed as a float,
+   ``Time(seconds=j * 0.02)``, is a nanosecond off at some instants). That command is applied
+   at ``t_k`` and held (zero-order hold) until the next instant's command. A NaN or
+   out-of-range answer is rejected as usual (the last valid command stays) but still releases
+   the wait.
+3. If the answers do not all arrive within ``lockstep_timeout`` wall seconds, the simulator
+   logs a warning, counts the instant as missed (``report_file``) and goes on with the last
+   valid commands. With a ``stop_time`` that is a control instant, the simulator also waits
+   for the answer to that last state before it exits, so a recording holds the whole
+   exchange.
+4. A lockstep-channel command stamped otherwise (late, early, or unstamped) is ignored with a
+   warning: only answers to the awaited instant act, which is what makes the run
+   deterministic. Channels not in ``lockstep_channels`` act when they arrive.
 5. Between control instants the simulator publishes at ``publish_rate`` as usual without
-   waiting. The pilot's side: on receipt of a ``state`` whose stamp is a control instant,
-   compute and publish ``bar_command`` with that same stamp (make sure its publisher is
-   matched before answering the first state).
+   waiting. The controller's side: on receipt of a ``state`` whose stamp is a control
+   instant, compute and publish its commands with that same stamp (make sure its publishers
+   are matched before answering the first state).
 
 Recorder pacing (as fast as possible, ``real_time_factor`` 0, simulated time): a recorder
 reports on ``recorder/progress`` (namespaced) the stamp up to which it has written the
@@ -67,19 +75,31 @@ such a publisher is matched, the simulator does not run more than half its outpu
 (``STREAM_QOS`` depth / 2 publish periods, 10 s at 50 Hz) ahead of that stamp, so a recorder
 starved of CPU slows the run instead of losing samples; at ``stop_time`` it also waits until
 the recorder has written the last instant of every stream, since samples still on their way
-die with their publishers' processes. It waits at most ``_RECORDER_TIMEOUT`` wall seconds,
-then says so and stops waiting for that run. Pacing changes wall time only, never the numbers:
+die with their publishers' processes. It waits at most ``recorder_timeout`` wall seconds
+without progress (5 s by default; ``auv launch`` gives 120 s, with a warning every 10 s), then
+says so, stops waiting for that run and records the fact in its ``report_file``; a recorder
+whose progress publisher leaves the graph ends the wait at once. With ``await_recorder`` it
+waits (start-up timeout) for the recorder's progress publisher before ``t = 0``, so the first
+samples are paced too. Pacing changes wall time only, never the numbers:
 the pilot's answer to a control instant is taken from the moment that state is published, also
 while the simulator waits for the recorder.
 
+One graph per namespace: before ``t = 0`` and during its first :data:`CONFLICT_WATCH` wall
+seconds, the simulator looks for another node publishing its ``state`` topic (a second graph
+on the same namespace, whose simulators and pilots would fight over the topics); it then
+ends with one line ``error: ...`` and exit status 1.
+
 Same inputs, same numbers: given the initial state and the command sequence with the instants
 it acts at, :meth:`SimSetup.simulator` stepped offline gives the node's states bit for bit.
-On SIGINT or SIGTERM the node stops at the next step and exits 0.
+On SIGINT or SIGTERM the node stops at the next step and exits 0. Before it exits it waits
+(at most :data:`ACK_TIMEOUT` wall seconds) until every reliable subscriber has acknowledged
+what it published: samples still on their way die with the publishing process.
 """
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import gc
 import signal
 import sys
@@ -96,6 +116,7 @@ from geometry_msgs.msg import Wrench
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.context import Context
+from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -103,22 +124,26 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 
+from auv_contract import CHANNELS
 from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
-from auv_sim.errors import AuvSimError, DivergenceError, ParameterError
+from auv_sim.errors import AuvSimError, DivergenceError, GraphConflictError, ParameterError
 from auv_sim.frames import state_to_odometry
+from auv_sim.node_report import write_report
 from auv_sim.sim_settings import (
     BOOL_FIELDS,
     FLOAT_FIELDS,
+    LOCKSTEP_TOLERANCE_NS,
     NS_PER_S,
     RUNTIME_FIELDS,
     SimSettings,
     SimSetup,
     build_setup,
     check_settings,
+    lockstep_channels,
     next_multiple,
     whole_steps,
 )
-from auv_sim.simulator import CHANNELS, CommandError
+from auv_sim.simulator import CommandError
 
 NODE_NAME = 'simulator'
 DEFAULT_NAMESPACE = '/auv'
@@ -137,7 +162,10 @@ STREAM_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
 _MAX_LAG = 0.25  # wall s behind schedule after which pacing re-anchors instead of bursting
 _SPIN_SLICE = 0.05  # wall s: longest single wait, so a stop request is seen promptly
 _FAST_SPIN_PERIOD = 0.002  # wall s between callback polls when running as fast as possible
-_RECORDER_TIMEOUT = 5.0  # wall s the simulator waits for a recorder's progress (pacing)
+_RECORDER_WARN_PERIOD = 10.0  # wall s between two warnings while waiting for a recorder
+CONFLICT_WATCH = 3.0  # wall s after t = 0 during which another graph is looked for
+_CONFLICT_POLL = 0.25  # wall s between two looks
+ACK_TIMEOUT = 2.0  # wall s, longest wait at exit for the subscribers' acknowledgements
 #: Recorder progress (the stamp up to which it has written; see auv_bringup.record_node) and
 #: its QoS: reliable, keep the last 10.
 PROGRESS_TOPIC = 'recorder/progress'  # relative: /auv/recorder/progress by default
@@ -161,10 +189,21 @@ _DESCRIPTIONS = {
     'control_period': 'lockstep control period [s of simulated time]',
     'lockstep_timeout': 'wall seconds to wait for a control instant command',
     'lockstep_startup_timeout': 'wall seconds to wait for the pilot to connect',
+    'lockstep_channels': 'lockstep: the command channels answered at each control instant '
+                         '(comma-separated: bar; bar,helm,thrust for a mission)',
     'start_subscribers': 'before t = 0, wait (lockstep_startup_timeout) until /auv/state has '
                          'this many subscribers, e.g. pilot and recorder (0: do not wait)',
+    'start_stream_subscribers': 'before t = 0, wait (lockstep_startup_timeout) until odom, '
+                                'hydrodynamic_forces and /clock each have this many '
+                                'subscribers, e.g. recorder and viewer (0: do not wait)',
+    'await_recorder': "before t = 0, wait (lockstep_startup_timeout) for a recorder's "
+                      'progress (real_time_factor 0: the recorder paces the run from t = 0)',
+    'recorder_timeout': 'wall seconds without recorder progress after which the simulator '
+                        'stops waiting for the recorder (said, and in report_file)',
     'stop_time': 'simulated seconds after which the node publishes a last state and exits 0 '
                  '(0: never)',
+    'report_file': "JSON file written at exit: messages published per topic, missed "
+                   "lockstep instants, recorder pacing given up ('' none)",
 }
 
 
@@ -203,10 +242,14 @@ class SimulatorNode(Node):
         self.setup: SimSetup = build_setup(self.settings)  # ParameterError ends the start
         self.sim = self.setup.simulator()
         self._stop = threading.Event()
+        self._lockstep_channels = lockstep_channels(self.settings)
         self._awaiting_ns: int | None = None
-        self._answered = False
+        self._unanswered: set[str] = set()  # lockstep channels not yet answered at the instant
+        self.lockstep_missed = 0  # control instants that went on without every answer
         self._recorded_ns = -1  # stamp of the last state a recorder reported written [ns]
         self._recorder_paced = True  # False after a recorder failed to keep up in time
+        self.published: dict[str, int] = {}  # topic -> messages published (or dropped)
+        self._conflict_next = 0.0  # time.monotonic() of the next look for another graph
 
         self._pub_state = self.create_publisher(VehicleState, 'state', STREAM_QOS)
         self._pub_odom = self.create_publisher(Odometry, 'odom', STREAM_QOS)
@@ -274,15 +317,18 @@ class SimulatorNode(Node):
     # ----- commands -----
     def _command_callback(self, channel: str) -> Callable[[ActuatorSetpoint], None]:
         def callback(msg: ActuatorSetpoint) -> None:
-            if channel == 'bar' and self.settings.lockstep:
+            if self.settings.lockstep and channel in self._lockstep_channels:
                 ns = stamp_to_ns(msg.header.stamp)
-                if ns != self._awaiting_ns:
+                if self._awaiting_ns is None or channel not in self._unanswered \
+                        or abs(ns - self._awaiting_ns) > LOCKSTEP_TOLERANCE_NS:
                     waiting = ('nothing' if self._awaiting_ns is None
+                               or channel not in self._unanswered
                                else f'{self._awaiting_ns} ns')
                     self.get_logger().warning(
-                        f'lockstep: ignored bar command stamped {ns} ns (awaiting {waiting})')
+                        f'lockstep: ignored {channel} command stamped {ns} ns (awaiting '
+                        f'{waiting})')
                     return
-                self._answered = True
+                self._unanswered.discard(channel)
             try:
                 self.sim.command(channel, msg.value)
             except CommandError as exc:
@@ -334,7 +380,9 @@ class SimulatorNode(Node):
     def _send(self, publisher: Any, msg: Any) -> None:
         """Publish; if the middleware refuses (a reader too slow to acknowledge a full
         history), retry for up to 1 s, then drop the sample with a warning: the simulator
-        never dies on a publish."""
+        never dies on a publish. Counted in :attr:`published` either way."""
+        topic = publisher.topic_name
+        self.published[topic] = self.published.get(topic, 0) + 1
         deadline = time.monotonic() + 1.0
         while True:
             try:
@@ -365,15 +413,35 @@ class SimulatorNode(Node):
                 or self._sub_progress.get_publisher_count() == 0:
             return  # the graph query only when behind: it costs much at every publish
 
+        timeout = self.settings.recorder_timeout
+        start = time.monotonic()
+        next_warning = start + _RECORDER_WARN_PERIOD
+        gone = False
+
         def caught_up() -> bool:
-            return now_ns - self._recorded_ns <= window // 2
-        if not self._spin_until(executor, time.monotonic() + _RECORDER_TIMEOUT, caught_up) \
-                and not self._stop.is_set():
-            self._recorder_paced = False
-            self.get_logger().warning(
-                f'recorder pacing: no progress within {_RECORDER_TIMEOUT} s at t = '
-                f'{self.sim.t:.2f} s (last state written at {self._recorded_ns / 1e9:.2f} s); '
-                f'running on without waiting for it')
+            nonlocal next_warning, gone
+            if now_ns - self._recorded_ns <= window // 2:
+                return True
+            if time.monotonic() >= next_warning:
+                next_warning += _RECORDER_WARN_PERIOD
+                gone = self._sub_progress.get_publisher_count() == 0
+                if not gone:
+                    self.get_logger().warning(
+                        f'recorder pacing: waiting {time.monotonic() - start:.0f} s for the '
+                        f'recorder at t = {self.sim.t:.2f} s (it has written up to '
+                        f'{self._recorded_ns / 1e9:.2f} s; machine busy?)')
+            return gone
+        if self._spin_until(executor, start + timeout, caught_up) and not gone:
+            return
+        if self._stop.is_set():
+            return
+        self._recorder_paced = False
+        why = 'its progress publisher left the graph' if gone else \
+            f'no progress within {timeout} s'
+        self.get_logger().error(
+            f'recorder pacing: {why} at t = {self.sim.t:.2f} s (last state written at '
+            f'{self._recorded_ns / 1e9:.2f} s); running on without waiting for it, the '
+            'recording may miss messages')
 
     # ----- the loop -----
     def stop(self) -> None:
@@ -395,62 +463,104 @@ class SimulatorNode(Node):
             executor.spin_once(timeout_sec=min(remaining, _SPIN_SLICE))
         return False
 
-    def _wait_for_subscribers(self, executor: SingleThreadedExecutor) -> None:
-        """Before t = 0, wait (startup timeout) for ``start_subscribers`` on every output."""
-        wanted = int(self.settings.start_subscribers)
+    def check_no_other_graph(self) -> None:
+        """Raise :class:`GraphConflictError` if another node publishes this node's ``state``
+        topic (a second graph on the namespace). Looks at most every :data:`_CONFLICT_POLL`
+        wall seconds (a graph query)."""
+        if time.monotonic() < self._conflict_next:
+            return
+        self._conflict_next = time.monotonic() + _CONFLICT_POLL
+        topic = self._pub_state.topic_name
+        others = [f'{i.node_namespace.rstrip("/")}/{i.node_name}'
+                  if '_UNKNOWN_' not in i.node_name else 'another node'
+                  for i in self.get_publishers_info_by_topic(topic)
+                  if (i.node_name, i.node_namespace) != (self.get_name(),
+                                                         self.get_namespace())]
+        if others:
+            raise GraphConflictError(
+                f'{", ".join(sorted(set(others)))} publishes {topic} already: another graph '
+                f'runs on namespace {self.get_namespace()} (stop it, or give this one its '
+                'own namespace)')
+
+    def _startup_waits(self) -> list[tuple[str, Callable[[], bool]]]:
+        """What to wait for before t = 0: (what, condition) pairs (see the module
+        docstring)."""
+        s = self.settings
+        waits: list[tuple[str, Callable[[], bool]]] = []
+        wanted = int(s.start_subscribers)
+        if wanted > 0:
+            waits.append((f'{wanted} subscriber(s) of {self._pub_state.topic_name}',
+                          lambda: self._pub_state.get_subscription_count() >= wanted))
+        streams = int(s.start_stream_subscribers)
+        if streams > 0:
+            pubs = [self._pub_odom, self._pub_forces]
+            if self._pub_clock is not None:
+                pubs.append(self._pub_clock)
+            for pub in pubs:
+                waits.append((f'{streams} subscriber(s) of {pub.topic_name}',
+                              functools.partial(_has_subscribers, pub, streams)))
+        if s.await_recorder:
+            waits.append((f'a recorder on {self._sub_progress.topic_name}',
+                          lambda: self._sub_progress.get_publisher_count() > 0))
+        if s.lockstep:
+            waits.append(('a controller subscribed to state or odom',
+                          lambda: (self._pub_state.get_subscription_count() > 0
+                                   or self._pub_odom.get_subscription_count() > 0)))
+            for channel in self._lockstep_channels:
+                sub = self._subs[channel]
+                waits.append((f'a publisher of {sub.topic_name}',
+                              functools.partial(_has_publishers, sub)))
+        return waits
+
+    def _wait_for_graph(self, executor: SingleThreadedExecutor) -> None:
+        """Before t = 0: wait (``lockstep_startup_timeout``) for what
+        :meth:`_startup_waits` lists, looking for another graph meanwhile."""
+        waits = self._startup_waits()
         timeout = self.settings.lockstep_startup_timeout
-        pubs = [self._pub_state, self._pub_odom, self._pub_forces]
 
-        def matched() -> bool:
-            return all(p.get_subscription_count() >= wanted for p in pubs[:1]) and all(
-                p.get_subscription_count() >= 1 for p in pubs[1:])
-
-        self.get_logger().info(f'waiting up to {timeout} s for {wanted} state subscriber(s)')
-        if not self._spin_until(executor, time.monotonic() + timeout, matched) \
-                and not self._stop.is_set():
-            self.get_logger().warning(f'fewer than {wanted} subscribers after {timeout} s; '
-                                      f'starting anyway')
-
-    def _wait_for_pilot(self, executor: SingleThreadedExecutor) -> None:
-        timeout = self.settings.lockstep_startup_timeout
-
-        def connected() -> bool:
-            return ((self._pub_state.get_subscription_count() > 0
-                     or self._pub_odom.get_subscription_count() > 0)
-                    and self._subs['bar'].get_publisher_count() > 0)
-
-        self.get_logger().info(f'lockstep: waiting up to {timeout} s for a pilot '
-                               f'(state or odom subscriber and bar_command publisher)')
-        if self._spin_until(executor, time.monotonic() + timeout, connected):
-            self.get_logger().info('lockstep: pilot connected')
+        def ready() -> bool:
+            self.check_no_other_graph()
+            return all(done() for _, done in waits)
+        if waits:
+            self.get_logger().info(f'waiting up to {timeout:g} s for '
+                                   + ', '.join(what for what, _ in waits))
+        if self._spin_until(executor, time.monotonic() + timeout, ready):
+            if waits:
+                self.get_logger().info('graph ready')
         elif not self._stop.is_set():
-            self.get_logger().warning(f'lockstep: no pilot connected within {timeout} s; '
-                                      f'starting anyway')
+            missing = [what for what, done in waits if not done()]
+            self.get_logger().warning(f'after {timeout:g} s still no {", ".join(missing)}; '
+                                      'starting anyway')
 
     def _expect_command(self) -> None:
-        """Accept the pilot's answer to the control instant about to be published: from here
-        on, also while the recorder pacing serves callbacks before :meth:`_await_command`."""
+        """Accept the controller's answers to the control instant about to be published: from
+        here on, also while the recorder pacing serves callbacks before
+        :meth:`_await_command`."""
         self._awaiting_ns = self.setup.stamp_ns(self.sim.k)
-        self._answered = False
+        self._unanswered = set(self._lockstep_channels)
 
     def _await_command(self, executor: SingleThreadedExecutor) -> None:
-        """Wait (``lockstep_timeout``) for the answer :meth:`_expect_command` set up."""
+        """Wait (``lockstep_timeout``) for the answers :meth:`_expect_command` set up."""
         timeout = self.settings.lockstep_timeout
         try:
-            ok = self._spin_until(executor, time.monotonic() + timeout, lambda: self._answered)
+            ok = self._spin_until(executor, time.monotonic() + timeout,
+                                  lambda: not self._unanswered)
+            missing = sorted(self._unanswered)
         finally:
             self._awaiting_ns = None
+            self._unanswered = set()
         if not ok and not self._stop.is_set():
+            self.lockstep_missed += 1
             self.get_logger().warning(
-                f'lockstep: no bar command stamped t = {self.sim.t:.3f} s within {timeout} s; '
-                f'keeping the last command')
+                f'lockstep: no {"/".join(missing)} command stamped t = {self.sim.t:.3f} s '
+                f'within {timeout} s; keeping the last command')
 
     def run_loop(self, executor: SingleThreadedExecutor) -> None:
-        """Step, publish and serve callbacks until :meth:`stop`. DivergenceError propagates."""
-        if self.settings.start_subscribers > 0:
-            self._wait_for_subscribers(executor)
-        if self.settings.lockstep:
-            self._wait_for_pilot(executor)
+        """Step, publish and serve callbacks until :meth:`stop`. DivergenceError and
+        GraphConflictError propagate."""
+        self._wait_for_graph(executor)
+        self.check_no_other_graph()
+        watch_until = time.monotonic() + CONFLICT_WATCH
         next_pub = next_ctrl = self.sim.k
         anchor_wall, anchor_k = time.monotonic(), self.sim.k
         next_poll = 0.0
@@ -469,6 +579,8 @@ class SimulatorNode(Node):
                 next_poll = time.monotonic() + _FAST_SPIN_PERIOD
             if self._stop.is_set():
                 break
+            if time.monotonic() < watch_until:
+                self.check_no_other_graph()  # itself at most every _CONFLICT_POLL
             control_instant = s.lockstep and k == next_ctrl
             if control_instant:
                 self._expect_command()
@@ -493,6 +605,43 @@ class SimulatorNode(Node):
                 next_pub = next_multiple(k, self.setup.steps_per_publish)
             end = min(next_pub, next_ctrl) if s.lockstep else next_pub
             self.sim.step(end - k)
+
+    def recorded_to_the_end(self) -> bool:
+        """Whether a recorder reported every stream written up to the last instant."""
+        return self._recorder_paced and self._recorded_ns >= self.setup.stamp_ns(self.sim.k)
+
+    def wait_for_acknowledgements(self, timeout: float = ACK_TIMEOUT) -> list[str]:
+        """Wait (``timeout`` wall s in all) until every reliable subscriber acknowledged
+        what this node published; returns the topics still unacknowledged."""
+        pubs = [self._pub_state, self._pub_odom, self._pub_forces]
+        if self._pub_clock is not None:
+            pubs.append(self._pub_clock)
+        end = time.monotonic() + timeout
+        late = []
+        for pub in pubs:
+            left = max(0.0, end - time.monotonic())
+            try:
+                if not pub.wait_for_all_acked(Duration(nanoseconds=int(left * NS_PER_S))):
+                    late.append(pub.topic_name)
+            except RuntimeError:  # the context is gone (shutdown)
+                late.append(pub.topic_name)
+        return late
+
+    def report(self) -> dict[str, Any]:
+        """What the node did, for ``report_file``: messages published per topic, lockstep
+        instants missed, whether the recorder pacing gave up, simulated time reached [s]."""
+        return {'node': self.get_fully_qualified_name(), 'published': dict(self.published),
+                'lockstep_missed': self.lockstep_missed,
+                'recorder_pacing_given_up': not self._recorder_paced,
+                't_end': float(self.sim.t)}
+
+
+def _has_subscribers(pub: Any, wanted: int) -> bool:
+    return bool(pub.get_subscription_count() >= wanted)
+
+
+def _has_publishers(sub: Any) -> bool:
+    return bool(sub.get_publisher_count() > 0)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -558,15 +707,21 @@ def run(args: argparse.Namespace) -> int:
         gc.freeze()  # long-lived set-up objects out of the cyclic collector's full passes
         try:
             node.run_loop(executor)
-        except DivergenceError as exc:
+        except (DivergenceError, GraphConflictError) as exc:
             node.get_logger().error(str(exc))
             print(f'error: {exc}', file=sys.stderr)
             return 1
+        # a recorder that paced the run to its end has every message; others are waited for
+        late = [] if node.recorded_to_the_end() else node.wait_for_acknowledgements()
+        if late:
+            node.get_logger().warning(f'not acknowledged within {ACK_TIMEOUT:g} s by every '
+                                      f'subscriber: {", ".join(late)}')
         node.get_logger().info(f'stopped at t = {node.sim.t:.3f} s')
         return 0
     finally:
         executor.shutdown(timeout_sec=0.0)
         if node is not None:
+            write_report(node.settings.report_file, node.report())
             node.destroy_node()
         if context.ok():
             context.try_shutdown()

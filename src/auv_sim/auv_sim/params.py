@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from auv_contract import YamlError, parse_yaml
 from auv_sim.errors import ParameterError
 
 # name -> (section, unit, check). The order is the packing order of the model vector.
@@ -248,11 +249,9 @@ def load_vehicle(path: str | pathlib.Path) -> VehicleParams:
     except OSError as exc:
         raise ParameterError(f'cannot read vehicle file {path}: {exc.strerror}') from None
     try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, 'problem_mark', None)
-        where = f' at line {mark.line + 1}' if mark is not None else ''
-        raise ParameterError(f'{path}: malformed YAML{where}') from None
+        doc = parse_yaml(text, str(path))
+    except YamlError as exc:
+        raise ParameterError(str(exc)) from None
     return parse_vehicle(doc, str(path))
 
 

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from auv_contract import CHANNELS, config_dir
 from auv_sim.environment import Environment, load_environment
 from auv_sim.errors import ParameterError, TrimError
 from auv_sim.params import VehicleParams, load_vehicle
@@ -24,9 +25,11 @@ from auv_sim.simulator import Simulator, initial_state
 from auv_sim.trim import VerticalPlane
 
 #: Repository root when running from the source tree (src/auv_sim/auv_sim/ -> root).
-SOURCE_ROOT = pathlib.Path(__file__).resolve().parents[3]
 NS_PER_S = 1_000_000_000
 _GRID_TOL = 1e-6  # relative tolerance for "a whole number of steps" checks
+#: Largest distance [ns] between a command's stamp and a control instant for which it stands
+#: for that instant (lockstep): sub-microsecond rounding of float stamps, far below any step.
+LOCKSTEP_TOLERANCE_NS = 1_000
 
 
 @dataclasses.dataclass(frozen=True)
@@ -56,8 +59,13 @@ class SimSettings:
     control_period: float = 0.1         # s of simulated time between control instants
     lockstep_timeout: float = 1.0       # wall s to wait for a control instant's command
     lockstep_startup_timeout: float = 30.0  # wall s to wait for the pilot to connect
+    lockstep_channels: str = 'bar'      # comma-separated channels answered at each instant
     start_subscribers: float = 0.0      # state subscribers to wait for before t = 0
+    start_stream_subscribers: float = 0.0  # the same for odom, forces and /clock (recorders)
+    await_recorder: bool = False        # before t = 0, wait for a recorder's progress
+    recorder_timeout: float = 5.0       # wall s without recorder progress before giving up
     stop_time: float = 0.0              # s of simulated time at which the node ends; 0: never
+    report_file: str = ''               # JSON of what the node published, written at exit
 
     def replace(self, **changes: Any) -> SimSettings:
         """A copy with some fields changed (not validated; see :func:`check_settings`)."""
@@ -107,13 +115,15 @@ def check_settings(s: SimSettings, vehicle_dt: float | None = None) -> None:
         if not isinstance(getattr(s, name), str):
             raise ParameterError(f'parameter {name} = {getattr(s, name)!r} must be a string')
     positive = ('publish_rate', 'control_period', 'lockstep_timeout',
-                'lockstep_startup_timeout')
+                'lockstep_startup_timeout', 'recorder_timeout')
     for name in positive:
         if getattr(s, name) <= 0.0:
             raise ParameterError(f'parameter {name} = {getattr(s, name)} must be > 0')
-    for name in ('dt', 'real_time_factor', 'initial_depth', 'stop_time', 'start_subscribers'):
+    for name in ('dt', 'real_time_factor', 'initial_depth', 'stop_time', 'start_subscribers',
+                 'start_stream_subscribers'):
         if getattr(s, name) < 0.0:
             raise ParameterError(f'parameter {name} = {getattr(s, name)} must be >= 0')
+    lockstep_channels(s)
     if not s.vehicle_file:
         raise ParameterError('parameter vehicle_file must name a vehicle file')
     if abs(s.initial_pitch) >= math.pi / 2:
@@ -139,9 +149,24 @@ def check_settings(s: SimSettings, vehicle_dt: float | None = None) -> None:
             whole_steps(s.control_period, dt, 'control_period')
 
 
+def lockstep_channels(s: SimSettings) -> tuple[str, ...]:
+    """The channels answered at each control instant in lockstep (``lockstep_channels``, e.g.
+    ``'bar'`` for the depth pilot, ``'bar,helm,thrust'`` for a mission); ParameterError for an
+    empty list or an unknown channel."""
+    names = tuple(dict.fromkeys(c.strip() for c in s.lockstep_channels.split(',')
+                                if c.strip()))
+    unknown = [c for c in names if c not in CHANNELS]
+    if not names or unknown:
+        raise ParameterError(f'parameter lockstep_channels = {s.lockstep_channels!r} must list '
+                             f'channels among {", ".join(CHANNELS)} (comma-separated)')
+    return names
+
+
 def resolve_file(name: str, what: str) -> pathlib.Path:
-    """Find a file given absolute, or relative to the working directory, ``$AUV_ROOT`` or
-    the source tree's root, in that order; ParameterError listing where it looked."""
+    """Find a file given absolute, or relative to the working directory, ``$AUV_ROOT``, the
+    shipped configuration's parent (``config/a18m.yaml``) or the shipped configuration itself
+    (``a18m.yaml``), in that order (:func:`auv_contract.config_dir`); ParameterError listing
+    where it looked."""
     path = pathlib.Path(name).expanduser()
     if path.is_absolute():
         candidates = [path]
@@ -149,7 +174,8 @@ def resolve_file(name: str, what: str) -> pathlib.Path:
         roots = [pathlib.Path.cwd()]
         if os.environ.get('AUV_ROOT'):
             roots.append(pathlib.Path(os.environ['AUV_ROOT']))
-        roots.append(SOURCE_ROOT)
+        shipped = config_dir()
+        roots += [shipped.parent, shipped]
         candidates = list(dict.fromkeys(root / path for root in roots))
     for candidate in candidates:
         if candidate.is_file():
@@ -213,6 +239,16 @@ def build_setup(s: SimSettings) -> SimSetup:
                     steps_per_publish=whole_steps(1.0 / s.publish_rate, dt, 'publish period'),
                     steps_per_control=whole_steps(s.control_period, dt, 'control_period')
                     if s.lockstep else 0)
+
+
+def control_instant(stamp_ns: int, period_ns: int) -> int | None:
+    """The control instant ``k * period_ns`` [ns] a stamp [ns] stands for (lockstep): the
+    nearest multiple of ``period_ns`` if the stamp is within :data:`LOCKSTEP_TOLERANCE_NS` of
+    it, else None. A stamp computed in floating point (``Time(seconds=k * 0.02)``) is up to a
+    few nanoseconds off its instant."""
+    k = (stamp_ns + period_ns // 2) // period_ns
+    instant = k * period_ns
+    return instant if abs(stamp_ns - instant) <= LOCKSTEP_TOLERANCE_NS else None
 
 
 def next_multiple(k: int, n: int) -> int:

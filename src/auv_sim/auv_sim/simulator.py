@@ -14,12 +14,11 @@ import math
 
 import numpy as np
 
+from auv_contract import CHANNELS
 from auv_sim.environment import Environment
 from auv_sim.errors import DivergenceError, ParameterError
 from auv_sim.model import NX, STATE_NAMES, rk4_batch, rk4_batch_parallel, rk4_steps, wrenches
 from auv_sim.params import VehicleParams
-
-CHANNELS = ('bar', 'helm', 'thrust')
 
 
 class CommandError(ParameterError):

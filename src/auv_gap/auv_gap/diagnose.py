@@ -1,0 +1,661 @@
+"""The sim-to-real gap diagnosis: where the nominal model departs from a log, and which
+catalogue effect (or combination) explains it, scored on held-out windows.
+
+Steps (see :func:`diagnose`):
+
+1. Nominal free runs over all windows and their noise floor (a Monte Carlo over the
+   initial-state uncertainty plus the sensor noise); channels whose RMS exceeds the floor by
+   ``GAP_FACTOR`` carry a gap. No such channel: ``no_gap``.
+2. Equation error of the nominal model; where the gap lies (:mod:`auv_gap.analysis`).
+3. Every catalogue effect (among them ``coefficients``: the model's own vertical-plane
+   coefficients re-fitted) fitted by equation error on the training windows, scored by free
+   run on the held-out windows; the ``top`` best refined by free-run error and scored again.
+4. Combinations, greedily: the best plausible set plus each other effect, refitted jointly,
+   kept while the held-out score improves, every parameter stays plausible and the added
+   effect identifies something (an interval that excludes its "absent" value).
+5. Verdict (:func:`decide_verdict`): plausibility, the held-out share of the gap explained, the
+   residual tests of :mod:`auv_gap.residuals`, and the candidates the held-out windows
+   cannot tell from the best (within ``AMBIGUOUS_RATIO`` of its held-out cost and of its
+   explained share, and not worse by ``AMBIGUOUS_T`` standard errors over the windows).
+   When the best leaves structure in its residuals, a larger plausible set that leaves
+   none, within ``RESCUE`` of its score, replaces it.
+
+Score: ``ln(J_nominal / J_candidate) - PARAM_PRICE * k`` with ``J`` the held-out free-run
+cost (mean over samples of the squared channel errors over their scales) and ``k`` the number
+of identified parameters: a parameter must buy a PARAM_PRICE share of the held-out cost.
+Scores within ``TIE`` of each other are a tie, which goes to the simpler candidate.
+``explained = (J_nominal - J) / (J_nominal - J_floor)``, clipped to [0, 1]: the share of what
+could shrink (the gap above the noise floor) that did. ``held_out.shrink`` is this same share
+for the chosen candidate; ``held_out.shrink_depth`` the same in depth RMS alone.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from auv_contract import STATE_FIELDS
+from auv_gap import analysis, residuals
+from auv_gap.catalogue import CATALOGUE, Perturbation, get_effect, separating_manoeuvre
+from auv_gap.fit import EquationFit, FitResult, FreeRunFit
+from auv_gap.logs import GapLog, measurement_weighting, other_hold
+from auv_gap.problem import CH_INDEX, CH_NAMES, EQUATIONS, EffectSet, Problem
+from auv_gap.wording import describe
+from auv_sim.params import VehicleParams
+
+GAP_FACTOR = analysis.GAP_FACTOR
+PARAM_PRICE = 0.05
+EXPLAINED = 0.9          # explained share of the held-out gap for "explained"
+PARTLY = 0.3             # ... for "partly_explained"
+AMBIGUOUS_RATIO = 1.25   # held-out cost within this factor of the best ...
+AMBIGUOUS_T = 2.0        # ... and not worse by this many standard errors over the windows
+TIE = 0.02               # scores closer than this are a tie: the simpler candidate wins
+RESCUE = 0.1             # a larger set with white residuals may score this much less
+GAIN_LEVEL = 0.01        # one-sided level of the held-out predictive-gain test (a rival)
+MC_RUNS = 4
+
+Progress = Callable[[str], None]
+
+
+@dataclasses.dataclass
+class Candidate:
+    """A fitted effect set and its held-out scores."""
+
+    fit: FitResult
+    cost: float                 # held-out free-run cost J
+    window_cost: np.ndarray     # J per held-out window
+    rms: dict[str, float]       # held-out free-run RMS per state of CH_NAMES
+    score: float = -math.inf
+    explained: float = 0.0
+    beyond: dict[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
+    empty: list[str] = dataclasses.field(default_factory=list)
+    #: per held-out window: the loss of each sample (squared scaled errors over the states)
+    loss: list[np.ndarray] = dataclasses.field(default_factory=list)
+
+    @property
+    def plausible(self) -> bool:
+        """Every identified parameter lies inside its physically plausible range."""
+        return not self.beyond
+
+    @property
+    def identifies(self) -> bool:
+        """Every effect of the set identifies something: at least one of its parameters is
+        identified with a 95 % interval that excludes its "absent" value."""
+        return not self.empty
+
+    @property
+    def label(self) -> str:
+        """Effect name, or names joined with '+'."""
+        return self.fit.effects.label
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Effect names."""
+        return self.fit.effects.names
+
+
+@dataclasses.dataclass
+class Diagnosis:
+    """The outcome: ``report`` (the report.json contract), ``details`` (everything else the
+    readable report shows) and arrays for plots in ``plots``."""
+
+    report: dict[str, Any]
+    details: dict[str, Any]
+    plots: dict[str, Any]
+
+
+class _Scorer:
+    """Held-out free-run scoring against the nominal model."""
+
+    def __init__(self, pr: Problem, frf: FreeRunFit, nominal_cost: float, floor_cost: float,
+                 other_logs: list[GapLog] | None = None) -> None:
+        self.pr, self.frf = pr, frf
+        self.nominal_cost, self.floor_cost = nominal_cost, floor_cost
+        self.rows = pr.window_rows(frf.held)
+        #: the logs with their commands logged at the rows reconstructed the other way
+        #: (:func:`other_hold`), or None
+        self.other_logs = other_logs
+        #: Newey-West lags of the predictive-gain test: half the shortest held-out window
+        self.lags = max(1, min(r.stop - r.start for r in self.rows) // 2)
+
+    def gain(self, base: Candidate, cand: Candidate) -> tuple[float, float]:
+        """``(t, p)`` of the Diebold-Mariano test that ``cand`` predicts the held-out
+        windows better than ``base`` (:func:`auv_gap.residuals.predictive_gain`)."""
+        t, p, _ = residuals.predictive_gain(base.loss, cand.loss, self.lags)
+        return t, p
+
+    def _errors(self, out: np.ndarray, meas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Scaled held-out errors of one free run (S x channels, clipped at 1e3 and
+        non-finite as 1e3) and their cost per held-out window."""
+        err = (out[:, CH_INDEX] - meas[:, CH_INDEX]) / self.frf.scales
+        err = np.clip(np.where(np.isfinite(err), err, 1e3), -1e3, 1e3)
+        per_w = np.array([np.mean(np.sum(err[r][1:] ** 2, axis=1)) for r in self.rows])
+        return err, per_w
+
+    def window_cost_other(self, cand: Candidate) -> np.ndarray | None:
+        """The cost per held-out window of ``cand`` with the commands a log records only at
+        its rows reconstructed the other way (held or linear between rows), or None when
+        every command carries its own stamp."""
+        if self.other_logs is None:
+            return None
+        pert = cand.fit.effects.perturbation(cand.fit.values)
+        act = self.pr.actuators_of(self.other_logs, pert)
+        out, meas = self.pr.free_run([pert], self.frf.held, act_override=act)
+        return self._errors(out[0], meas)[1]
+
+    def evaluate(self, fits: Sequence[FitResult]) -> list[Candidate]:
+        """Score ``fits`` on the held-out windows."""
+        if not fits:
+            return []
+        perts = [f.effects.perturbation(f.values) for f in fits]
+        out, meas = self.pr.free_run(perts, self.frf.held)
+        res = []
+        for c, f in enumerate(fits):
+            err, per_w = self._errors(out[c], meas)
+            cost = float(np.mean(np.sum(err[np.concatenate(
+                [np.arange(r.start + 1, r.stop) for r in self.rows])] ** 2, axis=1)))
+            phys = out[c][:, CH_INDEX] - meas[:, CH_INDEX]
+            phys = np.where(np.isfinite(phys), phys, 1e3)
+            rms = {n: float(np.sqrt(np.mean(phys[:, i] ** 2))) for i, n in enumerate(CH_NAMES)}
+            cand = Candidate(f, cost, per_w, rms,
+                             loss=[np.sum(err[r][1:] ** 2, axis=1) for r in self.rows])
+            cand.score = self.score(cost, f.n_active)
+            gap = self.nominal_cost - self.floor_cost
+            cand.explained = float(np.clip((self.nominal_cost - cost) / gap, 0.0, 1.0)) \
+                if gap > 0 else 0.0
+            cand.beyond, cand.empty = _plausibility(f)
+            res.append(cand)
+        return res
+
+    def score(self, cost: float, k: int) -> float:
+        return float(math.log(self.nominal_cost / max(cost, 1e-12)) - PARAM_PRICE * k)
+
+
+def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | None = None,
+             held_out_logs: Sequence[int] = (), effects: Sequence[str] | None = None,
+             top: int = 3, max_effects: int = 3, progress: Progress | None = None
+             ) -> Diagnosis:
+    """Diagnose the gap between ``vehicle`` (the nominal model) and ``logs``.
+
+    Args:
+        vehicle: nominal vehicle parameters.
+        logs: log pieces (:func:`auv_gap.logs.load_bag`).
+        window: free-run window [s]; windows restart from the logged state. None: from the
+            vehicle (:func:`auv_gap.problem.free_run_window`: 60 s, shorter for a
+            vehicle unstable without feedback).
+        held_out_logs: indices of logs held out whole; default every third window.
+        effects: catalogue effects to try (default: all registered).
+        top: effects refined by free-run error and tried in combinations.
+        max_effects: largest combination.
+        progress: called with a line of text at each stage.
+    """
+    say = progress or (lambda _msg: None)
+    names = list(effects) if effects is not None else list(CATALOGUE)
+    for n in names:
+        get_effect(n)
+    pr = Problem(vehicle, logs, window=window, held_out_logs=held_out_logs)
+    window = pr.window
+    if pr.window_why != 'given':
+        say(f'free-run window: {pr.window_why}')
+    # -- derived or assumed signals of imported logs: left out, never counted twice ----------
+    weighting = measurement_weighting(pr.logs)
+    pr.eq_sigma = np.where(weighting.equation_mask(EQUATIONS), np.inf, pr.eq_sigma)
+    # free runs start from initial rates fitted to the measured depth and pitch, not from
+    # the differenced rates
+    pr.estimate_initial([s for s in ('w', 'q') if s in weighting.channels])
+    # ----------------------------------------------------------------------------------------
+    nom = Perturbation.nominal(vehicle)
+    all_w = pr.select(None)
+    say(f'nominal free runs over {len(all_w)} windows of {window:g} s')
+
+    # 1. nominal free run and its noise floor
+    rng = np.random.default_rng(12345)
+    x0_noise = np.zeros((MC_RUNS + 1, len(all_w), 12))
+    x0_noise[1:] = pr.initial_noise(rng, MC_RUNS, all_w)
+    out, meas = pr.free_run([nom] * (MC_RUNS + 1), all_w, x0_noise=x0_noise)
+    err_nom = out[0] - meas
+    finite = np.all(np.isfinite(err_nom[:, CH_INDEX]), axis=1)
+    if not finite.all():
+        say('the nominal free run diverges in some windows')
+    rms_nom = np.sqrt(np.nanmean(np.where(finite[:, None], err_nom, np.nan)[:, CH_INDEX] ** 2,
+                                 axis=0))
+    spread = np.sqrt(np.nanmean((out[1:] - out[0][None])[:, :, CH_INDEX] ** 2, axis=(0, 1)))
+    out_b, _ = pr.free_run([nom], all_w, x0_bias=True)
+    bias_spread = np.sqrt(np.nanmean((out_b[0] - out[0])[:, CH_INDEX] ** 2, axis=0))
+    # commands logged only at the state rows: held and linear between rows bracket what
+    # they did in between; the difference of the two free runs is in the floor
+    command_spread = np.zeros(len(CH_INDEX))
+    other = [other_hold(lg) for lg in pr.logs]
+    other_logs: list[GapLog] | None = None
+    if any(lg is not None for lg in other):
+        other_logs = [o or lg for o, lg in zip(other, pr.logs)]
+        act_other = pr.actuators_of(other_logs, nom)
+        out_c, _ = pr.free_run([nom], all_w, act_override=act_other)
+        command_spread = np.sqrt(np.nanmean((out_c[0] - out[0])[:, CH_INDEX] ** 2, axis=0))
+    floor = np.sqrt((pr.noise[list(CH_INDEX)] * pr.smooth_gain) ** 2 + spread ** 2
+                    + bias_spread ** 2 + command_spread ** 2)
+    gap_channels = [CH_NAMES[i] for i in range(len(CH_INDEX))
+                    if rms_nom[i] > GAP_FACTOR * floor[i]]
+    scales = np.maximum(rms_nom, floor)
+    # -- derived or assumed signals: their free-run channels weigh nothing -------------------
+    scales = np.where(weighting.channel_mask(CH_NAMES), np.inf, scales)
+    gap_channels = [c for c in gap_channels if c not in weighting.channels]
+    # ----------------------------------------------------------------------------------------
+    rows_all = pr.window_rows(all_w)
+    rms_z_win = np.array([np.sqrt(np.nanmean(err_nom[r, 2] ** 2)) for r in rows_all])
+
+    # 2. equation error and where the gap lies
+    act_nom = pr.actuators(nom)
+    e_nom = pr.equation_error(nom, act_nom)
+    eq_rms = np.sqrt(np.mean(e_nom ** 2, axis=0))
+    dom = analysis.dominant_equation(eq_rms, pr.eq_sigma)
+    ratio = eq_rms / pr.eq_sigma
+    focus = EQUATIONS.index(dom) if dom else int(np.argmax(ratio))
+    residual = e_nom[:, focus]
+    bar_act = np.interp(pr.eq_fine, np.arange(act_nom.shape[0]), act_nom[:, 0])
+    band_hz, band_info = analysis.band(pr, residual, focus)
+    bar_cmd = np.concatenate([_held_at(lg.commands['bar'], pr.eq_t[pr.eq_log == li])
+                              for li, lg in enumerate(pr.logs)])
+    thr_cmd = np.concatenate([_held_at(lg.commands['thrust'], pr.eq_t[pr.eq_log == li])
+                              for li, lg in enumerate(pr.logs)])
+    bar_rate = np.concatenate([np.gradient(bar_cmd[pr.eq_log == li], pr.eq_t[pr.eq_log == li])
+                               for li in range(len(pr.logs))])
+    signals = {'bar_command_rate': bar_rate, 'bar_command': bar_cmd, 'thrust_command': thr_cmd,
+               'u': pr.eq_state[:, 6], 'w': pr.eq_state[:, 8], 'q': pr.eq_state[:, 10],
+               'z': pr.eq_state[:, 2], 'theta': pr.eq_state[:, 4]}
+    corr = analysis.correlations(pr, residual, signals)
+    gap = {
+        'free_run_rms': {n: float(rms_nom[CH_NAMES.index(n)])
+                         for n in ('z', 'theta', 'w', 'q', 'u')},
+        'equation_rms': {n: float(eq_rms[i]) for i, n in enumerate(EQUATIONS[:5])},
+        'dominant_equation': dom,
+        'segments': analysis.segments(pr, all_w, rms_z_win),
+        'regimes': {'equation': EQUATIONS[focus],
+                    **analysis.regimes(pr, residual, bar_act)},
+        'band_hz': band_hz,
+    }
+
+    # 3. candidates
+    frf = FreeRunFit(pr, scales)
+    held_rows = pr.window_rows(frf.held)
+    held_idx = np.concatenate([np.arange(r.start + 1, r.stop) for r in held_rows])
+    out_h, meas_h = pr.free_run([nom], frf.held)
+    err_h = (out_h[0][:, CH_INDEX] - meas_h[:, CH_INDEX]) / scales
+    err_h = np.clip(np.where(np.isfinite(err_h), err_h, 1e3), -1e3, 1e3)
+    nominal_cost = float(np.mean(np.sum(err_h[held_idx] ** 2, axis=1)))
+    # the floor of each channel, but never above what the nominal model already reaches on
+    # the held-out windows (a channel without a gap can shrink by nothing)
+    floor_cost = float(np.sum(np.minimum((floor / scales) ** 2,
+                                         np.mean(err_h[held_idx] ** 2, axis=0))))
+    scorer = _Scorer(pr, frf, nominal_cost, floor_cost, other_logs)
+    nominal_cand = scorer.evaluate([FitResult(EffectSet([], vehicle), np.zeros(0),
+                                              np.zeros(0, bool), np.zeros(0), np.zeros(0),
+                                              'nominal')])[0]
+    eqf = EquationFit(pr)
+    say(f'equation-error fits of {len(names)} effects')
+    singles_a = {n: eqf.fit(EffectSet([n], vehicle)) for n in names}
+    cands_a = {c.label: c for c in scorer.evaluate(list(singles_a.values()))}
+    order = sorted(names, key=lambda n: -cands_a[n].score)
+    # refine the best that identify something, plausible ones first
+    order = [n for n in order if singles_a[n].n_active > 0 and cands_a[n].plausible] + \
+        [n for n in order if singles_a[n].n_active > 0 and not cands_a[n].plausible]
+    refine = order[:top]
+    say(f'free-run refinement of {", ".join(refine)}')
+    singles: dict[str, Candidate] = dict(cands_a)
+    refined = scorer.evaluate([frf.fit(singles_a[n]) for n in refine])
+    for c in refined:
+        if c.score >= singles[c.label].score:
+            singles[c.label] = c
+    ranked_singles = sorted(singles.values(), key=lambda c: -c.score)
+    candidates: list[Candidate] = list(ranked_singles)
+
+    # 4. combinations: equation error ranks every addition, free run refines the best ones;
+    # only plausible sets whose every effect identifies something count
+    viable = [c for c in ranked_singles if c.plausible and c.identifies]
+    best = _simplest(viable) if viable else nominal_cand
+    pool = list(names)
+    while gap_channels and viable and best.score > 0 and len(best.names) < max_effects \
+            and best.explained < 1.0:
+        base_cost = eqf.cost(best.fit.effects, best.fit.values, held_out=True)
+        ranked, joint = [], {}
+        for n in pool:
+            if n in best.names:
+                continue
+            es = EffectSet((*best.names, n), vehicle)
+            start = np.concatenate([best.fit.values, singles_a[n].values])
+            fa = joint[n] = eqf.fit(es, start=start)
+            cost = eqf.cost(es, fa.values, held_out=True)
+            if cost < base_cost:
+                ranked.append((cost, fa))
+        ranked.sort(key=lambda item: item[0])
+        chosen = [fa for _, fa in ranked[:max(1, top - 1)]]
+        # and the addition of the best single effect by held-out free run not yet tried
+        # (equation error ranks actuator effects poorly: their signature is in the free run)
+        tried = {fa.effects.names[-1] for fa in chosen}
+        extra = next((c.names[0] for c in viable if len(c.names) == 1
+                      and c.names[0] not in best.names and c.names[0] not in tried), None)
+        if extra is not None:
+            chosen.append(joint[extra])
+        trials = [frf.fit(fa) for fa in chosen]
+        if not trials:
+            break
+        say(f'combinations: {", ".join(t.effects.label for t in trials)}')
+        evaluated = scorer.evaluate(trials)
+        candidates.extend(evaluated)
+        good = [c for c in evaluated if c.plausible and c.identifies]
+        if not good:
+            break
+        top_trial = max(good, key=lambda c: c.score)
+        if top_trial.score <= best.score + TIE:
+            break
+        best = top_trial
+    # ranked: the chosen best first, then the other plausible candidates that identify
+    # something, then the rest, each by score (ties: fewer parameters first)
+    candidates.sort(key=lambda c: (c is not best, not (c.plausible and c.identifies),
+                                   -c.score, c.fit.n_active, len(c.names)))
+
+    # 5. residual tests of the best, and the verdict
+    res_signals = {'z': pr.eq_state[:, 2], 'u': pr.eq_state[:, 6], 'theta': pr.eq_state[:, 4],
+                   'w': pr.eq_state[:, 8], 'q': pr.eq_state[:, 10], 'bar_command': bar_cmd,
+                   'bar_command_rate': bar_rate, 'thrust_command': thr_cmd}
+    # -- a derived signal shares its noise with the equation errors: not a test signal -------
+    res_signals = {k: v for k, v in res_signals.items() if k not in weighting.channels}
+    # ----------------------------------------------------------------------------------------
+    tested = best if best.names else None
+    white, findings, left = (_residual_tests(pr, eqf, frf, tested, res_signals)
+                             if tested is not None and gap_channels else (False, [], []))
+    if tested is not None and gap_channels and not white:
+        # a larger plausible set whose residuals are white, within RESCUE of the score,
+        # is the better answer (the score alone cannot see structure below the floor)
+        larger = [c for c in candidates if c.plausible and c.identifies
+                  and set(c.names) > set(best.names) and c.score >= best.score - RESCUE]
+        for c in sorted(larger, key=lambda c: -c.score)[:3]:
+            w2, f2, l2 = _residual_tests(pr, eqf, frf, c, res_signals)
+            if w2:
+                say(f'{c.label}: white residuals where {best.label} leaves structure')
+                best = tested = c
+                white, findings, left = w2, f2, l2
+                candidates.sort(key=lambda c: (c is not best, not (c.plausible and c.identifies),
+                                               -c.score, c.fit.n_active, len(c.names)))
+                break
+    if tested is not None and gap_channels:
+        # a fit beyond physics that predicts the held-out windows significantly better than
+        # the answer shows structure the answer leaves: not explained (its form is the hint)
+        rival = _better_implausible(scorer, tested, candidates)
+        if rival is not None:
+            white = False
+            left = [rival, *left]
+    verdict, ambiguous, suggestion = decide_verdict(gap_channels, tested, candidates, white,
+                                                    scorer.window_cost_other)
+    best_label = best.label if verdict not in ('no_gap', 'unexplained') else None
+    after = best if best_label else nominal_cand
+    z_i, th_i = CH_NAMES.index('z'), CH_NAMES.index('theta')
+    held = {
+        'rms_before': {'z': nominal_cand.rms['z'], 'theta': nominal_cand.rms['theta']},
+        'rms_after': {'z': after.rms['z'], 'theta': after.rms['theta']},
+        'shrink': after.explained,
+        'shrink_depth': _shrink(nominal_cand.rms['z'], after.rms['z'], float(floor[z_i])),
+        'floor': {'z': float(floor[z_i]), 'theta': float(floor[th_i])},
+    }
+    implausible = [{'effect': c.label, 'explained': c.explained,
+                    'beyond': {k: [v, *c.beyond[k]] for k, v in _entry_params(c).items()
+                               if k in c.beyond}}
+                   for c in candidates if not c.plausible and c.explained >= PARTLY]
+    report = {
+        'verdict': verdict,
+        'gap': gap,
+        'candidates': [_candidate_entry(c) for c in candidates],
+        'best': best_label,
+        'ambiguous_with': ambiguous,
+        'suggested_manoeuvre': suggestion,
+        'held_out': held,
+        'statement': _statement(verdict, best if best_label else None, implausible, left,
+                                ambiguous),
+        'residual_tests': {'white': white, 'left_over': left,
+                           'alpha': residuals.ALPHA, 'n_tests': len(findings),
+                           'residual': 'held-out equation error, one sample per smoothing '
+                                       'window'},
+        'implausible': implausible,
+    }
+    # -- what was derived or assumed, and how it limits the answer ---------------------------
+    report['signals'] = weighting.report
+    report['statement'] = ' '.join(filter(None, (str(report['statement']),
+                                                 weighting.statement)))
+    # ----------------------------------------------------------------------------------------
+    details = {
+        'logs': [{'name': lg.name, 't0': float(lg.t[0]), 'duration_s': lg.duration,
+                  'period_s': lg.period, 'notes': list(lg.notes)} for lg in pr.logs],
+        'windows': [dataclasses.asdict(w) for w in pr.windows],
+        'sensor_noise': dict(zip(STATE_FIELDS, map(float, pr.noise))),
+        'free_run_floor': dict(zip(CH_NAMES, map(float, floor))),
+        'free_run_rms_all': dict(zip(CH_NAMES, map(float, rms_nom))),
+        'gap_channels': gap_channels,
+        'equation_sigma': dict(zip(EQUATIONS, map(float, pr.eq_sigma))),
+        'equation_rms_all': dict(zip(EQUATIONS, map(float, eq_rms))),
+        'correlation': [{k: v for k, v in c.items() if k not in ('curve', 'lags')}
+                        for c in corr],
+        'residual_tests': [dataclasses.asdict(f) for f in findings],
+        'held_out_cost': {'nominal': nominal_cost, 'floor': floor_cost, 'best': after.cost},
+        'candidates': [_candidate_details(c) for c in candidates],
+        'integration_step_s': pr.dt,
+        'window_s': window,
+        'window_why': pr.window_why,
+    }
+    plots = {'problem': pr, 'best': best if best_label else None, 'nominal': nom,
+             'e_nom': e_nom, 'corr': corr, 'band': band_info, 'band_hz': band_hz,
+             'candidates': candidates, 'focus': EQUATIONS[focus]}
+    return Diagnosis(report, details, plots)
+
+
+def _held_at(cmd: tuple[np.ndarray, np.ndarray], t: np.ndarray) -> np.ndarray:
+    st, va = cmd
+    i = np.searchsorted(st, t, side='right') - 1
+    return va[np.clip(i, 0, va.size - 1)]
+
+
+def decide_verdict(gap_channels: list[str], best: Candidate | None,
+                   candidates: list[Candidate], white: bool,
+                   other: Callable[[Candidate], np.ndarray | None] = lambda _c: None
+                   ) -> tuple[str, list[str], str | None]:
+    """``(verdict, ambiguous_with, suggested_manoeuvre)``.
+
+    ``explained`` needs all of: a plausible best that identifies every effect it names, an
+    explained share of at least ``EXPLAINED`` and white, independent residuals; a plausible
+    best short of one of the last two is ``partly_explained``; implausible fits never count.
+    A contender is ambiguous with the best when the held-out windows cannot tell them apart
+    with the commands as reconstructed, or, for commands logged only at the rows, with them
+    reconstructed the other way (``other``: cost per held-out window, or None). Contenders
+    make the verdict ``ambiguous`` only when the best would be ``explained``: rivals of an
+    answer that falls short leave it ``partly_explained``, with the rivals listed.
+    """
+    if not gap_channels:
+        return 'no_gap', [], None
+    if best is None or best.score <= 0 or best.explained < PARTLY:
+        return 'unexplained', [], None
+    verdict = 'explained' if best.explained >= EXPLAINED and white else 'partly_explained'
+    mine = set(best.names)
+    ambiguous: list[str] = []
+    for c in candidates:
+        s = set(c.names)
+        # a contender is close in held-out cost and in the share of the gap above the floor
+        # it explains (the cost alone is dominated by the floor when the gap sits in one
+        # channel, e.g. depth only)
+        if not (c.plausible and c.identifies) or _nested(s, mine) or _nested(mine, s) \
+                or c.cost > AMBIGUOUS_RATIO * best.cost \
+                or c.explained < best.explained / AMBIGUOUS_RATIO:
+            continue
+        t = window_t_stat(c.window_cost - best.window_cost)
+        if t >= AMBIGUOUS_T:
+            alt_best, alt_c = other(best), other(c)
+            if alt_best is not None and alt_c is not None:
+                t = min(t, window_t_stat(alt_c - alt_best))
+        if t < AMBIGUOUS_T:
+            for n in c.names:
+                if n not in mine and n not in ambiguous:
+                    ambiguous.append(n)
+    if ambiguous:
+        return ('ambiguous' if verdict == 'explained' else verdict), ambiguous, \
+            separating_manoeuvre(best.names[0], ambiguous[0])
+    return verdict, [], None
+
+
+def window_t_stat(d: np.ndarray) -> float:
+    """t statistic of the mean of the per-window cost differences ``d`` (inf for one)."""
+    se = float(np.std(d, ddof=1) / np.sqrt(d.size)) if d.size > 1 else math.inf
+    return float(np.mean(d) / se) if se > 0 else math.inf
+
+
+def _better_implausible(scorer: _Scorer, best: Candidate, candidates: Sequence[Candidate]
+                        ) -> str | None:
+    """The text naming an implausible candidate that predicts the held-out windows better
+    than ``best`` (Diebold-Mariano, level ``GAIN_LEVEL``), or None. A fit that needs
+    parameters beyond physics is no explanation, but when it beats the plausible answer on
+    data neither was fitted to, the answer has left structure of that fit's form (a
+    quadratic drag that a linear coefficient follows only on average, say)."""
+    for c in sorted(candidates, key=lambda c: c.cost):
+        if c.plausible or c.cost >= best.cost or not c.loss:
+            continue
+        t, p = scorer.gain(best, c)
+        if p < GAIN_LEVEL:
+            ks = ', '.join(f'{k} = {v:.4g}' for k, v in _entry_params(c).items()
+                           if k in c.beyond)
+            return (f'a fit beyond the plausible range, {c.label} ({ks}), predicts the '
+                    f'held-out data better (Diebold-Mariano t = {t:.1f}): structure of its '
+                    'form is left')
+    return None
+
+
+def _nested(a: set[str], b: set[str]) -> bool:
+    """Every effect of ``a`` is in ``b`` or a special case of one in ``b``."""
+    return all(n in b or set(get_effect(n).within) & b for n in a)
+
+
+def _simplest(cands: Sequence[Candidate]) -> Candidate:
+    """The best-scoring candidate, a tie (within ``TIE``) going to fewer parameters."""
+    top = max(c.score for c in cands)
+    tied = [c for c in cands if c.score >= top - TIE]
+    return min(tied, key=lambda c: (c.fit.n_active, -c.score))
+
+
+def _shrink(before: float, after: float, floor: float) -> float:
+    """Share of the RMS above the noise floor that a candidate removes, in [0, 1]."""
+    room = before - floor
+    return float(np.clip((before - after) / room, 0.0, 1.0)) if room > 0 else 0.0
+
+
+def _plausibility(f: FitResult) -> tuple[dict[str, tuple[float, float]], list[str]]:
+    """Identified parameters at or beyond their plausible range (key -> range), and the
+    effects of the set that identify nothing (no identified parameter whose 95 % interval,
+    the fit's own before widening, excludes its "absent" value)."""
+    single = len(f.effects.names) == 1
+    beyond: dict[str, tuple[float, float]] = {}
+    found: dict[str, bool] = {n: False for n in f.effects.names}
+    sig = f.significant if f.significant is not None else (f.lo95 > f.absent_values) | (
+        f.hi95 < f.absent_values)
+    for (e, p), v, a, s in zip(f.effects.params, f.values, f.active, sig):
+        if not a:
+            continue
+        if not p.is_plausible(float(v)):
+            beyond[p.name if single else f'{e}.{p.name}'] = p.plausible_range
+        if s:
+            found[e] = True
+    return beyond, [n for n, ok in found.items() if not ok]
+
+
+def _residual_tests(pr: Problem, eqf: EquationFit, frf: FreeRunFit, cand: Candidate,
+                    signals: dict[str, np.ndarray]
+                    ) -> tuple[bool, list[residuals.Finding], list[str]]:
+    """Residual tests (:mod:`auv_gap.residuals`) of ``cand`` on the held-out windows:
+    its equation errors (one sample per smoothing window) and its free-run depth and pitch
+    errors (one sample a second)."""
+    e = eqf.residual(cand.fit.effects, cand.fit.values)
+    eq_dt = float(np.median(np.diff(pr.eq_t[pr.eq_window == pr.eq_window[0]])))
+    # one sample per span of the smoothing filter as applied (at a low log rate it is
+    # longer than smooth_window: at least 5 samples)
+    span = max(pr.smooth_window, (pr.smoothed[0].length - 1) * pr.period)
+    step = max(1, int(math.ceil(span / eq_dt - 1e-9)))
+    held = sorted(set(pr.eq_window[pr.eq_held].tolist()))
+    rows = [np.flatnonzero(pr.eq_window == w)[::step] for w in held]
+    one_step = residuals.Group({n: [e[r, k] for r in rows] for k, n in enumerate(EQUATIONS)
+                                if np.isfinite(pr.eq_sigma[k])},  # left out: infinite noise
+                               {n: [v[r] for r in rows] for n, v in signals.items()},
+                               eq_dt * step, white=True)
+    out, meas = pr.free_run([cand.fit.effects.perturbation(cand.fit.values)], frf.held)
+    t_out = pr.output_times(frf.held)
+    out_dt = pr.m * pr.period
+    every = max(1, int(round(1.0 / out_dt)))
+    wrows = [np.arange(r.start, r.stop)[::every] for r in pr.window_rows(frf.held)]
+    err = (out[0] - meas)
+    fr_res = {f'free-run {n}': [err[r, i] for r in wrows] for n, i in (('depth', 2),
+                                                                         ('pitch', 4))}
+    logs = [pr.windows[w].log for w in frf.held]
+    cmd = {ch: [_held_at(pr.logs[lg].commands[ch], t_out[r]) for r, lg in zip(wrows, logs)]
+           for ch in ('bar', 'thrust')}
+    fr_sig = {n: [meas[r, i] for r in wrows] for n, i in (('z', 2), ('u', 6), ('theta', 4),
+                                                            ('w', 8), ('q', 10))}
+    for n, i in (('w_dot', 8), ('q_dot', 10)):
+        fr_sig[n] = [np.gradient(meas[r, i], out_dt * every) for r in wrows]
+    fr_sig['bar_command'] = cmd['bar']
+    fr_sig['thrust_command'] = cmd['thrust']
+    win = max(2, min(r.size for r in wrows) // 2)
+    free = residuals.Group(fr_res, fr_sig, out_dt * every, white=False, acf_lags=win)
+    return residuals.residual_tests([one_step, free])
+
+
+def _entry_params(c: Candidate) -> dict[str, float]:
+    return {_param_key(c, e, p.name): float(v) for (e, p), v in zip(c.fit.effects.params,
+                                                                     c.fit.values)}
+
+
+def _statement(verdict: str, best: Candidate | None, implausible: list[dict[str, Any]],
+               left: list[str], ambiguous: Sequence[str] = ()) -> str:
+    """One paragraph for the user: what the diagnosis found, in words and units (with the
+    rivals the held-out data cannot tell from the best, ``ambiguous``)."""
+    parts = []
+    if verdict == 'no_gap':
+        parts.append('The model matches the logs to within the noise floor.')
+    elif best is None:
+        parts.append('No plausible effect of the catalogue explains the gap.')
+    else:
+        parts.append(f'{verdict.replace("_", " ").capitalize()}: '
+                     + describe(best.fit) + f' ({best.explained:.0%} of the held-out gap '
+                     'above the noise floor).')
+        if ambiguous:
+            parts.append('The held-out data cannot tell it from '
+                         + ', '.join(ambiguous) + '.')
+    for item in implausible[:3]:
+        ks = ', '.join(f'{k} = {v[0]:.4g} (plausible {v[1]:.4g} to {v[2]:.4g})'
+                       for k, v in item['beyond'].items())
+        parts.append(f'{item["effect"]} would explain {item["explained"]:.0%} but only with '
+                     f'{ks}: not a physical explanation.')
+    if left and best is not None:
+        parts.append('Left over in the held-out residuals: ' + '; '.join(left[:4]) + '.')
+    return ' '.join(parts)
+
+
+def _param_key(c: Candidate, effect: str, name: str) -> str:
+    return name if len(c.names) == 1 else f'{effect}.{name}'
+
+
+def _candidate_entry(c: Candidate) -> dict[str, Any]:
+    f = c.fit
+    params = {_param_key(c, e, p.name): float(v)
+              for (e, p), v in zip(f.effects.params, f.values)}
+    ci = {_param_key(c, e, p.name): [float(lo), float(hi)]
+          for (e, p), lo, hi in zip(f.effects.params, f.lo95, f.hi95)}
+    return {'effect': c.label, 'params': params, 'ci95': ci, 'score': float(c.score),
+            'explained': float(c.explained), 'plausible': c.plausible,
+            'beyond_plausible': {k: list(v) for k, v in c.beyond.items()},
+            'identifies': c.identifies}
+
+
+def _candidate_details(c: Candidate) -> dict[str, Any]:
+    f = c.fit
+    return {'effect': c.label, 'stage': f.stage,
+            'units': {_param_key(c, e, p.name): p.unit for e, p in f.effects.params},
+            'identified': {_param_key(c, e, p.name): bool(a)
+                           for (e, p), a in zip(f.effects.params, f.active)},
+            'held_out_cost': c.cost, 'held_out_rms': c.rms, 'n_params': f.n_active}

@@ -1,0 +1,598 @@
+"""The data of one diagnosis prepared for fast model runs: windows, actuator series, the
+equation-error samples, and the model evaluated for any set of effects.
+
+Windows: every log piece is cut into windows of ``window`` seconds; a free run restarts at
+each window from the smoothed logged state (so a long log never drifts far from the data and
+every window is an independent run). Whole windows are held out to score the effects.
+
+Actuator positions at a window's start come from the log's history: each candidate's actuator
+model is driven by the logged commands from the start of the log piece, and the first
+``ACT_SETTLE`` seconds of a piece (where the plane's position before the first command is
+unknown) start no window.
+"""
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+
+import numpy as np
+from scipy.signal import savgol_filter
+
+from auv_contract import CHANNELS, STATE_FIELDS
+from auv_gap.catalogue import (
+    CATALOGUE,
+    Parameter,
+    Perturbation,
+    check_declared,
+    get_effect,
+)
+from auv_gap.errors import GapError
+from auv_gap.kernel import actuator_series, equation_terms, free_run_batch
+from auv_gap.logs import DERIVED_FROM, GapLog, Smoothed, smooth
+from auv_sim.model import ENV_SIZE
+from auv_sim.params import VehicleParams, mass_matrix
+
+#: Equations of the equation error: body wrench rows (surge, heave, pitch, sway, yaw) and the
+#: depth kinematics ``z_dot = -u s_th + v c_th s_ph + w c_th c_ph`` (m/s).
+EQUATIONS = ('surge', 'heave', 'pitch', 'sway', 'yaw', 'depth_kinematics')
+EQ_ROWS = (0, 2, 4, 1, 5)
+EQ_UNITS = ('N', 'N', 'N m', 'N', 'N m', 'm/s')
+#: States compared in free runs: z, theta, u, w, q, v, r (indices into the 12-state).
+CH_INDEX = (2, 4, 6, 8, 10, 7, 11)
+CH_NAMES = ('z', 'theta', 'u', 'w', 'q', 'v', 'r')
+#: Seconds at the start of each log piece for the actuator models to forget their unknown
+#: initial position (5 time constants of a 1-s lag).
+ACT_SETTLE = 5.0
+#: Free-run window [s] of a vehicle whose vertical-plane motion is stable without feedback.
+STABLE_WINDOW = 60.0
+#: e-folding times of the fastest unstable vertical-plane mode that a window spans (a free
+#: run from a state a little off grows about e^4 = 55-fold), and the shortest window [s].
+UNSTABLE_FOLDS = 4.0
+MIN_WINDOW = 10.0
+
+
+def free_run_window(vehicle: VehicleParams, logs: Sequence[GapLog]) -> tuple[float, str]:
+    """The free-run window [s] for ``vehicle`` on ``logs``, and why.
+
+    A free run restarts from the log at every window; on a vehicle that is unstable without
+    feedback (the REMUS 100: a vertical-plane pair at +0.39 +- 0.38j 1/s at 1.5 m/s) a run of
+    :data:`STABLE_WINDOW` seconds diverges from any start, and every effect looks alike. The
+    window spans :data:`UNSTABLE_FOLDS` e-folding times ``1/lambda`` of the fastest unstable
+    mode of the nominal vertical plane (``w, q, theta``; linearised at the logs' median surge
+    speed and depth), within [:data:`MIN_WINDOW`, :data:`STABLE_WINDOW`];
+    :data:`STABLE_WINDOW` when no mode is unstable or no trim exists there.
+    """
+    from auv_sim.errors import TrimError
+    from auv_sim.trim import VerticalPlane
+
+    u = np.concatenate([lg.state[:, 6] for lg in logs])
+    z = np.concatenate([lg.state[:, 2] for lg in logs])
+    u0, z0 = float(np.nanmedian(u)), float(np.nanmedian(z))
+    if not (np.isfinite(u0) and u0 > 0.0):
+        return STABLE_WINDOW, f'no forward speed in the logs: {STABLE_WINDOW:g} s'
+    plane = VerticalPlane(vehicle)
+    try:
+        A, _ = plane.linearize(plane.trim(u0, z=z0 if np.isfinite(z0) else 0.0))
+    except TrimError:
+        return STABLE_WINDOW, f'no level trim at {u0:.3g} m/s: {STABLE_WINDOW:g} s'
+    lam = float(np.max(np.linalg.eigvals(A[np.ix_([0, 1, 3], [0, 1, 3])]).real))
+    if lam <= 0.0:
+        return STABLE_WINDOW, (f'vertical plane stable without feedback at {u0:.3g} m/s: '
+                               f'{STABLE_WINDOW:g} s')
+    window = float(np.clip(UNSTABLE_FOLDS / lam, MIN_WINDOW, STABLE_WINDOW))
+    return window, (f'vertical plane unstable without feedback at {u0:.3g} m/s (mode '
+                    f'+{lam:.3g} 1/s): {UNSTABLE_FOLDS:g} e-folding times, {window:.3g} s')
+
+
+#: Seconds at the start of each window over which derived initial states are fitted to the
+#: measured outputs (:meth:`Problem.estimate_initial`), and the fewest output samples used.
+INITIAL_FIT = 3.0
+INITIAL_FIT_MIN = 6
+
+
+@dataclasses.dataclass(frozen=True)
+class Window:
+    """``n`` samples of log piece ``log`` from sample ``i0``; ``held_out`` for scoring."""
+
+    log: int
+    i0: int
+    n: int
+    held_out: bool
+    t0: float
+    t1: float
+
+
+class EffectSet:
+    """Several catalogue effects as one model: parameters concatenated in effect order."""
+
+    def __init__(self, names: Sequence[str], vehicle: VehicleParams) -> None:
+        self.names = tuple(names)
+        self.effects = [get_effect(n) for n in self.names]
+        for e in self.effects:
+            check_declared(e, vehicle)
+        self.vehicle = vehicle
+        self.params: list[tuple[str, Parameter]] = [
+            (e.name, p) for e in self.effects for p in e.parameters(vehicle)]
+        self.absent = np.array([p.absent for _, p in self.params])
+        self.lo = np.array([p.lo for _, p in self.params])
+        self.hi = np.array([p.hi for _, p in self.params])
+        self.scale = np.array([p.scale for _, p in self.params])
+
+    @property
+    def label(self) -> str:
+        """``name`` or ``name1+name2``."""
+        return '+'.join(self.names)
+
+    def perturbation(self, values: np.ndarray) -> Perturbation:
+        """The model change for parameter ``values`` (all parameters, set order)."""
+        pert = Perturbation.nominal(self.vehicle)
+        k = 0
+        for e in self.effects:
+            n = len(e.parameters(self.vehicle))
+            e.apply(pert, np.asarray(values[k:k + n], dtype=np.float64), self.vehicle)
+            k += n
+        return pert
+
+
+class Problem:
+    """Logs, windows and the model of one vehicle, ready for free runs and equation errors.
+
+    Args:
+        vehicle: the nominal model.
+        logs: log pieces (see :mod:`auv_gap.logs`).
+        window: free-run window length [s]; None: :func:`free_run_window` (kept with its
+            reason in ``window`` and ``window_why``).
+        held_out_logs: indices of logs held out entirely; if empty, every third window
+            (the 2nd, 5th, ...) is held out.
+        eq_period: spacing of equation-error samples [s].
+        smooth_window: Savitzky-Golay window [s] for states and derivatives.
+        cost_period: spacing of the free-run samples compared with the log [s].
+        max_step: largest integration step of the vehicle [s]; the actuators are integrated
+            apart on a finer grid, so the step only has to resolve the vehicle's own motion.
+    """
+
+    def __init__(self, vehicle: VehicleParams, logs: Sequence[GapLog],
+                 window: float | None = None,
+                 held_out_logs: Sequence[int] = (), eq_period: float = 0.5,
+                 smooth_window: float = 1.0, cost_period: float = 0.2,
+                 max_step: float = 0.05) -> None:
+        if not logs:
+            raise GapError('no logs to diagnose')
+        self.window_why = 'given'
+        if window is None:
+            window, self.window_why = free_run_window(vehicle, logs)
+        self.window = window
+        if not window > 0:
+            raise GapError(f'window must be > 0 s, got {window}')
+        self.vehicle = vehicle
+        self.logs = list(logs)
+        self.P = vehicle.as_array()
+        self.M = mass_matrix(vehicle)
+        self._param_cache: dict[tuple[tuple[str, float], ...], tuple[np.ndarray, np.ndarray]] = {
+            (): (self.P, self.M)}
+        #: time origin of the kernels [s]: the start of the first log (a current drift is
+        #: zero here)
+        self.t_ref = float(self.logs[0].t[0])
+        periods = np.array([lg.period for lg in self.logs])
+        if np.ptp(periods) > 1e-6 * periods.max():
+            raise GapError('all logs must have the same state sample period '
+                           f'(got {sorted(set(np.round(periods, 6)))} s)')
+        self.period = float(periods[0])
+        # free runs output every ``m`` log samples, each output interval ``sub`` RK4 steps
+        if self.period <= max_step:
+            self.m, self.sub = max(1, int(np.floor(max_step / self.period + 1e-9))), 1
+        else:
+            self.m, self.sub = 1, int(np.ceil(self.period / max_step - 1e-9))
+        self.dt = self.m * self.period / self.sub
+        self.h = self.dt / 2.0
+        self.smoothed: list[Smoothed] = [smooth(lg, smooth_window) for lg in self.logs]
+        # initial states of free runs: a wider smoother (the initial pitch error is what a
+        # free run integrates longest), its bias removed by twicing: x0 = S x + (S x - S S x)
+        wide = [smooth(lg, 2.0 * smooth_window) for lg in self.logs]
+        twice = [savgol_filter(s.state, s.length, 3, axis=0, mode='interp') for s in wide]
+        self.initial = [2.0 * s.state - s2 for s, s2 in zip(wide, twice)]
+        # what twicing changed: the estimated bias of the plain smoother at the window starts
+        self.initial_bias = [s2 - s.state for s, s2 in zip(wide, twice)]
+        n = wide[0].length
+        imp = np.zeros(2 * n)
+        imp[n] = 1.0
+        h1 = savgol_filter(imp, n, 3, mode='interp')
+        self.initial_gain = float(np.linalg.norm(2.0 * h1 - savgol_filter(h1, n, 3,
+                                                                          mode='interp')))
+        self.smooth_window = smooth_window
+        #: states whose initial values are fitted (:meth:`estimate_initial`), and per window
+        #: (all windows) the nominal model's fit covariance (None: not fitted)
+        self.x0_cov: list[np.ndarray | None] = []
+        self.x0_states: tuple[int, ...] = ()
+        self._x0_outs: list[int] = []
+        self._x0_nfit = 0
+        self.noise = np.median(np.array([s.noise for s in self.smoothed]), axis=0)
+        self.deriv_gain = float(np.median([s.deriv_gain for s in self.smoothed]))
+        self.smooth_gain = float(np.median([s.smooth_gain for s in self.smoothed]))
+        # fine actuator grids, one per log, concatenated
+        self.fine_n = [((lg.t.size - 1) // self.m) * self.sub * 2 + 1 for lg in self.logs]
+        self.fine_off = np.r_[0, np.cumsum(self.fine_n)[:-1]].astype(np.int64)
+        self.windows = self._windows(window, held_out_logs)
+        self.x0_cov = [None] * len(self.windows)
+        if not any(w.held_out for w in self.windows) or all(w.held_out for w in self.windows):
+            raise GapError('the logs are too short to hold out whole windows: need at least '
+                           f'two windows of {window:g} s')
+        self.cost_every = max(1, int(round(cost_period / (self.m * self.period))))
+        self._eq_taps: tuple[np.ndarray, ...] | None = None
+        self._act_cache: dict[bytes, np.ndarray] = {}
+        self._eq_act_cache: dict[bytes, np.ndarray] = {}
+        self._eq_samples(eq_period, smooth_window)
+
+    # -- windows -----------------------------------------------------------------------------
+    def _windows(self, window: float, held_out_logs: Sequence[int]) -> list[Window]:
+        wins: list[Window] = []
+        nwin = max(2, int(round(window / (self.period * self.m)))) * self.m
+        k = 0
+        for li, lg in enumerate(self.logs):
+            n = lg.t.size
+            last = ((n - 1) // self.m) * self.m  # last sample on the output grid
+            settle = int(np.ceil(ACT_SETTLE / (self.period * self.m) - 1e-9)) * self.m
+            starts = list(range(min(settle, last), last, nwin))
+            if len(starts) > 1 and last - starts[-1] < nwin // 2:
+                starts.pop()
+            for j, i0 in enumerate(starts):
+                i1 = starts[j + 1] + 1 if j + 1 < len(starts) else last + 1
+                held = (li in held_out_logs) if held_out_logs else (k % 3 == 1)
+                wins.append(Window(li, i0, i1 - i0, held, float(lg.t[i0]),
+                                   float(lg.t[i1 - 1])))
+                k += 1
+        return wins
+
+    def select(self, held_out: bool | None) -> list[int]:
+        """Indices of the held-out (True), training (False) or all (None) windows."""
+        return [i for i, w in enumerate(self.windows)
+                if held_out is None or w.held_out == held_out]
+
+    # -- actuators ---------------------------------------------------------------------------
+    def actuators(self, pert: Perturbation) -> np.ndarray:
+        """Actuator positions (F x 3) on the fine grids of all logs for ``pert`` (cached:
+        do not modify the result)."""
+        key = np.concatenate([pert.delay, pert.tau, pert.rate]).tobytes()
+        hit = self._act_cache.get(key)
+        if hit is not None:
+            return hit
+        out = self.actuators_of(self.logs, pert)
+        if len(self._act_cache) > 8:
+            self._act_cache.clear()
+        self._act_cache[key] = out
+        return out
+
+    def actuators_of(self, logs: Sequence[GapLog], pert: Perturbation) -> np.ndarray:
+        """Actuator positions (F x 3) driven by the commands of ``logs`` (the problem's logs
+        or the same logs with their commands reconstructed otherwise) for ``pert``."""
+        out = np.empty((int(sum(self.fine_n)), 3))
+        v = self.vehicle
+        lims = ((-v.bar_max, v.bar_max), (-v.helm_max, v.helm_max),
+                (v.thrust_min, v.thrust_max))
+        for li, lg in enumerate(logs):
+            a, n = int(self.fine_off[li]), self.fine_n[li]
+            for c, ch in enumerate(CHANNELS):
+                st, va = lg.commands[ch]
+                lo, hi = lims[c]
+                a0 = min(max(float(va[0]), lo), hi)
+                out[a:a + n, c] = actuator_series(
+                    float(lg.t[0]), self.h, n, st, va, float(pert.delay[c]), float(pert.tau[c]),
+                    float(pert.rate[c]), lo, hi, a0)
+        return out
+
+    # -- free runs ---------------------------------------------------------------------------
+    def free_run(self, perts: Sequence[Perturbation], windows: Sequence[int],
+                 x0_noise: np.ndarray | None = None, x0_bias: bool = False,
+                 act_override: np.ndarray | None = None,
+                 x0_cov: list[np.ndarray | None] | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted measurements (nc x S x 12) of each model over ``windows``, and the
+        log (S x 12) smoothed over ``smooth_window`` (white sensor noise removed, which no
+        model can explain); rows are the windows' outputs, concatenated.
+
+        ``x0_noise`` (nc x nw x 12) is added to the initial states (Monte Carlo of the
+        initial-state uncertainty); ``x0_bias`` starts from the plain smoother instead of
+        its twiced estimate (to size the initial-state bias); ``act_override`` (F x 3)
+        replaces every model's actuator positions (:meth:`actuators_of`). After
+        :meth:`estimate_initial` the derived rates' initial states are fitted for each model
+        (``x0_cov`` receives the first model's fit covariances).
+        """
+        nc, nw = len(perts), len(windows)
+        wins = [self.windows[i] for i in windows]
+        nsamp = np.array([self.outputs(w) for w in wins], dtype=np.int64)
+        out_base = np.r_[0, np.cumsum(nsamp)[:-1]].astype(np.int64)
+        fine_base = np.array([self.fine_off[w.log] + (w.i0 // self.m) * self.sub * 2
+                              for w in wins], dtype=np.int64)
+        X0 = np.zeros((nc, nw, 15))
+        env = np.empty((nc, ENV_SIZE))
+        C = np.empty((nc, *perts[0].C.shape))
+        P = np.empty((nc, self.P.size))
+        t0 = np.array([float(self.logs[w.log].t[w.i0]) - self.t_ref for w in wins])
+        act = np.empty((nc, int(sum(self.fine_n)), 3))
+        for c, pert in enumerate(perts):
+            act[c] = self.actuators(pert) if act_override is None else act_override
+            env[c] = pert.env_vector()
+            C[c] = pert.C
+            P[c] = self.model_arrays(pert)[0]
+            for k, w in enumerate(wins):
+                src = self.initial[w.log]
+                if x0_bias:
+                    src = src + self.initial_bias[w.log]
+                X0[c, k, :12] = self.true_state(src, np.array([float(w.i0)]), pert)[0]
+                X0[c, k, 12:] = act[c, fine_base[k]]
+        if self.x0_states:
+            self._fit_initial(perts, wins, X0, P, act, fine_base, t0, env, C, x0_cov)
+        if x0_noise is not None:
+            X0[:, :, :12] += x0_noise
+        out = np.empty((nc, int(nsamp.sum()), 12))
+        free_run_batch(P, X0, act, fine_base, nsamp, out_base, t0, env, C, self.dt, self.sub,
+                       out)
+        meas = np.concatenate([self.smoothed[w.log].state[w.i0:w.i0 + w.n:self.m]
+                               for w in wins])
+        step = self.m * self.period
+        for c, pert in enumerate(perts):
+            if pert.sensors_exact:
+                out[c] += pert.bias
+                continue
+            for k in np.flatnonzero(pert.latency > 0.0).tolist():
+                # the sensor reads the state of ``latency`` ago: before the window's start
+                # that is the logged state itself
+                for r0, n in zip(out_base.tolist(), nsamp.tolist()):
+                    tj = np.arange(n) * step
+                    y = out[c, r0:r0 + n, k]
+                    late = tj - pert.latency[k]
+                    out[c, r0:r0 + n, k] = np.where(
+                        late >= 0.0, np.interp(late, tj, y),
+                        (meas[r0:r0 + n, k] - pert.bias[k]) / pert.scale[k])
+            out[c] = out[c] * pert.scale + pert.bias
+        return out, meas
+
+    # -- initial states of derived rates -----------------------------------------------------
+    def estimate_initial(self, derived: Sequence[str], seconds: float = INITIAL_FIT) -> None:
+        """Fit, from now on, the initial values of the ``derived`` rates (``w``, ``q``: not
+        measured, differenced from depth and pitch) and of their sources (``z``, ``theta``)
+        at every window's start, for each model a free run is asked of, to the measured
+        sources over the window's first ``seconds`` (at least ``INITIAL_FIT_MIN`` outputs):
+        the initial-state estimate of output-error methods (:meth:`_fit_initial`). A
+        differenced rate's noise would otherwise start every free run off.
+
+        Sets :attr:`x0_cov` (the nominal model's fit covariance per window, which
+        :meth:`initial_noise` draws from). The smoother's bias no longer applies to the
+        estimated states."""
+        if not derived:
+            return
+        self.x0_states = tuple(sorted({STATE_FIELDS.index(s) for s in derived}
+                                      | {STATE_FIELDS.index(DERIVED_FROM[s]) for s in derived}))
+        self._x0_outs = sorted({STATE_FIELDS.index(DERIVED_FROM[s]) for s in derived})
+        self._x0_nfit = max(INITIAL_FIT_MIN, int(round(seconds / (self.m * self.period))) + 1)
+        for li in range(len(self.logs)):
+            self.initial_bias[li][:, list(self.x0_states)] = 0.0
+        wins = self.select(None)
+        cov: list[np.ndarray | None] = [None] * len(wins)
+        self.free_run([Perturbation.nominal(self.vehicle)], wins, x0_cov=cov)
+        for i, c in zip(wins, cov):
+            self.x0_cov[i] = c
+
+    def _fit_initial(self, perts: Sequence[Perturbation], wins: Sequence[Window],
+                     X0: np.ndarray, P: np.ndarray, act: np.ndarray, fine_base: np.ndarray,
+                     t0: np.ndarray, env: np.ndarray, C: np.ndarray,
+                     cov: list[np.ndarray | None] | None = None) -> None:
+        """Fit ``X0[c, k, x0_states]`` (nc x nw x 15, modified) of each model ``c`` and window
+        ``k`` to the measured sources (``z``, ``theta``) over the window's first outputs:
+        weighted least squares (weights: their white noise), two Gauss-Newton steps on
+        finite-difference sensitivities of short free runs of that model, its sensors'
+        scale and bias applied. A window whose run is not finite keeps its start. ``cov``
+        (nw), if given, receives the last fit's covariance of the first model."""
+        unknown, outs = list(self.x0_states), self._x0_outs
+        nu, nc, nw = len(unknown), X0.shape[0], X0.shape[1]
+        nfit = np.array([min(self.outputs(w), self._x0_nfit) for w in wins], dtype=np.int64)
+        base = np.r_[0, np.cumsum(nfit)[:-1]].astype(np.int64)
+        raw = [self.logs[w.log].state[w.i0:w.i0 + int(n) * self.m:self.m][:, outs]
+               for w, n in zip(wins, nfit)]
+        sigma = np.maximum(self.noise[outs], 1e-9)
+        scale = np.array([p.scale[outs] for p in perts])
+        bias = np.array([p.bias[outs] for p in perts])
+        eps = 1e-4
+        runs = np.empty((1 + nu, nc, int(nfit.sum()), 12))
+        for _ in range(2):
+            for j in range(1 + nu):
+                Xj = X0.copy()
+                if j:
+                    Xj[:, :, unknown[j - 1]] += eps
+                free_run_batch(P, Xj, act, fine_base, nfit, base, t0, env, C, self.dt,
+                               self.sub, runs[j])
+            y = runs[:, :, :, outs] * scale[None, :, None, :] + bias[None, :, None, :]
+            for c in range(nc):
+                for k in range(nw):
+                    sl = slice(int(base[k]), int(base[k] + nfit[k]))
+                    y0 = y[0, c, sl]
+                    J = ((y[1:, c, sl] - y0[None]) / eps / sigma).reshape(nu, -1).T
+                    res = ((raw[k] - y0) / sigma).ravel()
+                    if not (np.all(np.isfinite(J)) and np.all(np.isfinite(res))):
+                        continue
+                    step, *_ = np.linalg.lstsq(J, res, rcond=None)
+                    X0[c, k, unknown] += step
+                    if cov is not None and c == 0:
+                        cov[k] = np.linalg.pinv(J.T @ J)
+
+    def initial_noise(self, rng: np.random.Generator, runs: int, windows: Sequence[int]
+                      ) -> np.ndarray:
+        """Draws (runs x nw x 12) of the initial-state error of ``windows``: the smoothed
+        state's noise (``noise x initial_gain``), and for the states :meth:`estimate_initial`
+        estimated, its covariance."""
+        draw: np.ndarray = rng.standard_normal((runs, len(windows), 12)) * (
+            self.noise * self.initial_gain)
+        unknown = list(self.x0_states)
+        for k, i in enumerate(windows):
+            cov = self.x0_cov[i]
+            if cov is not None:
+                L = np.linalg.cholesky(cov + 1e-18 * np.eye(len(unknown)))
+                draw[:, k, unknown] = rng.standard_normal((runs, len(unknown))) @ L.T
+        return draw
+
+    def model_arrays(self, pert: Perturbation) -> tuple[np.ndarray, np.ndarray]:
+        """The model's parameter vector and mass matrix with the factors of ``pert`` (cached:
+        do not modify the results)."""
+        key = pert.params_key()
+        hit = self._param_cache.get(key)
+        if hit is None:
+            v = self.vehicle.replace(**{k: f * float(getattr(self.vehicle, k)) for k, f in key})
+            hit = (v.as_array(), mass_matrix(v))
+            if len(self._param_cache) > 16:
+                self._param_cache = {(): (self.P, self.M)}
+            self._param_cache[key] = hit
+        return hit
+
+    def true_state(self, series: np.ndarray, index: np.ndarray, pert: Perturbation
+                   ) -> np.ndarray:
+        """The true state (n x 12) behind a measured series (N x 12, one log on its sample
+        grid) at fractional sample positions ``index`` (n): the sensors of ``pert`` read
+        ``scale x(t - latency) + bias``, so ``x(t) = (y(t + latency) - bias) / scale``."""
+        if pert.sensors_exact and np.all(index == np.round(index)):
+            out: np.ndarray = series[index.astype(np.int64)] - pert.bias
+            return out
+        grid = np.arange(series.shape[0], dtype=np.float64)
+        pos = index[:, None] + pert.latency[None, :] / self.period
+        out = np.empty((index.size, 12))
+        for k in range(12):
+            out[:, k] = np.interp(pos[:, k], grid, series[:, k])
+        true: np.ndarray = (out - pert.bias) / pert.scale
+        return true
+
+    def outputs(self, w: Window) -> int:
+        """Number of free-run outputs of window ``w`` (every ``m``-th log sample)."""
+        return (w.n - 1) // self.m + 1
+
+    def output_times(self, windows: Sequence[int]) -> np.ndarray:
+        """Log times [s] of the rows of :meth:`free_run`."""
+        return np.concatenate([self.logs[self.windows[i].log].t[
+            self.windows[i].i0:self.windows[i].i0 + self.windows[i].n:self.m] for i in windows])
+
+    def window_rows(self, windows: Sequence[int]) -> list[slice]:
+        """Row slices of each window in the arrays of :meth:`free_run`."""
+        rows, a = [], 0
+        for i in windows:
+            n = self.outputs(self.windows[i])
+            rows.append(slice(a, a + n))
+            a += n
+        return rows
+
+    # -- equation error ----------------------------------------------------------------------
+    def _eq_samples(self, eq_period: float, smooth_window: float) -> None:
+        every = max(1, int(round(eq_period / self.period)))
+        edge = int(round(0.5 * smooth_window / self.period)) + 1
+        idx, logi, win = [], [], []
+        for wi, w in enumerate(self.windows):
+            lg = self.logs[w.log]
+            lo = max(w.i0, edge)
+            hi = min(w.i0 + w.n - 1, lg.t.size - edge)
+            if wi + 1 < len(self.windows) and self.windows[wi + 1].log == w.log:
+                hi = min(hi, self.windows[wi + 1].i0)
+            ii = np.arange(lo + (-lo) % every, hi, every)
+            idx.append(ii)
+            logi.append(np.full(ii.size, w.log))
+            win.append(np.full(ii.size, wi))
+        self.eq_index = np.concatenate(idx).astype(np.int64)
+        self.eq_log = np.concatenate(logi).astype(np.int64)
+        self.eq_window = np.concatenate(win).astype(np.int64)
+        self.eq_held = np.array([self.windows[w].held_out for w in self.eq_window])
+        xs = np.empty((self.eq_index.size, 12))
+        xd = np.empty((self.eq_index.size, 12))
+        tt = np.empty(self.eq_index.size)
+        fine = np.empty(self.eq_index.size)
+        for li, sm in enumerate(self.smoothed):
+            m = self.eq_log == li
+            xs[m] = sm.state[self.eq_index[m]]
+            xd[m] = sm.rate[self.eq_index[m]]
+            tt[m] = self.logs[li].t[self.eq_index[m]]
+            fine[m] = self.fine_off[li] + self.eq_index[m] * (self.sub * 2.0 / self.m)
+        self.eq_t, self.eq_state, self.eq_rate, self.eq_fine = tt, xs, xd, fine
+        # noise of each equation: velocity noise through the derivative filter and M
+        self.eq_sigma = self.equation_sigma(self.M)
+
+    def equation_sigma(self, M: np.ndarray) -> np.ndarray:
+        """Noise (1 sigma) of each equation of the equation error with mass matrix ``M``
+        [N, N m, m/s]: the velocity noise through the derivative filter and ``M``."""
+        sd = self.noise[6:12] * self.deriv_gain
+        sig = np.sqrt((M ** 2) @ (sd ** 2))
+        sz = np.hypot(self.noise[2] * self.deriv_gain, self.noise[8] * self.smooth_gain)
+        return np.array([sig[r] for r in EQ_ROWS] + [sz])
+
+    def equation_error(self, pert: Perturbation, act: np.ndarray | None = None) -> np.ndarray:
+        """Equation error (n x 6) at the equation samples: ``M nu_dot - tau`` for surge,
+        heave, pitch, sway, yaw [N, N m] (``M`` and ``tau`` of the model with the factors,
+        water and extra wrench of ``pert``) and the depth-kinematics error [m/s], with the
+        states and their rates corrected for the sensors of ``pert`` (bias, scale, latency).
+        The depth-kinematics error is ``y_z_dot(t) - scale z_dot(t - latency)``: the logged
+        depth rate against the rate the depth sensor of ``pert`` reads."""
+        if act is None:
+            act = self.actuators(pert)
+        X = np.empty((self.eq_index.size, 15))
+        kin = X
+        depth_rate = self.eq_rate[:, 2]
+        if pert.sensors_exact:
+            X[:, :12] = self.eq_state - pert.bias
+            rate = self.eq_rate
+        else:
+            rate = np.empty_like(self.eq_rate)
+            kin = np.empty((self.eq_index.size, 12))
+            for li, sm in enumerate(self.smoothed):
+                m = self.eq_log == li
+                idx = self.eq_index[m].astype(np.float64)
+                X[m, :12] = self.true_state(sm.state, idx, pert)
+                # rates: shifted and scaled alike, no bias
+                rate[m] = self.true_state(sm.rate, idx, dataclasses.replace(
+                    pert, bias=np.zeros(12)))
+                # the true states at the instant the depth sensor reads (t - latency)
+                kin[m] = self.true_state(sm.state, idx - pert.latency[2] / self.period, pert)
+        key = np.concatenate([pert.delay, pert.tau, pert.rate]).tobytes()
+        eq_act = self._eq_act_cache.get(key)
+        if eq_act is None:
+            eq_act = self._smoothed_actuators(act)
+            if len(self._eq_act_cache) > 8:
+                self._eq_act_cache.clear()
+            self._eq_act_cache[key] = eq_act
+        X[:, 12:] = eq_act
+        P, M = self.model_arrays(pert)
+        tau = equation_terms(self.eq_t - self.t_ref, X, pert.env_vector(), pert.C, P)
+        lhs = rate[:, 6:12] @ M.T
+        e = np.empty((X.shape[0], 6))
+        for k, r in enumerate(EQ_ROWS):
+            e[:, k] = lhs[:, r] - tau[:, r]
+        # depth kinematics in the depth sensor's terms: the logged depth rate at its own
+        # samples against the rate the sensor reads, ``scale z_dot(t - latency)``. The noisy
+        # measured rate is never shifted by a candidate latency (shifting it moves its noise
+        # with the parameter and makes the cost as rough as the noise in the latency: an
+        # estimate off by its noise's correlation time with an interval far too narrow);
+        # the smooth, nearly noise-free kinematic states are read at ``t - latency`` instead
+        th, ph = kin[:, 4], kin[:, 3]
+        zdot = (-kin[:, 6] * np.sin(th) + kin[:, 7] * np.cos(th) * np.sin(ph)
+                + kin[:, 8] * np.cos(th) * np.cos(ph))
+        e[:, 5] = depth_rate - pert.scale[2] * zdot
+        return e
+
+    def _smoothed_actuators(self, act: np.ndarray) -> np.ndarray:
+        """Actuator positions at the equation samples, smoothed by the same filter as the
+        logged velocities (both sides of the equation see the same low-pass)."""
+        if self._eq_taps is None:
+            n = self.smoothed[0].length
+            imp = np.zeros(n)
+            imp[n // 2] = 1.0
+            taps = savgol_filter(imp, n, 3, mode='interp')[::-1]
+            offs = np.arange(n) - n // 2
+            stride = 2 * self.sub / self.m  # fine points per log sample
+            pos = (self.fine_off[self.eq_log][:, None]
+                   + (self.eq_index[:, None] + offs[None, :]) * stride)
+            j0 = np.clip(np.floor(pos).astype(np.int64), 0, act.shape[0] - 1)
+            self._eq_taps = (taps, j0, np.minimum(j0 + 1, act.shape[0] - 1), pos - j0)
+        taps, j0, j1, frac = self._eq_taps
+        out = np.empty((self.eq_index.size, 3))
+        for c in range(3):
+            a = act[:, c]
+            out[:, c] = ((a[j0] * (1.0 - frac) + a[j1] * frac) @ taps)
+        return out
+
+
+def known_effects() -> list[str]:
+    """Names of the registered effects."""
+    return list(CATALOGUE)
