@@ -334,7 +334,8 @@ def graph_nodes(cfg: GraphConfig, log_dir: pathlib.Path) -> list[NodeProcess]:
         nodes.append(NodeProcess('mission', argv, log('mission')))
     elif cfg.pilot:
         nodes.append(NodeProcess('pilot', [py, '-m', 'auv_depth_lqr.node', *ros_params(
-            vehicle_file=cfg.pilot_vehicle or cfg.vehicle, lockstep=cfg.lockstep, rate=cfg.pilot_rate,
+            vehicle_file=cfg.pilot_vehicle or cfg.vehicle, lockstep=cfg.lockstep,
+            rate=cfg.pilot_rate,
             weights=cfg.weights, water_speed=float(cfg.water_speed),
             realtime_priority=int(cfg.realtime_priority), use_sim_time=cfg.sim_clock,
             state_source=cfg.pilot_state, start_subscribers=bar_subscribers(cfg),
