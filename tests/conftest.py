@@ -69,8 +69,10 @@ class DomainReservation:
 def reserve_domain_id(timeout: float = RESERVE_TIMEOUT) -> DomainReservation:
     """Reserve a DDS domain id no other process holds, the one released longest ago first.
 
-    Raises:
-        TimeoutError: every id in :data:`DOMAIN_IDS` stayed held for ``timeout`` seconds.
+    Raises
+    ------
+    TimeoutError
+        every id in :data:`DOMAIN_IDS` stayed held for ``timeout`` seconds.
     """
     LOCK_DIR.mkdir(parents=True, exist_ok=True)
     deadline = time.monotonic() + timeout

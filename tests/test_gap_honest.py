@@ -66,21 +66,31 @@ def panel(vehicle):  # type: ignore[no-untyped-def]
     'crossflow_cd_3',
 ])
 def test_outside_the_catalogue_is_never_explained(panel, case: str) -> None:  # type: ignore
+    """Never ``explained``; a best beyond its typical range is said to be so (a finding to
+    check, see the cross-flow case below), never one beyond what physics allows."""
     r = panel(case).report
     assert r['verdict'] in ('partly_explained', 'unexplained', 'ambiguous'), \
         (r['verdict'], r['best'], r['statement'])
     for c in r['candidates']:
         if c['effect'] == r['best']:
-            assert c['plausible'], c
+            assert c['plausible'] or ('is beyond the typical range (' in r['statement']
+                                      and '): check ' in r['statement']), c
 
 
-def test_crossflow_beyond_the_hull_is_flagged_implausible(panel) -> None:  # type: ignore
-    """Zww = -3400 kg/m is a cross-flow drag coefficient of 3 on this hull: the fit that finds
-    it must be reported as beyond the plausible range, not as the explanation."""
+def test_crossflow_beyond_the_hull_is_an_atypical_finding(panel) -> None:  # type: ignore
+    """Zww = -3400 kg/m is a cross-flow drag coefficient of 3 on this hull: beyond the typical
+    Cd of 0.6-1.2 but a drag (dissipative), so possible: the fit that finds it is named as a
+    finding with its typical range and what to check, the verdict at most partly explained;
+    it was listed as "not a physical explanation" when the plausible range was the only one
+    (and the answer was a coefficient refit leaving structure of its form)."""
     r = panel('crossflow_cd_3').report
-    flagged = {i['effect'] for i in r['implausible']}
-    assert any('crossflow_drag' in e for e in flagged), r['implausible']
-    assert r['best'] is None or 'crossflow_drag' not in r['best']
+    assert r['best'] == 'crossflow_drag', (r['verdict'], r['best'], r['statement'])
+    assert r['verdict'] in ('partly_explained', 'ambiguous')
+    entry = next(c for c in r['candidates'] if c['effect'] == 'crossflow_drag')
+    assert not entry['plausible']
+    assert abs(entry['params']['Zww'] / -3400.0 - 1.0) < 0.15, entry['params']
+    assert 'Zww = ' in r['statement'] and 'beyond the typical range' in r['statement']
+    assert "check the hull's cross-flow drag" in r['statement']
 
 
 @pytest.mark.parametrize('case,truth', [

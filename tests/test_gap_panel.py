@@ -58,8 +58,10 @@ def test_report_files(panel, tmp_path: pathlib.Path) -> None:  # type: ignore[no
     path = write_report(diag, tmp_path / 'gap')
     report = json.loads(path.read_text())
     assert tuple(report) == REPORT_KEYS
+    # the contract's keys, and what the report adds: the time origin of its times
     assert set(report['gap']) == {'free_run_rms', 'equation_rms', 'dominant_equation',
-                                  'segments', 'regimes', 'band_hz'}
+                                  'segments', 'regimes', 'band_hz', 'time_origin'}
+    assert report['gap']['time_origin']['times'] == 'seconds since the start of each log'
     assert set(report['gap']['free_run_rms']) == {'z', 'theta', 'w', 'q', 'u'}
     assert set(report['gap']['equation_rms']) == {'surge', 'heave', 'pitch', 'sway', 'yaw'}
     assert {'rms_before', 'rms_after', 'shrink'} <= set(report['held_out'])

@@ -157,7 +157,7 @@ def test_crossflow_drag_is_dissipative_and_bounded_by_a_hull_cd_of_1_2(vehicle) 
 def test_buoyancy_and_lag_ranges(vehicle) -> None:  # type: ignore
     (db,) = CATALOGUE['buoyancy_offset'].parameters(vehicle)
     w = 620.0 * 9.81
-    assert db.plausible_range == pytest.approx((-0.05 * w, 0.05 * w))
+    assert db.plausible_range == pytest.approx((-0.02 * w, 0.02 * w))
     (lag,) = CATALOGUE['actuator_lag'].parameters(vehicle)
     assert lag.plausible_range[0] == 0.0 and not lag.is_plausible(-0.1)
     assert not Parameter('x', 'm', -1.0, 1.0, 0.0, 0.1, (-0.5, 0.5)).is_plausible(0.5)

@@ -117,3 +117,71 @@ def test_node_rejects_a_bad_parameter(ros_env: dict[str, str], tmp_path: pathlib
     assert [line for line in err.splitlines() if line.startswith('error: ')] == [
         'error: parameter window must be > 0 s, got -1.0']
     assert os.path.exists(tmp_path) and not (tmp_path / 'report.json').exists()
+
+
+def test_node_describes_its_parameters_refuses_out_of_range_and_applies_a_change(
+        ros_env: dict[str, str], tmp_path: pathlib.Path) -> None:
+    import math
+
+    import rclpy
+    from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter, parameter_value_to_python
+
+    node = auv('ident-node', '--out', str(tmp_path), env=ros_env)
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx, domain_id=int(ros_env['ROS_DOMAIN_ID']))
+    probe = rclpy.create_node('test_ident_parameters', context=ctx)
+    executor = SingleThreadedExecutor(context=ctx)
+    executor.add_node(probe)
+    describe = probe.create_client(DescribeParameters, '/identifier/describe_parameters')
+    get = probe.create_client(GetParameters, '/identifier/get_parameters')
+    put = probe.create_client(SetParameters, '/identifier/set_parameters')
+
+    def call(client: object, request: object) -> object:
+        future = client.call_async(request)  # type: ignore[attr-defined]
+        executor.spin_until_future_complete(future, timeout_sec=20.0)
+        assert future.done(), client.srv_name  # type: ignore[attr-defined]
+        return future.result()
+
+    def set_parameter(name: str, value: object) -> tuple[bool, str]:
+        request = SetParameters.Request(parameters=[Parameter(name, value=value)
+                                                    .to_parameter_msg()])
+        result = call(put, request).results[0]  # type: ignore[attr-defined]
+        return result.successful, result.reason
+
+    def value(name: str) -> object:
+        answer = call(get, GetParameters.Request(names=[name]))
+        return parameter_value_to_python(answer.values[0])  # type: ignore[attr-defined]
+
+    try:
+        for client in (describe, get, put):
+            assert client.wait_for_service(timeout_sec=30.0), 'no parameter services'
+        window, errors, depth = call(describe, DescribeParameters.Request(  # type: ignore
+            names=['window', 'errors', 'qos_depth'])).descriptors
+        assert window.description == 'length of the motion fit windows [s]'
+        assert [(r.from_value, r.to_value) for r in window.floating_point_range] \
+            == [(0.0, math.inf)]
+        assert 'in (0, inf)' in window.additional_constraints
+        assert 'one of hac, jackknife, ess, iid' in errors.additional_constraints
+        assert [(r.from_value, r.to_value) for r in depth.integer_range] == [(1, 2**63 - 1)]
+        # refused by ROS on the declared range, then by the node at the open bound 0
+        for bad, reason in ((-1.0, 'out of range'), (0.0, 'window must be > 0 s, got 0.0')):
+            ok, why = set_parameter('window', bad)
+            assert not ok and reason in why and 'window' in why, why
+            assert value('window') == 1.0
+        ok, why = set_parameter('errors', 'bootstrap')
+        assert not ok and why.startswith('parameter errors must be one of'), why
+        ok, why = set_parameter('qos_depth', 5)
+        assert not ok and 'applied at start only' in why, why
+        assert (value('errors'), value('qos_depth')) == ('hac', 10000)
+        ok, why = set_parameter('window', 2.5)
+        assert ok, why
+        assert value('window') == 2.5
+    finally:
+        probe.destroy_node()
+        rclpy.shutdown(context=ctx)
+        node.send_signal(signal.SIGTERM)
+        _out, err = node.communicate(timeout=60)
+    assert node.returncode == 0, err
+    assert err.count('parameters changed: window') == 1, err

@@ -45,7 +45,9 @@ def _log(path: pathlib.Path) -> None:
     c, s = math.cos(math.radians(45.0)), math.sin(math.radians(45.0))
     rows = ['t,depth,pitch,yaw,vx,vy,vz,bar,thrust']
     for tk in t:
-        rows.append(f'{tk:.1f},{10.0 + 0.1 * tk:.17g},{0.01 * tk:.17g},0.3,'
+        # depth as the kinematics give it: z_dot = -u sin(theta), theta = 0.01 t
+        depth = 10.0 + 200.0 * (math.cos(0.01 * tk) - 1.0)
+        rows.append(f'{tk:.1f},{depth:.17g},{0.01 * tk:.17g},0.3,'
                     f'{2.002 * c:.17g},{-2.002 * s:.17g},0.01,0.0,50.0')
     path.write_text('\n'.join(rows) + '\n')
 

@@ -101,13 +101,20 @@ def test_column_not_in_the_text_log(logs: dict[str, pathlib.Path],
 
 def test_ragged_row_names_file_and_line(logs: dict[str, pathlib.Path],
                                         tmp_path: pathlib.Path) -> None:
+    """Strict: refused naming file and line; by default the row is left out and said in one
+    line, and the log keeps every other row."""
     lines = logs['text'].read_text().splitlines()
     lines[6] = ' '.join(lines[6].split()[:-1])     # the 6th data row loses its rpm
     bad = tmp_path / 'ragged.txt'
     bad.write_text('\n'.join(lines) + '\n')
+    logmap = load_map(MAPS / 'text_2hz_deg_cm.yaml')
     with pytest.raises(LogReadError, match=r'ragged\.txt line 7: 9 fields, expected 10 '
                                            r'\(time, depth_cm, '):
-        import_log(load_map(MAPS / 'text_2hz_deg_cm.yaml'), bad)
+        import_log(logmap, bad, strict=True)
+    whole = import_log(logmap, logs['text'])
+    log = import_log(logmap, bad)
+    assert 'ragged.txt line 7: 9 fields, expected 10: left out' in log.report['left_out']
+    assert len(log.t) == len(whole.t) - 1
 
 
 def test_unknown_log_kind(tmp_path: pathlib.Path) -> None:

@@ -194,7 +194,7 @@ def test_logger_restart_is_refused_a_reordered_row_is_sorted(tmp_path: pathlib.P
         restart[k][0] = str(T0 * 1000 + 25 + 100 * (k - 150))
     path = tmp_path / 'restart.txt'
     path.write_text('\n'.join(' '.join(f) for f in restart) + '\n')
-    with pytest.raises(LogReadError, match=r'restart\.txt: time goes back by 14\.875 s at row '
+    with pytest.raises(LogReadError, match=r'restart\.txt: time goes back by 14\.875 s at line '
                                            r'151 \(.*\): a clock reset or a restart of the '
                                            r'logger\? split the log there$'):
         import_log(m, path)
@@ -520,10 +520,16 @@ def test_fin_array_of_submessages_unstamped_and_enu_odometry(tmp_path: pathlib.P
     path = tmp_path / ('log.bag' if ros1 else 'bag')
     _write(path, store, ev, kind)
     with pytest.raises(LogReadError, match=r'^topic /fins: 40 of 40 header stamps are zero '
-                                           r'\(the publisher does not stamp\): use time: '
-                                           r'\{stamp: log\}$'):
+                                           r'\(the publisher does not stamp\): take its receive '
+                                           r'times, time: \{stamps: \{/fins: log\}\} in the map'):
         import_log(_map(tmp_path, FIN_MAP.format(stamp='header')), path)
+    # per topic: the fins at their receive times, the odometry at its header stamps
+    mixed = import_log(_map(tmp_path, FIN_MAP.format(stamp='header, stamps: {/fins: log}')),
+                       path)
+    assert np.allclose(mixed.t - T0, 0.1 * np.arange(200), rtol=0, atol=1e-6)
+    assert any('/fins: its receive (log) times are used' in n for n in mixed.report['notes'])
     log = import_log(_map(tmp_path, FIN_MAP.format(stamp='log')), path)
+    assert np.array_equal(mixed.commands['bar'][0], log.commands['bar'][0])
     st, bar = log.commands['bar']
     assert np.allclose(st - T0, [(n - T0 * 10**9) * 1e-9 for n, _ in fins], rtol=0, atol=1e-6)
     assert np.array_equal(bar, [0.5 * a[1] - 0.5 * a[3] for _, a in fins])

@@ -10,8 +10,8 @@ import pathlib
 import numpy as np
 import pytest
 
-from auv_ident.cli import load_records
 from auv_ident.identify import identify
+from auv_ident.job import load_records
 from auv_logs.limits import as_logged, describe
 from auv_logs.simlog import write_record
 from auv_sim.missions import load_mission, run_mission

@@ -47,12 +47,13 @@ MEASURED  thrust: {column: thrust, unit: N}
 """
 
 
-def _ident(log: pathlib.Path, map_path: pathlib.Path, out: pathlib.Path) -> dict[str, Any]:
+def _ident(log: pathlib.Path, map_path: pathlib.Path, out: pathlib.Path,
+           status: int = 0) -> dict[str, Any]:
     parser = argparse.ArgumentParser()
     cli.add_arguments(parser)
     ns = parser.parse_args([str(log), '--map', str(map_path), '--out', str(out),
                             '--equations', 'heave', 'pitch', '--no-nelder-mead'])
-    assert cli.run(ns) == 0
+    assert cli.run(ns) == status
     report: dict[str, Any] = json.loads((out / 'report.json').read_text())
     return report
 
@@ -75,7 +76,12 @@ def test_measured_fin_positions_replace_late_commands(tmp_path: pathlib.Path) ->
         'MEASURED', '  bar_measured: {column: bar_fin, unit: rad}\n'))
     (tmp_path / 'cmds.yaml').write_text(MAP.replace('MEASURED', ''))
     fins = _ident(tmp_path / 'dive.txt', tmp_path / 'fins.yaml', tmp_path / 'a')
-    cmds = _ident(tmp_path / 'dive.txt', tmp_path / 'cmds.yaml', tmp_path / 'b')
+    # fitted on commands 1.5 s late, the model predicts the held-out flight worse than the
+    # vehicle file (the simulated truth): not written (exit status 3)
+    cmds = _ident(tmp_path / 'dive.txt', tmp_path / 'cmds.yaml', tmp_path / 'b',
+                  status=cli.NOT_WRITTEN)
+    assert fins['validation']['written'] and not cmds['validation']['written']
+    assert cmds['validation']['verdict'] == 'worse'
     assert fins['actuators']['bar'].startswith('measured fin position (/auv/bar_measured')
     assert cmds['actuators']['bar'].startswith('command through the actuator model')
     for name, c in fins['coefficients'].items():

@@ -227,6 +227,15 @@ def test_gap_on_original_log_with_map_equals_gap_on_imported_bag(
                                              '--out', str(tmp_path / 'bag')])) == 0
     direct = _gap([str(logs['mcap10']), '--map', str(map_path)], tmp_path / 'a')
     imported = _gap([str(tmp_path / 'bag')], tmp_path / 'b')
+    # the same windows, named after the log each comes from (the original, the bag)
+    for seg in direct['gap']['segments']:
+        assert seg.pop('log') == 'mcap10'
+    for seg in imported['gap']['segments']:
+        assert seg.pop('log') == str(tmp_path / 'bag')
+    for report, name in ((direct, 'mcap10'), (imported, str(tmp_path / 'bag'))):
+        origins = report['gap']['time_origin']['logs']
+        assert list(origins) == [name]
+        report['gap']['time_origin']['logs'] = list(origins.values())
     assert direct == imported
     # the simulated vehicle is the model: no gap, as on the simulator's own 50 Hz bag
     contract = _gap([contract_ident['bag']], tmp_path / 'c')

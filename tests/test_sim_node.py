@@ -256,8 +256,8 @@ def sim_rate(executor: SingleThreadedExecutor, clocks: list[tuple[float, int]],
 
 def test_real_time_pacing_and_parameter_changes(
         rclpy_context: tuple[Context, dict[str, str]], tmp_path: pathlib.Path) -> None:
-    from rcl_interfaces.srv import SetParameters
-    from rclpy.parameter import Parameter
+    from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
+    from rclpy.parameter import Parameter, parameter_value_to_python
 
     context, env = rclpy_context
     log = tmp_path / 'node.log'
@@ -268,18 +268,37 @@ def test_real_time_pacing_and_parameter_changes(
                              lambda m: clocks.append((time.monotonic(), stamp_to_ns(m.clock))),
                              QOS)
     client = node.create_client(SetParameters, '/auv/simulator/set_parameters')
+    describe = node.create_client(DescribeParameters, '/auv/simulator/describe_parameters')
+    get = node.create_client(GetParameters, '/auv/simulator/get_parameters')
+
+    def call(service: Any, request: Any) -> Any:
+        future = service.call_async(request)
+        executor.spin_until_future_complete(future, timeout_sec=10.0)
+        assert future.done(), f'{service.srv_name} timed out'
+        return future.result()
 
     def set_parameter(name: str, value: object) -> tuple[bool, str]:
         request = SetParameters.Request()
         request.parameters = [Parameter(name, value=value).to_parameter_msg()]
-        future = client.call_async(request)
-        executor.spin_until_future_complete(future, timeout_sec=10.0)
-        assert future.done(), f'set_parameters {name} timed out'
-        result = future.result().results[0]
+        result = call(client, request).results[0]
         return result.successful, result.reason
 
+    def value(name: str) -> object:
+        answer = call(get, GetParameters.Request(names=[name]))
+        return parameter_value_to_python(answer.values[0])
+
     try:
-        assert client.wait_for_service(timeout_sec=30.0), log.read_text()
+        for service in (client, describe, get):
+            assert service.wait_for_service(timeout_sec=30.0), log.read_text()
+        rate_d, pitch_d = call(describe, DescribeParameters.Request(
+            names=['publish_rate', 'initial_pitch'])).descriptors
+        assert '[Hz' in rate_d.description and 'in (0, inf)' in rate_d.additional_constraints
+        assert [(r.from_value, r.to_value) for r in rate_d.floating_point_range] \
+            == [(0.0, math.inf)]
+        assert '[rad]' in pitch_d.description
+        assert 'applied at start only' in pitch_d.additional_constraints
+        assert [(r.from_value, r.to_value) for r in pitch_d.floating_point_range] \
+            == [(-math.pi / 2, math.pi / 2)]
         deadline = time.monotonic() + 30.0
         while not clocks:
             assert time.monotonic() < deadline and proc.poll() is None, log.read_text()
@@ -287,10 +306,17 @@ def test_real_time_pacing_and_parameter_changes(
         # margins that hold on a busy 2-core machine; factors 1 and 4 stay far apart
         assert sim_rate(executor, clocks, 3.0) == pytest.approx(1.0, rel=0.25)
 
-        ok, reason = set_parameter('publish_rate', -1.0)
+        ok, reason = set_parameter('publish_rate', -1.0)     # ROS, on the declared range
+        assert not ok and 'publish_rate' in reason and 'out of range' in reason
+        ok, reason = set_parameter('publish_rate', 0.0)      # the node: the open bound
         assert not ok and 'publish_rate' in reason and '> 0' in reason
         ok, reason = set_parameter('publish_rate', 30.0)     # not a whole number of steps
         assert not ok and 'whole multiple' in reason
+        assert value('publish_rate') == 50.0
+        assert 'parameters changed' not in log.read_text()
+        ok, reason = set_parameter('publish_rate', 25.0)
+        assert ok, reason
+        assert value('publish_rate') == 25.0
         ok, reason = set_parameter('vehicle_file', 'config/other.yaml')
         assert not ok and 'cannot change while the simulator runs' in reason
         ok, reason = set_parameter('real_time_factor', 4.0)

@@ -107,10 +107,33 @@ ROWS: list[tuple[str, str, str]] = [
      '/ highest of the nine coefficients',
      '{ident_coverage:min_coverage:.2f} / {ident_coverage:max_coverage:.2f} '
      '({ident_coverage:runs} runs)', '0.95'),
+    ('identification panel: plants not of the base file\'s structure (cross-flow terms 0.1x and '
+     '20x the plant\'s, strip-theory hull, plane 40 % weaker; 2 Hz quantised text, 10 Hz ROS 2, '
+     '50 Hz bags with and without forces; 2, 15, 30 min): runs; wrong-sign coefficients '
+     'written; written models predicting an independent flight worse than the base '
+     '(significantly / by any amount); true values inside the 95 % intervals; median depth rms '
+     'improvement over the base; the former method on the cases it ran: wrong signs, worse, '
+     'coverage, improvement',
+     '{ident_panel:new.runs}; {ident_panel:new.wrong_sign_written}; '
+     '{ident_panel:new.worse_than_base} / {ident_panel:new.worse_than_base_any_amount}; '
+     '{ident_panel:new.coverage:.2f} ({ident_panel:new.intervals_with_truth}); '
+     '{ident_panel:new.median_improvement:.2f}; former ({ident_panel:former.runs} runs): '
+     '{ident_panel:former.wrong_sign_written}, {ident_panel:former.worse_than_base_any_amount}, '
+     '{ident_panel:former.coverage:.2f}, {ident_panel:former.median_improvement:.2f}',
+     '0; 0; >= 0.9'),
+    ('identification of a 2-minute log, slowest of the panel (output error on 2 Hz included)',
+     '{ident_panel:two_minute_log_seconds_max:.1f} s', '< 30 s'),
     ('gap diagnosis on vendor text logs at 2 / 10 / 50 Hz, five plants: right; honest '
      '(cannot be seen at that rate, said so); missed; wrong',
      '{poor_data:right}; {poor_data:honest}; {poor_data:missed}; {poor_data:wrong} '
      '(of {poor_data:text_cases})', '0 wrong'),
+    ('a season of real-log stand-ins (short, slow, quantised, cut-off logs; 4 vehicles): '
+     'crashes; confident wrong answers; effects a hand analysis finds named with the right '
+     'sign; campaign tasks failed other than by an honest refusal; 26 logs through `auv '
+     'campaign gap` on 2 workers',
+     '{real_season:crashes}; {real_season:confident_wrong}; {real_season:hand_named} of '
+     '{real_season:hand_total}; {real_season:campaign_failed_other}; '
+     '{real_season:season_wall_s:.0f} s', '0; 0; all; 0; < 120 s'),
     ('import of one hour of 50 Hz Odometry + Imu + FluidPressure + fin commands: time, peak '
      'memory; rosbags per-message deserialisation of the same bag, same run',
      '{import:import_s:.2f} s, {import:import_peak_rss_mb:.0f} MB; '

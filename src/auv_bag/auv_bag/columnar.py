@@ -182,9 +182,10 @@ def decode_vectorised(layout: Layout, data: bytes, offs: np.ndarray, lens: np.nd
     its bytes for all messages (no alignment needed of the offsets), then its fields are
     strided views of the gathered rows.
 
-    Returns:
-        False when a message does not fit the layout (nothing else is meaningful in ``out``;
-        the caller then decodes message by message, which names the bad one).
+    Returns
+    -------
+    False when a message does not fit the layout (nothing else is meaningful in ``out``;
+    the caller then decodes message by message, which names the bad one).
     """
     n_msg = len(offs)
     if n_msg == 0:

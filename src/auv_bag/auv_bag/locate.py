@@ -110,8 +110,10 @@ class Definitions:
     def add(self, op: int, body: bytes | memoryview) -> None:
         """Parse a schema or channel record body.
 
-        Raises:
-            UnreadableRecord: a field runs past the body, or a text is not UTF-8.
+        Raises
+        ------
+        UnreadableRecord
+            a field runs past the body, or a text is not UTF-8.
         """
         stream = RecordBody(body)
         try:

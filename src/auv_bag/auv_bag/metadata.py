@@ -29,10 +29,14 @@ def qos_profiles_yaml(
 ) -> str:
     """The ``offered_qos_profiles`` text rosbag2 (metadata version 9) stores for one publisher.
 
-    Args:
-        reliability: ``reliable`` or ``best_effort``.
-        durability: ``volatile`` or ``transient_local``.
-        depth: keep-last history depth (messages).
+    Parameters
+    ----------
+    reliability
+        ``reliable`` or ``best_effort``.
+    durability
+        ``volatile`` or ``transient_local``.
+    depth
+        keep-last history depth (messages).
     """
     return yaml_dump([{
         'history': 'keep_last',
@@ -65,8 +69,10 @@ def bag_files(path: str | os.PathLike[str]) -> list[pathlib.Path]:
     ``path`` is a bag directory (files from ``metadata.yaml``; when it is missing, as after a
     recorder crash, the directory's ``.mcap`` files in name order) or a bare ``.mcap`` file.
 
-    Raises:
-        BagError: no such bag, unreadable ``metadata.yaml``, or no MCAP file.
+    Raises
+    ------
+    BagError
+        no such bag, unreadable ``metadata.yaml``, or no MCAP file.
     """
     return bag_contents(path)[0]
 
@@ -109,8 +115,10 @@ def bag_contents(path: str | os.PathLike[str]) -> tuple[list[pathlib.Path], dict
 def topics_from_metadata(meta: pathlib.Path) -> dict[str, str]:
     """Topics and their message types as ``metadata.yaml`` lists them (types as written).
 
-    Raises:
-        BagError: the file is unreadable or lacks the topic list.
+    Raises
+    ------
+    BagError
+        the file is unreadable or lacks the topic list.
     """
     try:
         info = parse_yaml(meta.read_text())['rosbag2_bagfile_information']

@@ -43,10 +43,13 @@ REPAIR_HINT = '`auv bag repair BAG --out NEW` writes the whole messages to a rea
 class BagArrays(dict[str, np.ndarray]):
     """Arrays of a bag, one structured numpy array per topic (see :func:`read_arrays`).
 
-    Attributes:
-        path: the bag that was read.
-        damage: the damage report (one line) if the bag was damaged and read with
-            ``allow_truncated=True``, else None.
+    Attributes
+    ----------
+    path
+        the bag that was read.
+    damage
+        the damage report (one line) if the bag was damaged and read with
+        ``allow_truncated=True``, else None.
     """
 
     path: str
@@ -83,23 +86,33 @@ def read_arrays(
     alignment of float64 relative to the end of the 4-byte encapsulation header); other types
     are deserialized with rosbags message by message.
 
-    Args:
-        path: bag directory or ``.mcap`` file.
-        topics: topics to read; each must be in the bag.
-        allow_truncated: on damage, return what was read before it (``result.damage`` holds
-            the report) instead of raising.
-        check_order: require non-decreasing ``t`` within each topic.
-        fast: use the vectorised decoder where it applies (False: rosbags for every message;
-            the reference the benchmark compares against).
-        progress: called as ``progress(bytes_read, bytes_total)``.
-        workers: threads that decompress and CRC-check chunks ahead of the decoding (default:
-            :func:`default_workers`; 1 does everything in the calling thread). The arrays
-            and the damage report do not depend on it.
+    Parameters
+    ----------
+    path
+        bag directory or ``.mcap`` file.
+    topics
+        topics to read; each must be in the bag.
+    allow_truncated
+        on damage, return what was read before it (``result.damage`` holds
+        the report) instead of raising.
+    check_order
+        require non-decreasing ``t`` within each topic.
+    fast
+        use the vectorised decoder where it applies (False: rosbags for every message;
+        the reference the benchmark compares against).
+    progress
+        called as ``progress(bytes_read, bytes_total)``.
+    workers
+        threads that decompress and CRC-check chunks ahead of the decoding (default:
+        :func:`default_workers`; 1 does everything in the calling thread). The arrays
+        and the damage report do not depend on it.
 
-    Raises:
-        BagError: missing bag or topic; damage (unless ``allow_truncated``), with the number of
-            whole messages read before it; a topic whose stamps go back in time (topic and
-            message index named).
+    Raises
+    ------
+    BagError
+        missing bag or topic; damage (unless ``allow_truncated``), with the number of
+        whole messages read before it; a topic whose stamps go back in time (topic and
+        message index named).
     """
     topics = list(dict.fromkeys(topics))
     files, counts = bag_contents(path)
@@ -213,15 +226,22 @@ def read_messages(
 ) -> Iterator[BagMessage]:
     """Iterate over the messages of a bag in file order (the recording order).
 
-    Args:
-        path: bag directory or ``.mcap`` file.
-        topics: only these topics (default: all). A topic not in the bag is an error.
-        decode: deserialize each message with the rosbags typestore (``msg`` field).
-        progress: called as ``progress(bytes_read, bytes_total)``.
+    Parameters
+    ----------
+    path
+        bag directory or ``.mcap`` file.
+    topics
+        only these topics (default: all). A topic not in the bag is an error.
+    decode
+        deserialize each message with the rosbags typestore (``msg`` field).
+    progress
+        called as ``progress(bytes_read, bytes_total)``.
 
-    Raises:
-        BagError: missing bag or topic; damage, after every whole message before it was
-            yielded.
+    Raises
+    ------
+    BagError
+        missing bag or topic; damage, after every whole message before it was
+        yielded.
     """
     files = bag_files(path)
     wanted = None if topics is None else set(topics)

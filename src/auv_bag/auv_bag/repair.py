@@ -32,12 +32,17 @@ __all__ = ['RepairReport', 'repair_bag']
 class RepairReport(NamedTuple):
     """What :func:`repair_bag` recovered.
 
-    Attributes:
-        source: the damaged bag.
-        out: the repaired bag.
-        counts: topic -> messages written to ``out``.
-        damage: the damage report (one line: file, byte offset, whole messages before it), or
-            None when the bag was whole (then ``out`` is a plain copy).
+    Attributes
+    ----------
+    source
+        the damaged bag.
+    out
+        the repaired bag.
+    counts
+        topic -> messages written to ``out``.
+    damage
+        the damage report (one line: file, byte offset, whole messages before it), or
+        None when the bag was whole (then ``out`` is a plain copy).
     """
 
     source: str
@@ -63,17 +68,24 @@ def repair_bag(source: str | os.PathLike[str], out: str | os.PathLike[str], *,
     """Write every whole message of the (possibly damaged) bag ``source`` to the new bag
     ``out`` (a directory, or a ``.mcap`` file name).
 
-    Args:
-        source: bag directory (with or without ``metadata.yaml``) or ``.mcap`` file.
-        out: the repaired bag to create (must not exist, or be an empty directory).
-        compression: chunk compression of ``out`` (``zstd``, ``lz4`` or ``none``).
+    Parameters
+    ----------
+    source
+        bag directory (with or without ``metadata.yaml``) or ``.mcap`` file.
+    out
+        the repaired bag to create (must not exist, or be an empty directory).
+    compression
+        chunk compression of ``out`` (``zstd``, ``lz4`` or ``none``).
 
-    Returns:
-        What was recovered, per topic, and the damage found.
+    Returns
+    -------
+    What was recovered, per topic, and the damage found.
 
-    Raises:
-        BagError: ``source`` is missing or not an MCAP bag; ``out`` exists; a message type
-            has no definition in the file.
+    Raises
+    ------
+    BagError
+        ``source`` is missing or not an MCAP bag; ``out`` exists; a message type
+        has no definition in the file.
     """
     try:
         files = bag_files(source)

@@ -71,11 +71,16 @@ class _Pending(NamedTuple):
 class Scanner:
     """Reads one MCAP file front to back and hands out its messages block by block.
 
-    Attributes:
-        file: the file.
-        defs: its schemas and channels, as far as the scan has gone.
-        size: its size (bytes), known once :meth:`blocks` has started.
-        workers: threads that decompress and check chunks (1: the calling thread).
+    Attributes
+    ----------
+    file
+        the file.
+    defs
+        its schemas and channels, as far as the scan has gone.
+    size
+        its size (bytes), known once :meth:`blocks` has started.
+    workers
+        threads that decompress and check chunks (1: the calling thread).
     """
 
     def __init__(self, file: pathlib.Path, progress: ProgressCallback | None = None,
@@ -92,8 +97,10 @@ class Scanner:
         """Blocks of whole messages, in file order; raises :class:`~auv_bag.damage.Damage`
         after the last good one.
 
-        Raises:
-            BagError: the file cannot be opened or is not an MCAP file.
+        Raises
+        ------
+        BagError
+            the file cannot be opened or is not an MCAP file.
         """
         try:
             fh = open(self.file, 'rb')  # noqa: SIM115

@@ -30,8 +30,10 @@ def msg_dir() -> pathlib.Path:
     colcon install space (``install/auv_msgs/share/auv_msgs/msg``) and in every prefix of
     ``AMENT_PREFIX_PATH``.
 
-    Raises:
-        BagError: no directory with ``.msg`` files was found; the message names where it looked.
+    Raises
+    ------
+    BagError
+        no directory with ``.msg`` files was found; the message names where it looked.
     """
     here = pathlib.Path(__file__).resolve()
     candidates = [here.parents[2] / 'auv_msgs' / 'msg']
@@ -81,8 +83,10 @@ def _msg_text(msgtype: str) -> str | None:
 def normalize_msgtype(msgtype: str) -> str:
     """``pkg/Type`` or ``pkg/msg/Type`` -> ``pkg/msg/Type``.
 
-    Raises:
-        BagError: the name has neither form.
+    Raises
+    ------
+    BagError
+        the name has neither form.
     """
     parts = msgtype.strip('/').split('/')
     if len(parts) == 2 and all(parts):
@@ -118,9 +122,11 @@ def types_from_schema(name: str, text: str) -> dict[str, Any]:
 def bag_store(schemas: dict[int, tuple[str, str, str]]) -> Typestore:
     """A typestore able to decode every schema of a bag seen so far.
 
-    Args:
-        schemas: schema id -> (type name, schema encoding, definition text), as a scan of the
-            bag collects them.
+    Parameters
+    ----------
+    schemas
+        schema id -> (type name, schema encoding, definition text), as a scan of the
+        bag collects them.
 
     The shared :func:`typestore` serves when it knows every type with the same definition;
     otherwise a fresh one is built from the bag's own definitions. Stores are kept per set

@@ -64,18 +64,27 @@ class BagWriter:
     ) -> None:
         """Open the bag for writing.
 
-        Args:
-            path: bag directory, or a file name ending in ``.mcap`` for a bare MCAP file.
-            compression: chunk compression, ``zstd`` (rosbag2's default), ``lz4`` or ``none``.
-            chunk_size: uncompressed chunk size that triggers writing the chunk (bytes).
-            flush_interval: longest time a message stays in memory before it is written (s,
-                wall clock); 0 writes every message at once.
-            store: typestore for message objects and definitions (default: :func:`typestore`).
-            custom_data: strings for ``metadata.yaml``'s ``custom_data`` (and an MCAP
-                metadata record ``custom_data``), e.g. an import's provenance.
+        Parameters
+        ----------
+        path
+            bag directory, or a file name ending in ``.mcap`` for a bare MCAP file.
+        compression
+            chunk compression, ``zstd`` (rosbag2's default), ``lz4`` or ``none``.
+        chunk_size
+            uncompressed chunk size that triggers writing the chunk (bytes).
+        flush_interval
+            longest time a message stays in memory before it is written (s,
+            wall clock); 0 writes every message at once.
+        store
+            typestore for message objects and definitions (default: :func:`typestore`).
+        custom_data
+            strings for ``metadata.yaml``'s ``custom_data`` (and an MCAP
+            metadata record ``custom_data``), e.g. an import's provenance.
 
-        Raises:
-            BagError: the path exists and is not an empty directory, or cannot be created.
+        Raises
+        ------
+        BagError
+            the path exists and is not an empty directory, or cannot be created.
         """
         from mcap.writer import CompressionType, Writer
 
@@ -121,13 +130,19 @@ class BagWriter:
     def add_topic(self, topic: str, msgtype: str, qos: str | None = None) -> None:
         """Declare a topic and its message type (``pkg/msg/Type``).
 
-        Args:
-            topic: topic name, e.g. ``/auv/state``.
-            msgtype: message type; must be known to the typestore (its definition is stored).
-            qos: offered QoS profiles as YAML (default: :func:`qos_profiles_yaml`, reliable).
+        Parameters
+        ----------
+        topic
+            topic name, e.g. ``/auv/state``.
+        msgtype
+            message type; must be known to the typestore (its definition is stored).
+        qos
+            offered QoS profiles as YAML (default: :func:`qos_profiles_yaml`, reliable).
 
-        Raises:
-            BagError: the type is unknown, or the topic was declared with another type.
+        Raises
+        ------
+        BagError
+            the type is unknown, or the topic was declared with another type.
         """
         self._check_open()
         msgtype = normalize_msgtype(msgtype)
@@ -171,16 +186,23 @@ class BagWriter:
     ) -> None:
         """Write one message.
 
-        Args:
-            topic: topic name; declared with :meth:`add_topic`, or declared here from the
-                ``__msgtype__`` of a message object.
-            message: serialized CDR bytes (with the 4-byte encapsulation header), or a rosbags
-                message object.
-            log_time_ns: receive time (ns); default: now, wall clock since the Unix epoch.
-            publish_time_ns: publish time (ns); default: the log time.
+        Parameters
+        ----------
+        topic
+            topic name; declared with :meth:`add_topic`, or declared here from the
+            ``__msgtype__`` of a message object.
+        message
+            serialized CDR bytes (with the 4-byte encapsulation header), or a rosbags
+            message object.
+        log_time_ns
+            receive time (ns); default: now, wall clock since the Unix epoch.
+        publish_time_ns
+            publish time (ns); default: the log time.
 
-        Raises:
-            BagError: undeclared topic given as bytes, or an object that cannot be serialized.
+        Raises
+        ------
+        BagError
+            undeclared topic given as bytes, or an object that cannot be serialized.
         """
         self._check_open()
         info = self._topics.get(topic)

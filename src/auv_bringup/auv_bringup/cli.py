@@ -60,9 +60,11 @@ def is_project_error(exc: BaseException) -> bool:
 def load(name: str) -> ModuleType:
     """Import the module of subcommand ``name``.
 
-    Raises:
-        CliError: unknown subcommand, or its module cannot be imported or lacks
-            ``add_arguments``/``run``.
+    Raises
+    ------
+    CliError
+        unknown subcommand, or its module cannot be imported or lacks
+        ``add_arguments``/``run``.
     """
     entry = SUBCOMMANDS.get(name)
     if entry is None:

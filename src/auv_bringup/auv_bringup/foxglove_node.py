@@ -84,9 +84,11 @@ class Pose(NamedTuple):
 def pose_from_odometry(msg: Any) -> Pose:
     """The pose of a ``nav_msgs/Odometry`` (ENU world / FLU body, REP 103) message.
 
-    Raises:
-        BridgeError: a position or orientation component is not finite, or the quaternion's norm
-            is more than :data:`QUATERNION_NORM_TOLERANCE` from 1.
+    Raises
+    ------
+    BridgeError
+        a position or orientation component is not finite, or the quaternion's norm
+        is more than :data:`QUATERNION_NORM_TOLERANCE` from 1.
     """
     p, q = msg.pose.pose.position, msg.pose.pose.orientation
     position = (float(p.x), float(p.y), float(p.z))

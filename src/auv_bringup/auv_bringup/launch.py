@@ -445,10 +445,12 @@ def run_graph(cfg: GraphConfig, duration: float | None = None,
     """Check, start the graph, wait for the simulator to finish (or ``duration`` wall s, or a
     signal), stop everything cleanly, and check the recording. Returns each node's exit code.
 
-    Raises:
-        LaunchError: a check before the start failed; a node failed (its last error line);
-            the recording is not whole (what is missing, per topic); a lockstep run went on
-            without an answer.
+    Raises
+    ------
+    LaunchError
+        a check before the start failed; a node failed (its last error line);
+        the recording is not whole (what is missing, per topic); a lockstep run went on
+        without an answer.
     """
     env = dict(env or os.environ)
     if 'FASTRTPS_DEFAULT_PROFILES_FILE' not in env:

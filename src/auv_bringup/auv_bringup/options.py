@@ -17,16 +17,25 @@ def check_number(option: str, value: float | int | None, *, minimum: float | Non
                  unit: str = '') -> None:
     """Raise :class:`CliError` unless ``value`` is finite and within the bounds.
 
-    Args:
-        option: the option as the user typed it (``--duration``).
-        value: its value; None (option not given) passes.
-        minimum: smallest value allowed.
-        above: value it must exceed.
-        maximum: largest value allowed.
-        unit: unit named in the message (``s``, ``m``).
+    Parameters
+    ----------
+    option
+        the option as the user typed it (``--duration``).
+    value
+        its value; None (option not given) passes.
+    minimum
+        smallest value allowed.
+    above
+        value it must exceed.
+    maximum
+        largest value allowed.
+    unit
+        unit named in the message (``s``, ``m``).
 
-    Raises:
-        CliError: not finite, or out of the bounds.
+    Raises
+    ------
+    CliError
+        not finite, or out of the bounds.
     """
     if value is None:
         return

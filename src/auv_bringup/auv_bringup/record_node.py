@@ -89,8 +89,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def message_class(msgtype: str) -> Any:
     """The rclpy message class of ``pkg/msg/Type``.
 
-    Raises:
-        CliError: the package's Python messages are not importable.
+    Raises
+    ------
+    CliError
+        the package's Python messages are not importable.
     """
     parts = msgtype.split('/')
     if len(parts) == 2:

@@ -36,10 +36,13 @@ class TopicCount(NamedTuple):
 class RecordingCheck(NamedTuple):
     """The comparison for one bag.
 
-    Attributes:
-        counts: every recorded topic some node reported publishing on, sorted by name.
-        problems: why the bag cannot be called whole: missing messages (topic, recorded of
-            published), a node without a report, a bag without metadata; empty when whole.
+    Attributes
+    ----------
+    counts
+        every recorded topic some node reported publishing on, sorted by name.
+    problems
+        why the bag cannot be called whole: missing messages (topic, recorded of
+        published), a node without a report, a bag without metadata; empty when whole.
     """
 
     counts: list[TopicCount]
@@ -63,14 +66,19 @@ def check_recording(bag: str | os.PathLike[str],
                     recorded_topics: Collection[str]) -> RecordingCheck:
     """Compare what the nodes published with what ``bag`` holds.
 
-    Args:
-        bag: the recorder's bag directory.
-        reports: node name -> its report (``published``: topic -> count), None for a node
-            that wrote none.
-        recorded_topics: full names of the topics the recorder was to record.
+    Parameters
+    ----------
+    bag
+        the recorder's bag directory.
+    reports
+        node name -> its report (``published``: topic -> count), None for a node
+        that wrote none.
+    recorded_topics
+        full names of the topics the recorder was to record.
 
-    Returns:
-        The per-topic counts and the problems (none when the bag is whole).
+    Returns
+    -------
+    The per-topic counts and the problems (none when the bag is whole).
     """
     problems = [f'no report from the {name} (it did not exit cleanly): its messages are not '
                 'counted' for name, report in reports.items() if report is None]

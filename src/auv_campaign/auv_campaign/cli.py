@@ -223,8 +223,10 @@ def _check_map(path: str | None) -> tuple[str | None, str | None]:
     """The map's absolute path and kind (``bag`` or ``text``), read once here so that a bad
     map is one error before any task runs; (None, None) without a map.
 
-    Raises:
-        CampaignError: the map is missing or invalid (the map reader's one-line reason).
+    Raises
+    ------
+    CampaignError
+        the map is missing or invalid (the map reader's one-line reason).
     """
     if path is None:
         return None, None

@@ -49,17 +49,26 @@ def client(workers: int | None = None, scheduler: str | None = None,
     """A :class:`distributed.Client` for the campaign, closed (and its cluster shut down) on
     exit.
 
-    Args:
-        workers: processes of the embedded cluster (default: the usable CPUs).
-        scheduler: address of an existing scheduler; None starts the embedded cluster.
-        timeout: seconds to wait for ``scheduler`` to answer.
-        allowed_failures: task restarts after worker deaths (embedded cluster).
-        memory_limit: per-worker memory limit of the embedded cluster (Dask's syntax).
-        fork: start the embedded cluster's workers by forking this process (see the module
-            docstring); ignored with ``scheduler`` and where fork is not available.
+    Parameters
+    ----------
+    workers
+        processes of the embedded cluster (default: the usable CPUs).
+    scheduler
+        address of an existing scheduler; None starts the embedded cluster.
+    timeout
+        seconds to wait for ``scheduler`` to answer.
+    allowed_failures
+        task restarts after worker deaths (embedded cluster).
+    memory_limit
+        per-worker memory limit of the embedded cluster (Dask's syntax).
+    fork
+        start the embedded cluster's workers by forking this process (see the module
+        docstring); ignored with ``scheduler`` and where fork is not available.
 
-    Raises:
-        CampaignError: bad worker count, or no scheduler answering at ``scheduler``.
+    Raises
+    ------
+    CampaignError
+        bad worker count, or no scheduler answering at ``scheduler``.
     """
     import dask
     import distributed

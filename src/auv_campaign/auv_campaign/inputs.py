@@ -110,8 +110,10 @@ def find_logs(items: Sequence[str], kind: str | None = None) -> list[pathlib.Pat
     """Every log the arguments name, each once (first occurrence kept), in argument order
     (``kind``: None for contract bags, else the map's kind).
 
-    Raises:
-        CampaignError: an argument names nothing, or no log is found at all.
+    Raises
+    ------
+    CampaignError
+        an argument names nothing, or no log is found at all.
     """
     if kind not in LOG_KINDS:
         raise CampaignError(f'unknown log kind {kind!r}')

@@ -1,11 +1,12 @@
 """One log, one task: thin wrappers that run the single-log tools on a worker.
 
-Each wrapper runs the very command a user would run on one log (``auv gap`` through
-:func:`auv_gap.cli.run`, ``auv ident`` through :func:`auv_ident.cli.run`), writing that
-tool's full report into the mission's own directory, then extracts the few numbers the
-campaign report tabulates. A mission whose log the tool rejects (damaged bag, too little
-excitation, ...) returns a ``failed`` record with the tool's one-line reason; the campaign
-goes on. Records are cached by the log's content hash and the settings (:mod:`.cache`).
+Each wrapper calls the library a single-log tool is an adapter of (``auv gap``:
+:func:`auv_gap.job.run_gap`, ``auv ident``: :func:`auv_ident.job.run_ident`) with that tool's
+options object (:func:`tool_options`), writing the tool's full report into the mission's own
+directory, and keeps the few numbers the campaign report tabulates. A mission whose log the
+tool rejects (damaged bag, too little excitation, ...) returns a ``failed`` record with the
+tool's one-line reason (its exception); the campaign goes on. Records are cached by the log's
+content hash and the settings (:mod:`.cache`).
 
 With a map (``settings['map']``) the tools read the original log through it
 (:mod:`auv_logs`); the mission's time and duration are then those of the imported
@@ -24,12 +25,16 @@ import os
 import pathlib
 import time
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from auv_campaign.cache import Cache, content_hash, mission_key
 from auv_gap.errors import GapError
 from auv_ident.errors import IdentError
 from auv_logs.errors import LogError
+
+if TYPE_CHECKING:
+    from auv_gap.job import GapOptions
+    from auv_ident.job import IdentOptions
 
 KINDS = ('ident', 'gap')
 #: Errors of bad input that fail a mission (the tool's own one-line reason); anything else
@@ -44,11 +49,25 @@ EPOCH_MIN_S = 631_152_000.0
 
 def import_span(imports: Sequence[Mapping[str, Any]]) -> tuple[float | None, float | None]:
     """First and last kept state stamps [s] of imported logs, from their import reports
-    (:func:`auv_logs.importer.import_log`: ``segments``); (None, None) if none."""
-    segs = [s for imp in imports for s in imp.get('segments') or []]
-    if not segs:
+    (:func:`auv_logs.importer.import_log`: ``segments``); (None, None) if none. A log
+    timed from its own start (stamps before :data:`EPOCH_MIN_S`) that states its start time
+    (in its name or a header comment: the report's ``start.file_time_s``) is placed on that
+    clock: its stamps plus the file's time less its first stamp."""
+    spans = []
+    for imp in imports:
+        segs = imp.get('segments') or []
+        if not segs:
+            continue
+        a, b = min(float(s['start']) for s in segs), max(float(s['end']) for s in segs)
+        start = imp.get('start') or {}
+        clock = start.get('file_time_s')
+        if a < EPOCH_MIN_S and clock is not None:
+            shift = float(clock) - float(start.get('stamp_s') or 0.0)
+            a, b = a + shift, b + shift
+        spans.append((a, b))
+    if not spans:
         return None, None
-    return min(float(s['start']) for s in segs), max(float(s['end']) for s in segs)
+    return min(a for a, _ in spans), max(b for _, b in spans)
 
 
 def _timing(start: float | None, end: float | None) -> dict[str, Any]:
@@ -93,42 +112,59 @@ def peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def _tool_args(kind: str, bag: str, out: str, settings: Mapping[str, Any]
-               ) -> argparse.Namespace:
-    """The single-log tool's parsed arguments for one bag (its own parser, its defaults)."""
-    from auv_gap import cli as gap_cli
-    from auv_ident import cli
+def tool_options(kind: str, bag: str, out: str, settings: Mapping[str, Any]
+                 ) -> GapOptions | IdentOptions:
+    """The single-log tool's options for one log: the campaign's vehicle file and map, the
+    pass-through options (``settings['options']``, as a user writes them for ``auv gap`` or
+    ``auv ident``) read by that tool's own parser, and the tool's defaults.
 
-    parser = argparse.ArgumentParser(prog=f'auv {kind}', add_help=False)
-    if kind == 'gap':
-        gap_cli.add_arguments(parser)
-        argv = [bag, '--vehicle', str(settings['model']), '--out', out, '--quiet']
-    else:
-        cli.add_arguments(parser)
-        argv = [bag, '--vehicle', str(settings['model']), '--out', out]
+    Raises
+    ------
+    CampaignError
+        A pass-through option the tool does not accept.
+    GapError, IdentError
+        An option value out of its range.
+    """
+    from auv_campaign.errors import CampaignError
+    from auv_gap import cli as gap_cli
+    from auv_ident import cli as ident_cli
+
+    parser = argparse.ArgumentParser(prog=f'auv {kind}', add_help=False, exit_on_error=False)
+    (gap_cli if kind == 'gap' else ident_cli).add_arguments(parser)
+    argv = [bag, '--vehicle', str(settings['model']), '--out', out]
     if settings.get('map'):
         argv += ['--map', str(settings['map'])]
-    return parser.parse_args([*argv, *settings.get('options', [])])
+    options = list(settings.get('options', []))
+    try:
+        with contextlib.redirect_stderr(io.StringIO()) as err:
+            args = parser.parse_args([*argv, *options])
+    except (SystemExit, argparse.ArgumentError) as exc:
+        lines = [ln for ln in err.getvalue().splitlines() if ln.strip()]
+        why = lines[-1] if lines else str(exc) if isinstance(exc, argparse.ArgumentError) \
+            else ' '.join(options)
+        raise CampaignError(f'--options for auv {kind}: {why}') from None
+    if kind == 'gap':
+        return gap_cli.options_from_args(args)
+    return ident_cli.options_from_args(args)
 
 
 def check_options(kind: str, model: str, options: Sequence[str],
                   map_path: str | None = None) -> None:
-    """Parse the pass-through options with the tool's own parser (bad ones fail now, once,
-    not in every task).
+    """Read the pass-through options with the tool's own parser and check their values (bad
+    ones fail now, once, not in every task).
 
-    Raises:
-        CampaignError: an option the single-log tool does not accept.
+    Raises
+    ------
+    CampaignError
+        An option the single-log tool does not accept, or a value out of its range.
     """
     from auv_campaign.errors import CampaignError
 
     try:
-        with contextlib.redirect_stderr(io.StringIO()) as err:
-            _tool_args(kind, 'LOG', 'OUT', {'model': model, 'options': list(options),
-                                            'map': map_path})
-    except SystemExit:
-        lines = [ln for ln in err.getvalue().splitlines() if ln.strip()]
-        raise CampaignError(f'--options for auv {kind}: '
-                            f'{lines[-1] if lines else " ".join(options)}') from None
+        tool_options(kind, 'LOG', 'OUT', {'model': model, 'options': list(options),
+                                          'map': map_path})
+    except (GapError, IdentError) as exc:
+        raise CampaignError(f'--options for auv {kind}: {exc}') from None
 
 
 def _interval(ci: Any) -> list[float] | None:
@@ -158,26 +194,14 @@ def gap_quantities(report: Mapping[str, Any], details: Mapping[str, Any]
     return out
 
 
-def ident_quantities(report: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
-    """Coefficients -> value, 95 % interval, unit ('' : dimensionless) from an ident report."""
-    return {name: {'value': float(c['value']), 'ci95': _interval(c.get('ci95')), 'unit': ''}
-            for name, c in (report.get('coefficients') or {}).items()}
-
-
 def _run_gap(bag: str, out: pathlib.Path, settings: Mapping[str, Any]) -> dict[str, Any]:
-    from auv_gap import cli as gap_cli
+    from auv_gap.job import GapOptions, run_gap
 
-    args = _tool_args('gap', bag, str(out), settings)
-    with contextlib.redirect_stderr(io.StringIO()) as err:
-        status = gap_cli.run(args)
-    if status != 0:
-        lines = [ln for ln in err.getvalue().splitlines() if ln.strip()]
-        reason = lines[-1] if lines else f'auv gap exited {status}'
-        raise _ToolFailed(reason.removeprefix('error: '))
-    report = json.loads((out / 'report.json').read_text())
-    details = json.loads((out / 'details.json').read_text())
-    inputs = json.loads((out / 'inputs.json').read_text())
-    return {'span': import_span(inputs.get('imports') or []),
+    opts = tool_options('gap', bag, str(out), settings)
+    assert isinstance(opts, GapOptions)
+    done = run_gap(opts)
+    report, details = done.diagnosis.report, done.diagnosis.details
+    return {'span': import_span(done.imports),
             'verdict': report['verdict'], 'best': report['best'],
             'ambiguous_with': list(report.get('ambiguous_with') or []),
             'held_out_shrink': report.get('held_out', {}).get('shrink'),
@@ -245,14 +269,16 @@ def _run_gap_joint(bag: str, out: pathlib.Path, settings: Mapping[str, Any]
     """The campaign's effect set fitted jointly to one log (:func:`joint_fit`), the log read
     as ``auv gap`` reads it (with the vehicle's limits widened to what was logged, as there),
     written to ``out/joint.json``."""
+    from auv_gap.job import GapOptions
     from auv_logs.limits import as_logged
     from auv_sim.params import load_vehicle
 
-    args = _tool_args('gap', bag, str(out), settings)
+    opts = tool_options('gap', bag, str(out), settings)
+    assert isinstance(opts, GapOptions)
     logs, imports = gap_logs(bag, settings.get('map'))
     unique = {id(lg.commands): lg.commands for lg in logs}
-    vehicle, _ = as_logged(load_vehicle(args.vehicle), list(unique.values()))
-    label, quantities = joint_fit(vehicle, logs, args.window, settings['effect_set'])
+    vehicle, _ = as_logged(load_vehicle(opts.vehicle), list(unique.values()))
+    label, quantities = joint_fit(vehicle, logs, opts.window, settings['effect_set'])
     out.mkdir(parents=True, exist_ok=True)
     (out / 'joint.json').write_text(json.dumps({'effects': label,
                                                 'quantities': quantities}, indent=1) + '\n')
@@ -261,19 +287,18 @@ def _run_gap_joint(bag: str, out: pathlib.Path, settings: Mapping[str, Any]
 
 
 def _run_ident(bag: str, out: pathlib.Path, settings: Mapping[str, Any]) -> dict[str, Any]:
-    from auv_ident import cli
+    from auv_ident.job import IdentOptions, run_ident
 
-    args = _tool_args('ident', bag, str(out), settings)
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-        cli.run(args)
-    report = json.loads((out / 'report.json').read_text())
-    return {'span': import_span(report.get('imports') or []),
-            'verdict': 'identified', 'best': None, 'ambiguous_with': [],
-            'source': report.get('source'), 'quantities': ident_quantities(report)}
-
-
-class _ToolFailed(Exception):
-    """The single-log tool rejected the log (message: its one-line reason)."""
+    opts = tool_options('ident', bag, str(out), settings)
+    assert isinstance(opts, IdentOptions)
+    done = run_ident(opts)
+    # a model that predicts the held-out data worse than the base is not an answer: its
+    # coefficients are not trended
+    quantities = {name: {'value': float(c.value), 'ci95': _interval(list(c.ci95)), 'unit': ''}
+                  for name, c in done.result.coefficients.items()} if done.written else {}
+    return {'span': import_span(done.imports),
+            'verdict': 'identified' if done.written else 'not_written', 'best': None,
+            'ambiguous_with': [], 'source': done.source, 'quantities': quantities}
 
 
 def run_mission(kind: str, name: str, bag: str, settings: Mapping[str, Any]
@@ -310,9 +335,6 @@ def run_mission(kind: str, name: str, bag: str, settings: Mapping[str, Any]
         run = _run_ident if kind == 'ident' else \
             _run_gap_joint if settings.get('effect_set') else _run_gap
         result = run(bag, out, settings)
-    except _ToolFailed as exc:
-        return {**record, 'status': 'failed', 'reason': str(exc),
-                'elapsed_s': time.perf_counter() - t0}
     except INPUT_ERRORS as exc:
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         return {**record, 'status': 'failed', 'reason': reason,

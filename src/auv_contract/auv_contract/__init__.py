@@ -8,7 +8,14 @@
 
 Nothing here imports another package of the project: it is the lowest layer.
 """
-from auv_contract.files import YamlError, config_dir, config_path, parse_yaml, read_yaml
+from auv_contract.files import (
+    YamlError,
+    config_dir,
+    config_path,
+    parse_yaml,
+    read_yaml,
+    read_yaml_file,
+)
 from auv_contract.state import CHANNELS, STATE_FIELDS, STATE_UNITS
 from auv_contract.topics import (
     CLOCK_TOPIC,
@@ -29,4 +36,5 @@ __all__ = ['CHANNELS', 'CLOCK_TOPIC', 'COMMAND_TOPICS', 'DEPTH_ANSWER_TOPIC',
            'DEPTH_COMMAND_TOPIC', 'DIAGNOSTICS_TOPIC', 'FORCES_TOPIC', 'MEASURED_TOPICS',
            'MESSAGE_TYPES', 'NAMESPACE', 'ODOM_TOPIC', 'STATE_FIELDS', 'STATE_TOPIC',
            'STATE_UNITS', 'YamlError', 'config_dir', 'config_path', 'parse_yaml', 'read_yaml',
+           'read_yaml_file',
            'topic_basename']

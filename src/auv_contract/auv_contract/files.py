@@ -93,6 +93,24 @@ def read_yaml(path: str | os.PathLike[str]) -> Any:
     return parse_yaml(path.read_text(), str(path))
 
 
+def read_yaml_file(path: str | os.PathLike[str], what: str,
+                   error: type[Exception]) -> Any:
+    """The data of the YAML file at ``path``, a failure raised as one line of the caller's
+    error family: ``cannot read <what> <path>: <reason>``, or the malformed-YAML line.
+
+    Raises
+    ------
+    error
+        The file cannot be read, or it is not valid YAML.
+    """
+    try:
+        return read_yaml(path)
+    except OSError as exc:
+        raise error(f'cannot read {what} {path}: {exc.strerror}') from None
+    except YamlError as exc:
+        raise error(str(exc)) from None
+
+
 def parse_yaml_with_lines(text: str, source: str = '<text>') -> Any:
     """The data of YAML ``text`` as ruamel round-trip containers, whose ``.lc`` gives each
     key's line (for errors that point at a line of a user's file).

@@ -34,13 +34,20 @@ ACCEPTED, CLAMPED, REFUSED = 'accepted', 'clamped', 'refused'
 class CommandAnswer(NamedTuple):
     """The pilot's answer to one depth command.
 
-    Attributes:
-        value: the commanded depth as received [m, positive down].
-        result: ``accepted``, ``clamped`` (to the envelope) or ``refused``.
-        depth: the depth the pilot flies to after it [m]: the command in force.
-        reason: why it was clamped or refused ('' when accepted).
-        publisher: the publisher's GID as hex ('' when the middleware gives none).
-        sequence: its publication sequence number (0 when unknown).
+    Attributes
+    ----------
+    value
+        the commanded depth as received [m, positive down].
+    result
+        ``accepted``, ``clamped`` (to the envelope) or ``refused``.
+    depth
+        the depth the pilot flies to after it [m]: the command in force.
+    reason
+        why it was clamped or refused ('' when accepted).
+    publisher
+        the publisher's GID as hex ('' when the middleware gives none).
+    sequence
+        its publication sequence number (0 when unknown).
     """
 
     value: float
@@ -67,8 +74,10 @@ def gid_text(gid: bytes | None) -> str:
 class CommandIntake:
     """Samples seen (to apply each once) and publishers that delivered (to see losses).
 
-    Args:
-        remember: samples remembered for :meth:`first_time` (the newest ones).
+    Parameters
+    ----------
+    remember
+        samples remembered for :meth:`first_time` (the newest ones).
     """
 
     def __init__(self, remember: int = 64) -> None:
@@ -112,11 +121,15 @@ class CommandIntake:
         """Publishers that left the pilot's reliable subscription without a sample arriving
         through it, new since the last call.
 
-        Args:
-            total_matched: publishers the subscription ever matched (DDS matched status).
-            current_matched: publishers it matches now.
-            present: GIDs of the topic's publishers the graph lists now (after the departures
-                settled).
+        Parameters
+        ----------
+        total_matched
+            publishers the subscription ever matched (DDS matched status).
+        current_matched
+            publishers it matches now.
+        present
+            GIDs of the topic's publishers the graph lists now (after the departures
+            settled).
         """
         left = total_matched - current_matched
         left_delivered = sum(1 for g in self._delivered_reliably if g not in present)

@@ -44,9 +44,11 @@ timer; each state whose stamp is a control instant ``k / rate`` (within 1 us, se
 own stamp, so the simulator can wait for it (see :mod:`auv_sim.node`). A state stamped within
 1 ms of an instant but farther than 1 us gets no answer and one warning.
 
-Parameters (validated at start: a bad one ends the node with one line ``error: ...`` and exit
-status 1; and on change, where a bad one is refused with a reason): ``vehicle_file``,
-``rate`` [Hz], ``weights`` (preset name), ``theta_max`` [rad], ``bar_max`` /
+Parameters (:mod:`auv_depth_lqr.parameters`: each declared with a descriptor giving its
+description with unit, its range and its further limits; validated at start: a bad one ends
+the node with one line ``error: ...`` and exit status 1; and on change, where a bad one is
+refused with a reason and nothing changes, a good one applied once ROS has stored it):
+``vehicle_file``, ``rate`` [Hz], ``weights`` (preset name), ``theta_max`` [rad], ``bar_max`` /
 ``bar_rate`` [rad, rad/s; 0 = vehicle file], ``state_timeout`` [s], ``safe_bar`` [rad;
 NaN (default) = derived from the vehicle file, :func:`auv_depth_lqr.tuning.derive_tuning`],
 ``lockstep`` (bool), ``water_speed`` [m/s; 0 = schedule on the measured surge over ground,
@@ -94,7 +96,7 @@ import rclpy.exceptions
 import rclpy.executors
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ROSClock
 from rclpy.clock_type import ClockType
 from rclpy.duration import Duration
@@ -117,7 +119,7 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.timer import Timer, TimerInfo
 from std_msgs.msg import Float64
 
-from auv_contract import DEPTH_ANSWER_TOPIC, config_path, topic_basename
+from auv_contract import DEPTH_ANSWER_TOPIC, topic_basename
 from auv_depth_lqr.authority import LOW, UNKNOWN
 from auv_depth_lqr.command_intake import (
     ACCEPTED,
@@ -128,14 +130,20 @@ from auv_depth_lqr.command_intake import (
     gid_text,
 )
 from auv_depth_lqr.controller import PlaneState
-from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
-from auv_depth_lqr.pilot import DepthPilot, PilotSettings
-from auv_depth_lqr.recovery import RecoverySettings
-from auv_depth_lqr.state_input import ODOM_FRAMES, plane_state_from_odometry
+from auv_depth_lqr.errors import AuvLqrError, InvalidInputError
+from auv_depth_lqr.parameters import (
+    PARAMETERS,
+    RELIABILITIES,
+    START_ONLY,
+    checked_values,
+    pilot_from_values,
+)
+from auv_depth_lqr.pilot import DepthPilot
+from auv_depth_lqr.state_input import plane_state_from_odometry
 from auv_msgs.msg import ActuatorSetpoint, VehicleState
 from auv_sim.errors import AuvSimError
 from auv_sim.node_report import write_report
-from auv_sim.params import load_vehicle
+from auv_sim.parameter_descriptor import descriptor
 from auv_sim.sim_settings import control_instant
 
 NS_PER_S = 1_000_000_000
@@ -158,13 +166,8 @@ COMMAND_QOS: dict[str, QoSProfile] = {
     'best_effort': QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT,
                               durability=DurabilityPolicy.VOLATILE),
 }
-STATE_RELIABILITY = {'reliable': ReliabilityPolicy.RELIABLE,
-                     'best_effort': ReliabilityPolicy.BEST_EFFORT}
-STATE_SOURCES = ('vehicle_state', 'odometry')
-COMMAND_MODES = ('refuse', 'clamp')
-START_ONLY = ('realtime_priority', 'state_source', 'state_reliability',
-              'diagnostics_period', 'start_subscribers', 'startup_timeout',
-              'diagnostics_subscribers', 'report_file')
+STATE_RELIABILITY = dict(zip(RELIABILITIES, (ReliabilityPolicy.RELIABLE,
+                                              ReliabilityPolicy.BEST_EFFORT), strict=True))
 _SEEN_COMMANDS = 64  # depth-command samples remembered to apply each once
 #: Wall s after start during which a transient-local depth-command subscription takes a
 #: command latched before the pilot started (then removed; see the module docstring).
@@ -180,118 +183,34 @@ ACK_TIMEOUT = 2.0  # wall s, longest wait at exit for the subscribers' acknowled
 _LEVELS = {'ok': DiagnosticStatus.OK, 'recovery': DiagnosticStatus.WARN,
            'no_state': DiagnosticStatus.WARN, 'stale': DiagnosticStatus.ERROR}
 
-#: Numeric parameters (double; an integer value is accepted too) and their defaults.
-_NUMBERS: dict[str, float] = {
-    'rate': 10.0, 'theta_max': PilotSettings.theta_max, 'bar_max': 0.0, 'bar_rate': 0.0,
-    'state_timeout': 0.5, 'safe_bar': math.nan, 'water_speed': 0.0,
-    'publish_delay': 0.01, 'depth_min': math.nan, 'depth_max': math.nan,
-    'recovery_pitch_margin': RecoverySettings.pitch_margin,
-    'recovery_rate_residual': RecoverySettings.rate_residual_max,
-    'recovery_rate_window': RecoverySettings.rate_window,
-    'recovery_resume_time': RecoverySettings.resume_time,
-    'recovery_gain': RecoverySettings.gain,
-    'recovery_bar_fraction': RecoverySettings.bar_fraction,
-    'diagnostics_period': 1.0,
-}
-_TEXTS: dict[str, str] = {
-    'weights': 'default', 'depth_command_mode': 'refuse', 'state_source': 'vehicle_state',
-    'odom_frame': 'enu_flu', 'state_reliability': 'reliable',
-}
-_CHOICES: dict[str, tuple[str, ...]] = {
-    'depth_command_mode': COMMAND_MODES, 'state_source': STATE_SOURCES,
-    'odom_frame': ODOM_FRAMES, 'state_reliability': tuple(STATE_RELIABILITY),
-}
-_FLAGS: dict[str, bool] = {'lockstep': False, 'recovery': True}
-
-
-def default_vehicle_file() -> str:
-    """The shipped ``a18m.yaml`` (:func:`auv_contract.config_path`)."""
-    return str(config_path('a18m.yaml'))
-
-
-def checked_values(values: dict[str, Any]) -> dict[str, Any]:
-    """The node's parameter values checked for type and choice (DesignError naming the
-    parameter); numbers as float, flags as bool."""
-    out = dict(values)
-    for name in _NUMBERS:
-        value = values[name]
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise DesignError(f'parameter {name} = {value!r} must be a number')
-        out[name] = float(value)
-    for name, choices in _CHOICES.items():
-        if values[name] not in choices:
-            raise DesignError(f'parameter {name} = {values[name]!r} must be one of '
-                              f'{list(choices)}')
-    for name in _FLAGS:
-        if not isinstance(values[name], bool):
-            raise DesignError(f'parameter {name} = {values[name]!r} must be true or false')
-    period = out['diagnostics_period']
-    if not (math.isfinite(period) and period > 0):
-        raise DesignError(f'parameter diagnostics_period = {period!r} s must be finite and > 0')
-    for name in ('depth_min', 'depth_max'):
-        if math.isinf(out[name]):
-            raise DesignError(f'parameter {name} = {out[name]!r} m must be finite (or NaN: '
-                              "the vehicle file's envelope)")
-    return out
-
-
-def pilot_from_values(v: dict[str, Any]) -> DepthPilot:
-    """The pilot the (checked) parameter values describe; DesignError / ParameterError
-    naming what is wrong."""
-    params = load_vehicle(v['vehicle_file'])
-    recovery = RecoverySettings(
-        enabled=v['recovery'], pitch_margin=v['recovery_pitch_margin'],
-        rate_residual_max=v['recovery_rate_residual'], rate_window=v['recovery_rate_window'],
-        resume_time=v['recovery_resume_time'], gain=v['recovery_gain'],
-        bar_fraction=v['recovery_bar_fraction'])
-    settings = PilotSettings(
-        rate_hz=v['rate'], weights=str(v['weights']),
-        theta_max=v['theta_max'],
-        bar_max=v['bar_max'] or None, bar_rate=v['bar_rate'] or None,
-        state_timeout=v['state_timeout'],
-        safe_bar=None if math.isnan(v['safe_bar']) else v['safe_bar'],
-        water_speed=v['water_speed'] or None, publish_delay=v['publish_delay'],
-        recovery=recovery)
-    return DepthPilot.for_vehicle(
-        params, settings,
-        depth_min=None if math.isnan(v['depth_min']) else v['depth_min'],
-        depth_max=None if math.isnan(v['depth_max']) else v['depth_max'])
-
-
 class DepthPilotNode(Node):
     """Thin ROS wrapper of :class:`DepthPilot` (see module docstring)."""
 
     def __init__(self, **kwargs: Any) -> None:
         kwargs.setdefault('namespace', DEFAULT_NAMESPACE)
         super().__init__(NODE_NAME, **kwargs)
-        numbers = ParameterDescriptor(dynamic_typing=True)  # 5 as well as 5.0
-        self.declare_parameter('vehicle_file', default_vehicle_file())
-        for name, number in _NUMBERS.items():
-            self.declare_parameter(name, number, numbers)
-        for name, text in _TEXTS.items():
-            self.declare_parameter(name, text)
-        for name, flag in _FLAGS.items():
-            self.declare_parameter(name, flag)
-        self.declare_parameter('realtime_priority', 0)
-        self.realtime_priority = _priority(self.get_parameter('realtime_priority').value)
-        self.declare_parameter('start_subscribers', 0)
-        self.declare_parameter('diagnostics_subscribers', 0)
-        self.declare_parameter('startup_timeout', 10.0, numbers)
-        self.declare_parameter('report_file', '')
-        self.start_subscribers, self.startup_timeout = _start_wait(
-            self.get_parameter('start_subscribers').value,
-            self.get_parameter('startup_timeout').value)
-        self.diagnostics_subscribers, _ = _start_wait(
-            self.get_parameter('diagnostics_subscribers').value, self.startup_timeout)
-        self.report_file = str(self.get_parameter('report_file').value)
+        # ranges after the check, so that a bad value at start gets the message naming it
+        for spec in PARAMETERS.values():
+            self.declare_parameter(spec.name, spec.default, descriptor(spec, ranged=False))
+        values = checked_values(self._values({}))
+        for spec in PARAMETERS.values():
+            if spec.range is not None:
+                self.set_descriptor(spec.name, descriptor(spec))
+        self.realtime_priority: int = values['realtime_priority']
+        self.start_subscribers: int = values['start_subscribers']
+        self.diagnostics_subscribers: int = values['diagnostics_subscribers']
+        self.startup_timeout: float = values['startup_timeout']
+        self.report_file = str(values['report_file'])
         self._subscribers_awaited = self.start_subscribers == 0
         self._diagnostics_awaited = self.diagnostics_subscribers == 0
         self.published: dict[str, int] = {}  # topic -> messages published
-        values = checked_values(self._values({}))
         self.pilot = pilot_from_values(values)
         self.command_mode = values['depth_command_mode']
         self.odom_frame = values['odom_frame']
+        # a change validated by _on_set, applied by _post_set once ROS has stored it
+        self._candidate: tuple[DepthPilot, dict[str, Any]] | None = None
         self.add_on_set_parameters_callback(self._on_set)
+        self.add_post_set_parameters_callback(self._post_set)
         # reliable, last BAR_HISTORY: a sample a reader lost is resent from this history
         self.pub = self.create_publisher(ActuatorSetpoint, 'bar_command', BAR_HISTORY)
         self.pub_diagnostics = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
@@ -336,12 +255,26 @@ class DepthPilotNode(Node):
 
     # -- parameters --------------------------------------------------------------------------
     def _values(self, changes: dict[str, Any]) -> dict[str, Any]:
-        names = ('vehicle_file', *_NUMBERS, *_TEXTS, *_FLAGS)
-        values = {n: self.get_parameter(n).value for n in names}
+        values = {n: self.get_parameter(n).value for n in PARAMETERS}
         values.update(changes)
         return values
 
     def _on_set(self, params: list[Any]) -> SetParametersResult:
+        """Validate a change (nothing is applied here: see :meth:`_post_set`).
+
+        Parameters
+        ----------
+        params : list of rclpy.parameter.Parameter
+            The parameters being set together.
+
+        Returns
+        -------
+        SetParametersResult
+            Refused, with the reason, for a start-only parameter, a value
+            :func:`~auv_depth_lqr.parameters.checked_values` or the design refuses, or an
+            envelope that excludes the depth command in force.
+        """
+        self._candidate = None
         fixed = [p.name for p in params if p.name in START_ONLY]
         if fixed:
             return SetParametersResult(successful=False, reason=(
@@ -355,13 +288,22 @@ class DepthPilotNode(Node):
                 pilot.set_depth_command(z_ref)
         except (AuvLqrError, AuvSimError, ValueError, TypeError) as exc:
             return SetParametersResult(successful=False, reason=str(exc))
-        self.pilot = pilot
+        self._candidate = (pilot, values)
+        return SetParametersResult(successful=True)
+
+    def _post_set(self, params: list[Any]) -> None:
+        """Apply the change :meth:`_on_set` accepted: the redesigned pilot, the command mode,
+        the odometry frame; the timer follows at its next tick."""
+        del params  # the candidate holds them, checked
+        candidate, self._candidate = self._candidate, None
+        if candidate is None:
+            return
+        self.pilot, values = candidate
         self.command_mode = values['depth_command_mode']
         self.odom_frame = values['odom_frame']
         self.get_logger().info('parameters changed: controller redesigned')
         # the timer periods may have changed
         self._pending_timer = True
-        return SetParametersResult(successful=True)
 
     def _configure_timer(self) -> None:
         if self.timer is not None:
@@ -746,26 +688,6 @@ def _policy_name(kind: int) -> str:
 
 def _qos_text(qos: QoSProfile) -> str:
     return f'{qos.reliability.name.lower()}, {qos.durability.name.lower()}'
-
-
-def _priority(value: Any) -> int:
-    """``realtime_priority`` checked: an integer 0-99 (DesignError otherwise)."""
-    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 99:
-        raise DesignError(f'parameter realtime_priority = {value!r} must be an integer 0-99 '
-                          '(0: normal scheduling)')
-    return value
-
-
-def _start_wait(subscribers: Any, timeout: Any) -> tuple[int, float]:
-    """``start_subscribers`` (an integer >= 0) and ``startup_timeout`` (finite, > 0 s)
-    checked (DesignError otherwise)."""
-    if isinstance(subscribers, bool) or not isinstance(subscribers, int) or subscribers < 0:
-        raise DesignError(f'parameter start_subscribers = {subscribers!r} must be an integer '
-                          '>= 0 (0: do not wait)')
-    if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) \
-            or not (math.isfinite(timeout) and timeout > 0):
-        raise DesignError(f'parameter startup_timeout = {timeout!r} s must be finite and > 0')
-    return subscribers, float(timeout)
 
 
 def apply_realtime_priority(priority: int) -> str | None:

@@ -260,6 +260,8 @@ def build_controller(params: VehicleParams, settings: PilotSettings) -> DepthCon
     (:func:`auv_depth_lqr.tuning.derive_tuning`)."""
     bar_max = settings.bar_max if settings.bar_max is not None else params.bar_max
     bar_rate = settings.bar_rate if settings.bar_rate is not None else params.bar_rate
+    if not (math.isfinite(bar_rate) and bar_rate > 0.0):
+        raise DesignError(f'bar_rate = {bar_rate!r} rad/s must be finite and > 0')
     tuning = derive_tuning(params, settings.theta_max, bar_max)
     if isinstance(settings.weights, Weights):
         weights = settings.weights

@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+from auv_depth_lqr.errors import DesignError
 from auv_depth_lqr.governor import GovernorSettings
 from auv_depth_lqr.weights import Weights
 from auv_sim.params import VehicleParams
@@ -155,8 +156,16 @@ def derive_tuning(params: VehicleParams, theta_max: float,
 
     Safe BAR: ``0.275 bar_max`` [rad] (0.12 rad) to the side whose moment pitches the nose
     up (the sign of ``-CMbar``: a negative ``CMbar`` makes a negative BAR nose up).
+
+    Raises
+    ------
+    DesignError
+        ``bar_max`` not finite or below 1e-6 rad.
     """
     s = scales(params, theta_max, bar_max)
+    # below a micro-radian of travel the BAR weight 1 / (0.2292 bar_max)^2 overflows
+    if not (math.isfinite(s.bar_max) and s.bar_max >= 1e-6):
+        raise DesignError(f'bar_max = {s.bar_max!r} rad must be finite and at least 1e-6 rad')
     weights = Weights(
         Q=(1.0 / (W_EXCURSION * s.speed) ** 2,
            1.0 / (Q_EXCURSION / s.time) ** 2,

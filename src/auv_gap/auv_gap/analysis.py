@@ -19,6 +19,8 @@ from auv_gap.problem import EQ_ROWS, EQUATIONS, Problem
 #: An equation (or state) whose nominal RMS exceeds its noise level by this factor has a gap.
 GAP_FACTOR = 1.5
 MAX_LAG = 5.0  # s, correlation lags
+#: Fewest equation samples of a log piece whose spectrum is taken.
+MIN_SPECTRUM = 64
 
 
 def dominant_equation(eq_rms: np.ndarray, sigma: np.ndarray) -> str | None:
@@ -57,17 +59,18 @@ def _pieces(pr: Problem, values: np.ndarray) -> list[np.ndarray]:
 
 def expected_noise_psd(pr: Problem, row: int, fs: float, nperseg: int, seed: int = 0
                        ) -> np.ndarray:
-    """Welch PSD of the equation error ``row`` (index of :data:`EQUATIONS`) that sensor noise
-    alone gives, by simulating the noise through the same derivative filter and decimation."""
+    """Welch PSD (``nperseg // 2 + 1`` frequencies) of the equation error ``row`` (index of
+    :data:`EQUATIONS`) that sensor noise alone gives, by simulating the noise through the same
+    derivative filter and decimation, over enough samples for eight segments whatever the
+    length of the logs."""
     rng = np.random.default_rng(seed)
-    lg = pr.logs[0]
-    n = min(lg.t.size, 200_000)
-    nwin = pr.smoothed[0].length
-    every = max(1, int(round(1.0 / (fs * lg.period))))
+    nwin = max(s.length for s in pr.smoothed)
+    every = max(1, int(round(1.0 / (fs * pr.period))))
+    n = min(max(8 * nperseg * every, 4 * nwin), 200_000)
     acc = None
     for _ in range(3):
         noise = rng.standard_normal((n, 12)) * pr.noise
-        d = savgol_filter(noise, nwin, 3, deriv=1, delta=lg.period, axis=0)
+        d = savgol_filter(noise, nwin, 3, deriv=1, delta=pr.period, axis=0)
         e = (d[:, 6:12] @ pr.M.T)[:, EQ_ROWS[row]] if row < 5 else d[:, 2] - noise[:, 8]
         _, p = welch(e[::every], fs=fs, nperseg=nperseg)
         acc = p if acc is None else acc + p
@@ -78,9 +81,12 @@ def expected_noise_psd(pr: Problem, row: int, fs: float, nperseg: int, seed: int
 
 def band(pr: Problem, residual: np.ndarray, row: int) -> tuple[list[float] | None, dict[str, Any]]:
     """Frequency band [Hz] holding the central 80 % of the residual's power above the noise
-    expectation, or None when the excess is under a quarter of the noise power."""
-    fs = 1.0 / float(np.median(np.diff(pr.eq_t[pr.eq_log == 0])))
-    pieces = [p for p in _pieces(pr, residual) if p.size >= 64]
+    expectation, or None when the excess is under a quarter of the noise power. Spectra are
+    taken per log piece (Welch, one segment length for all: the shortest piece of at least
+    :data:`MIN_SPECTRUM` samples) and averaged; pieces shorter are left out, whatever their
+    order."""
+    fs = 1.0 / pr.eq_step
+    pieces = [p for p in _pieces(pr, residual) if p.size >= MIN_SPECTRUM]
     if not pieces:
         return None, {}
     nperseg = int(min(min(p.size for p in pieces), 1024))
@@ -105,7 +111,7 @@ def correlations(pr: Problem, residual: np.ndarray, signals: dict[str, np.ndarra
                  ) -> list[dict[str, Any]]:
     """Peak normalised cross-correlation of ``residual`` with each signal over lags of
     +-MAX_LAG s; a positive lag means the signal leads the residual."""
-    dt = float(np.median(np.diff(pr.eq_t[pr.eq_log == 0])))
+    dt = pr.eq_step
     nlag = int(round(MAX_LAG / dt))
     res_p = [p - p.mean() for p in _pieces(pr, residual)]
     out = []
@@ -137,8 +143,24 @@ def correlations(pr: Problem, residual: np.ndarray, signals: dict[str, np.ndarra
 
 
 def segments(pr: Problem, windows: list[int], rms_z: np.ndarray, top: int = 5
-             ) -> list[dict[str, float]]:
-    """The ``top`` windows with the largest nominal free-run depth RMS, largest first."""
-    order = np.argsort(-rms_z)[:top]
-    return [{'t0': pr.windows[windows[i]].t0, 't1': pr.windows[windows[i]].t1,
-             'rms_z': float(rms_z[i])} for i in order]
+             ) -> list[dict[str, Any]]:
+    """The ``top`` windows with the largest nominal free-run depth RMS, largest first: times
+    ``t0``, ``t1`` [s] since the start of their log (:attr:`GapLog.origin`), the log's
+    name."""
+    order = np.argsort(-np.where(np.isfinite(rms_z), rms_z, np.inf))[:top]
+    out = []
+    for i in order:
+        w = pr.windows[windows[i]]
+        lg = pr.logs[w.log]
+        out.append({'t0': w.t0 - lg.origin, 't1': w.t1 - lg.origin, 'rms_z': float(rms_z[i]),
+                    'log': lg.name.split('#')[0]})
+    return out
+
+
+def time_origin(pr: Problem) -> dict[str, Any]:
+    """What the report's times count from: each log's start (its first stamp) and that
+    instant in UTC where known, per log name."""
+    out: dict[str, Any] = {}
+    for lg in pr.logs:
+        out.setdefault(lg.name.split('#')[0], {'stamp_s': lg.origin, 'utc': lg.origin_utc})
+    return {'times': 'seconds since the start of each log', 'logs': out}

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import ClassVar
 
 import numpy as np
@@ -60,35 +61,94 @@ from auv_sim.environment import EFFECT_FIELDS
 from auv_sim.model import E_DRIFT, E_SHEAR, E_VC, ENV_SIZE
 from auv_sim.params import VehicleParams
 
-#: Manoeuvres that separate effects, with what a user should fly. An effect's signature gives,
-#: per manoeuvre, the exponent with which its depth/pitch signature scales (see Effect).
-MANOEUVRES: dict[str, str] = {
-    'speed change': 'a speed change at constant plane angle (e.g. thrust steps giving '
-                    '1.5 -> 2.5 m/s), holding each speed for a minute or more',
-    'depth excursion': 'a depth excursion of several tens of metres (dive and climb at '
-                       'constant speed), holding each depth for a minute',
-    'heading change': 'a heading change of 90 to 180 deg at constant depth and speed',
-    'plane steps of several sizes': 'BAR steps of several sizes (2 to 15 deg) at one speed',
-    'plane doublets of several periods': 'BAR doublets of several periods (2 to 20 s) at '
-                                         'one speed',
-    'surface reference': 'a pass at the surface or a fix against a known depth (the '
-                         'dynamics alone cannot see a constant depth offset)',
-    'repeated leg': 'the same straight leg at constant depth and speed flown at the start '
-                    'and at the end of the mission (an hour or more apart), in both '
-                    'directions',
+
+@dataclasses.dataclass(frozen=True)
+class Envelope:
+    """Where a vehicle flies, for manoeuvres stated in its own terms: the logs' median surge
+    speed ``u0`` [m/s] and depth ``z0`` [m], the file's rated depth ``depth_max`` [m] and
+    plane limit ``bar_max`` [rad]. The default is a 2 m/s survey vehicle at 60 m."""
+
+    u0: float = 2.0
+    z0: float = 60.0
+    depth_max: float = 300.0
+    bar_max: float = 0.4363
+
+    def speeds(self) -> tuple[float, float]:
+        """A speed change around ``u0``: 0.7 and 1.3 times it [m/s]."""
+        return 0.7 * self.u0, 1.3 * self.u0
+
+    def excursion(self) -> tuple[float, float]:
+        """A depth excursion from ``z0`` [m]: by half the depth flown (at least 2 m) and no
+        deeper than half the rated depth: ``(z0, z1)``."""
+        dz = max(2.0, 0.5 * self.z0)
+        z1 = min(self.z0 + dz, max(self.z0 + 1.0, 0.5 * self.depth_max))
+        return self.z0, z1
+
+
+def _deg(a: float) -> str:
+    return f'{math.degrees(a):.0f}'
+
+
+#: Manoeuvres that separate or identify effects, with what a user should fly, in the terms of
+#: the vehicle's :class:`Envelope`. An effect's signature gives, per manoeuvre, the exponent
+#: with which its depth/pitch signature scales (see Effect).
+MANOEUVRE_TEXT: dict[str, Callable[[Envelope], str]] = {
+    'speed change': lambda e: (
+        'a speed change at constant plane angle (thrust steps giving about '
+        f'{e.speeds()[0]:.2g} -> {e.speeds()[1]:.2g} m/s; the logs fly at {e.u0:.2g} m/s), '
+        'holding each speed for a minute or more'),
+    'depth excursion': lambda e: (
+        f'a depth excursion from about {e.excursion()[0]:.2g} to {e.excursion()[1]:.2g} m '
+        '(dive and climb at constant speed), holding each depth for a minute'),
+    'heading change': lambda e: 'a heading change of 90 to 180 deg at constant depth and speed',
+    'plane steps of several sizes': lambda e: (
+        f'BAR steps of several sizes ({_deg(0.1 * e.bar_max)} to {_deg(0.6 * e.bar_max)} '
+        'deg) at one speed'),
+    'plane doublets of several periods': lambda e: (
+        'BAR doublets of several periods (2 to 20 s) at one speed'),
+    'short plane doublets': lambda e: (
+        f'short BAR doublets (1 to 3 s half period, {_deg(0.2 * e.bar_max)} deg) at one '
+        'speed: a delay shifts the response by the same time whatever the period'),
+    'large fast plane steps': lambda e: (
+        f'large, fast BAR steps ({_deg(0.5 * e.bar_max)} deg and more, both ways) at one '
+        'speed: a rate limit shows only in fast, large moves'),
+    'surface reference': lambda e: (
+        'a pass at the surface (the depth sensor reads its zero there) or a fix against a '
+        'known depth (the dynamics alone cannot see a constant depth offset)'),
+    'thruster-off coast': lambda e: (
+        f'a thruster-off coast at depth (about {max(e.z0, 2.0):.2g} m: stop the propeller '
+        'for 30 to 60 s with the planes at zero): the vehicle slows, then rises or sinks at '
+        'its net buoyancy and hangs at the pitch its centre of gravity gives'),
+    'repeated leg': lambda e: (
+        'the same straight leg at constant depth and speed flown at the start and at the end '
+        'of the mission (an hour or more apart), in both directions'),
 }
+#: The manoeuvres in the terms of the default :class:`Envelope`.
+MANOEUVRES: dict[str, str] = {k: f(Envelope()) for k, f in MANOEUVRE_TEXT.items()}
+
+
+def manoeuvre(key: str, envelope: Envelope | None = None) -> str:
+    """What to fly for manoeuvre ``key``, in the terms of ``envelope``."""
+    return MANOEUVRE_TEXT[key](envelope or Envelope())
 
 
 @dataclasses.dataclass(frozen=True)
 class Parameter:
     """One parameter of an effect: name, unit, search bounds ``lo``/``hi``, the value meaning
     "absent", its typical size ``scale`` (the optimiser's unit and finite-difference scale),
-    and the range physics allows, ``plausible`` (``lo, hi`` in the same unit; default: the
-    search bounds) with its ``source``.
+    and two ranges in the same unit:
 
-    The search bounds are wider than the plausible range on purpose: a fit that runs past
-    what physics allows is evidence that the effect is the wrong explanation, and the
-    diagnosis says so (it never reports such a fit as ``explained``).
+    * ``plausible``: the *typical* range of a well-ballasted, well-rigged vehicle, with its
+      ``source`` (default: the search bounds). A fit beyond it is *atypical*: a finding to
+      check (``check`` says what), never an unchecked explanation;
+    * ``possible``: what physics allows at all (a delay or lag is positive, a drag
+      dissipates, a coefficient keeps the hull's sign; default: the search bounds). A fit
+      beyond it is *impossible*: never an explanation.
+
+    The search bounds are wider than the typical range on purpose: a fit that runs past it
+    is evidence, and the diagnosis says which (atypical: named with "check ..."; impossible:
+    listed as no explanation). The ranges of :data:`auv_gap.ranges` (a user-editable
+    file) replace the built-in ones.
     """
 
     name: str
@@ -99,19 +159,36 @@ class Parameter:
     scale: float
     plausible: tuple[float, float] | None = None
     source: str = ''
+    possible: tuple[float, float] | None = None
+    check: str = ''
 
     @property
     def plausible_range(self) -> tuple[float, float]:
-        """``(lo, hi)`` physics allows [unit]."""
+        """``(lo, hi)`` typical of a well-ballasted, well-rigged vehicle [unit]."""
         return self.plausible if self.plausible is not None else (self.lo, self.hi)
 
+    @property
+    def possible_range(self) -> tuple[float, float]:
+        """``(lo, hi)`` physics allows at all [unit]."""
+        return self.possible if self.possible is not None else (self.lo, self.hi)
+
     def is_plausible(self, value: float) -> bool:
-        """True when ``value`` lies strictly inside the plausible range, or exactly at an
+        """True when ``value`` lies strictly inside the typical range, or exactly at an
         end that is the "absent" value (a sign bound: zero is no effect, not an excess)."""
-        plo, phi = self.plausible_range
-        if plo < value < phi:
-            return True
-        return value == self.absent and value in (plo, phi)
+        return _inside(value, self.plausible_range, self.absent)
+
+    def is_possible(self, value: float) -> bool:
+        """True when ``value`` lies inside the range physics allows (as
+        :meth:`is_plausible`)."""
+        return _inside(value, self.possible_range, self.absent)
+
+
+def _inside(value: float, bounds: tuple[float, float], absent: float) -> bool:
+    """``value`` strictly inside ``bounds``, or exactly at an end that is ``absent``."""
+    lo, hi = bounds
+    if lo < value < hi:
+        return True
+    return value == absent and value in (lo, hi)
 
 
 @dataclasses.dataclass
@@ -182,6 +259,17 @@ class Effect:
     within: ClassVar[tuple[str, ...]] = ()
     equations: ClassVar[tuple[str, ...]] = ()
     signature: ClassVar[dict[str, float]] = {}
+    #: the manoeuvre (a key of :data:`MANOEUVRE_TEXT`) that identifies this effect best
+    #: (default: its signature's largest exponent)
+    identify_by: ClassVar[str] = ''
+
+    def advice(self, envelope: Envelope | None = None) -> str:
+        """What to fly to identify this effect, in the terms of ``envelope``."""
+        key = self.identify_by or (max(self.signature, key=lambda k: abs(self.signature[k]))
+                                   if self.signature else '')
+        if not key:
+            return 'a manoeuvre that excites it'
+        return manoeuvre(key, envelope)
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         """The parameters, with bounds and sizes for this vehicle."""
@@ -199,7 +287,7 @@ def register(effect: Effect) -> Effect:
     """Add an effect to the catalogue (its name must be new)."""
     if not effect.name or effect.name in CATALOGUE:
         raise GapError(f'effect name {effect.name!r} is empty or registered already')
-    unknown = set(effect.signature) - set(MANOEUVRES)
+    unknown = (set(effect.signature) | ({effect.identify_by} - {''})) - set(MANOEUVRE_TEXT)
     if unknown:
         raise GapError(f'effect {effect.name}: unknown manoeuvre(s) {sorted(unknown)}')
     check_declared(effect)
@@ -235,15 +323,16 @@ def get_effect(name: str) -> Effect:
         raise GapError(f'unknown effect {name!r} (known: {", ".join(CATALOGUE)})') from None
 
 
-def separating_manoeuvre(a: str, b: str) -> str:
-    """The manoeuvre that best tells effect ``a`` from effect ``b`` (text for the user)."""
+def separating_manoeuvre(a: str, b: str, envelope: Envelope | None = None) -> str:
+    """The manoeuvre that best tells effect ``a`` from effect ``b`` (text for the user, in
+    the terms of the vehicle's ``envelope``)."""
     sa, sb = get_effect(a).signature, get_effect(b).signature
     best, gap = 'speed change', -1.0
-    for key in MANOEUVRES:
+    for key in MANOEUVRE_TEXT:
         d = abs(sa.get(key, 0.0) - sb.get(key, 0.0))
         if d > gap + 1e-12:
             best, gap = key, d
-    return f'{best}: {MANOEUVRES[best]}'
+    return f'{best}: {manoeuvre(best, envelope)}'
 
 
 #: Sources of the plausible ranges (the table of docs/gap-diagnosis.md repeats them).
@@ -251,8 +340,9 @@ SRC_CURRENT = ('horizontal currents: tidal streams in coastal straits reach 2-3 
                'cannot make way against more than its own speed (~2.5 m/s)')
 SRC_UPWELLING = ('vertical currents (internal waves, convection, upwelling) are mm/s to '
                  'cm/s, rarely 0.1 m/s (Thorpe 2005, The Turbulent Ocean)')
-SRC_BALLAST = ('trim ballasting leaves |dB| within a few per mille of the weight; 5 % of the '
-               'weight (flooding, lost ballast) is the largest a flying vehicle survives')
+SRC_BALLAST = ('trim ballasting leaves |dB| within a few per mille of the weight; 2 % of it is '
+               'a badly trimmed vehicle, 5 % (flooding, lost ballast) the most a flying '
+               'vehicle survives (assumed)')
 SRC_COMPRESS = ('sea water compressibility 4.4e-10 1/Pa (4.4e-6 1/m, UNESCO EOS-80); hulls and '
                 'syntactic foam compress by the same order: |k| <= 1e-4 1/m (1 % per 100 m)')
 SRC_DELAY = ('bus, servo-controller and sample-and-hold latencies: tens to hundreds of ms; '
@@ -339,6 +429,7 @@ class Current(Effect):
                    'the water at nu - R^T v_c while the logged velocities are over ground')
     equations = ('surge', 'heave', 'pitch', 'sway', 'yaw')
     signature = {'speed change': 0.0, 'heading change': 1.0}
+    identify_by = 'heading change'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('north', 'm/s', -5.0, 5.0, 0.0, 0.1, (-2.5, 2.5), SRC_CURRENT),
@@ -353,12 +444,13 @@ class BuoyancyOffset(Effect):
     name = 'buoyancy_offset'
     description = 'buoyancy differs from the file by dB (N, positive: more buoyant)'
     equations = ('heave', 'surge')
-    signature = {'speed change': -1.0}
+    signature = {'speed change': -1.0, 'thruster-off coast': 1.0}
+    identify_by = 'thruster-off coast'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         w = vehicle.W
         return (Parameter('dB', 'N', -0.15 * w, 0.15 * w, 0.0, 0.002 * w,
-                          (-0.05 * w, 0.05 * w), SRC_BALLAST),)
+                          (-0.02 * w, 0.02 * w), SRC_BALLAST),)
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         # extra buoyancy acts upward (-gravity direction) at the centre of buoyancy
@@ -370,6 +462,7 @@ class BuoyancyDepth(Effect):
     description = 'buoyancy changes with depth: B(z) = B (1 + k z), k in 1/m (hull compression)'
     equations = ('heave',)
     signature = {'speed change': -1.0, 'depth excursion': 1.0}
+    identify_by = 'depth excursion'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('k', '1/m', -1e-3, 1e-3, 0.0, 1e-5, (-1e-4, 1e-4), SRC_COMPRESS),)
@@ -383,6 +476,7 @@ class ActuatorDelay(Effect):
     description = 'transport delay between the logged BAR command and the plane'
     equations = ('heave', 'pitch')
     signature = {'speed change': 2.0, 'plane doublets of several periods': 1.0}
+    identify_by = 'short plane doublets'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('bar', 's', 0.0, 3.0, 0.0, 0.1, (0.0, 1.5), SRC_DELAY),)
@@ -396,6 +490,7 @@ class ActuatorLag(Effect):
     description = 'the plane follows its command with a first-order lag bar_tau (s)'
     equations = ('heave', 'pitch')
     signature = {'speed change': 2.0, 'plane doublets of several periods': 0.5}
+    identify_by = 'plane doublets of several periods'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('bar_tau', 's', vehicle.dt, 10.0, vehicle.bar_tau, 0.2, (0.0, 2.0),
@@ -411,6 +506,7 @@ class ActuatorRateLimit(Effect):
     equations = ('heave', 'pitch')
     signature = {'speed change': 2.0, 'plane steps of several sizes': 1.0,
                  'plane doublets of several periods': 0.5}
+    identify_by = 'large fast plane steps'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('bar_rate', 'rad/s', 0.002, max(2.0, vehicle.bar_rate),
@@ -428,9 +524,10 @@ class BarBias(Effect):
     description = 'the plane sits at its logged angle plus a bias (rad): force ~ u^2'
     equations = ('heave', 'pitch')
     signature = {'speed change': 2.0}
+    identify_by = 'speed change'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
-        return (Parameter('bias', 'rad', -0.2, 0.2, 0.0, 0.005, (-0.1, 0.1), SRC_BAR_BIAS),)
+        return (Parameter('bias', 'rad', -0.35, 0.35, 0.0, 0.005, (-0.1, 0.1), SRC_BAR_BIAS),)
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         qs = _dynamic_pressure_area(vehicle)
@@ -444,18 +541,20 @@ class CrossflowDrag(Effect):
                    'Nrr r|r| (w, v through the water)')
     equations = ('heave', 'pitch', 'sway', 'yaw')
     signature = {'plane steps of several sizes': 1.0}
+    identify_by = 'plane steps of several sizes'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         zww, mqq = crossflow_unit(vehicle)
         cd = CROSSFLOW_CD_MAX
+        # a drag dissipates: a positive coefficient (anti-damping) is impossible
         return (Parameter('Zww', 'kg/m', -20 * zww, 5 * zww, 0.0, zww, (-cd * zww, 0.0),
-                          SRC_CROSSFLOW),
+                          SRC_CROSSFLOW, (-20 * zww, 0.0)),
                 Parameter('Mqq', 'kg m^2', -20 * mqq, 5 * mqq, 0.0, mqq, (-cd * mqq, 0.0),
-                          SRC_CROSSFLOW),
+                          SRC_CROSSFLOW, (-20 * mqq, 0.0)),
                 Parameter('Yvv', 'kg/m', -20 * zww, 5 * zww, 0.0, zww, (-cd * zww, 0.0),
-                          SRC_CROSSFLOW),
+                          SRC_CROSSFLOW, (-20 * zww, 0.0)),
                 Parameter('Nrr', 'kg m^2', -20 * mqq, 5 * mqq, 0.0, mqq, (-cd * mqq, 0.0),
-                          SRC_CROSSFLOW))
+                          SRC_CROSSFLOW, (-20 * mqq, 0.0)))
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         pert.C[B_WW, 2] += values[0]
@@ -469,7 +568,8 @@ class CgOffset(Effect):
     description = ('centre of gravity displaced by (dxg, dzg) [m] from the file (restoring '
                    'moment only; the mass matrix change is second order)')
     equations = ('pitch', 'roll')
-    signature = {'speed change': -2.0}
+    signature = {'speed change': -2.0, 'thruster-off coast': 1.0}
+    identify_by = 'thruster-off coast'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         lim = 0.05 * vehicle.L_ref
@@ -492,6 +592,7 @@ class DepthSensorBias(Effect):
     description = 'the depth sensor reads the true depth plus a bias (m)'
     equations = ()
     signature = {'surface reference': 1.0, 'depth excursion': 0.5}
+    identify_by = 'surface reference'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('bias', 'm', -10.0, 10.0, 0.0, 0.1, (-2.0, 2.0), SRC_DEPTH_BIAS),)
@@ -505,6 +606,7 @@ class PitchSensorBias(Effect):
     description = 'the pitch sensor reads the true pitch plus a bias (rad)'
     equations = ('depth kinematics', 'pitch')
     signature = {'speed change': 1.0}
+    identify_by = 'speed change'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('bias', 'rad', -0.2, 0.2, 0.0, 0.005, (-0.05, 0.05),
@@ -532,9 +634,12 @@ class Coefficients(Effect):
     equations = ('heave', 'pitch', 'surge')
     signature = {'speed change': 1.0, 'plane doublets of several periods': 1.0,
                  'plane steps of several sizes': 0.0}
+    identify_by = 'plane doublets of several periods'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
-        return tuple(Parameter(n, 'x file value', -1.0, 6.0, 1.0, 0.05, (0.25, 4.0), SRC_COEF)
+        # a factor of zero or below turns the hull's coefficient off or its sign over
+        return tuple(Parameter(n, 'x file value', -1.0, 6.0, 1.0, 0.05, (0.25, 4.0), SRC_COEF,
+                               (0.0, 6.0))
                      for n, _, _, _ in COEFFICIENTS)
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
@@ -552,9 +657,10 @@ class PlaneEffectiveness(Effect):
     equations = ('heave', 'pitch')
     signature = {'plane steps of several sizes': 1.0, 'speed change': 2.0,
                  'plane doublets of several periods': 1.0}
+    identify_by = 'plane steps of several sizes'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
-        return (Parameter('gain', '-', 0.0, 2.5, 1.0, 0.05, (0.3, 1.5), SRC_PLANE),)
+        return (Parameter('gain', '-', 0.0, 2.5, 1.0, 0.05, (0.3, 1.5), SRC_PLANE, (0.0, 2.5)),)
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         qs = _dynamic_pressure_area(vehicle)
@@ -567,6 +673,7 @@ class ThrustError(Effect):
     description = 'the propeller gives a gain times the commanded thrust'
     equations = ('surge',)
     signature = {'speed change': 1.0}
+    identify_by = 'speed change'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('gain', '-', 0.2, 2.5, 1.0, 0.02, (0.7, 1.3), SRC_THRUST),)
@@ -582,6 +689,7 @@ class CurrentShear(Effect):
                    'v = v0 + S z)')
     equations = ('surge', 'heave', 'pitch', 'sway', 'yaw')
     signature = {'depth excursion': 1.0, 'heading change': 1.0, 'speed change': 0.0}
+    identify_by = 'depth excursion'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('north', '1/s', -0.1, 0.1, 0.0, 1e-3, (-0.05, 0.05), SRC_SHEAR),
@@ -598,6 +706,7 @@ class CurrentDrift(Effect):
                    'log (with `current`, v = v0 + D t)')
     equations = ('surge', 'heave', 'pitch', 'sway', 'yaw')
     signature = {'repeated leg': 1.0, 'heading change': 1.0, 'speed change': 0.0}
+    identify_by = 'repeated leg'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('north', 'm/s^2', -2e-3, 2e-3, 0.0, 1e-5, (-4e-4, 4e-4), SRC_DRIFT),
@@ -614,12 +723,13 @@ class AddedMass(Effect):
     equations = ('heave', 'pitch')
     signature = {'plane doublets of several periods': 2.0, 'speed change': 1.0,
                  'plane steps of several sizes': 0.0}
+    identify_by = 'plane doublets of several periods'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('Zwdot', 'x file value', 0.2, 4.0, 1.0, 0.05, (0.5, 2.0),
-                          SRC_ADDED_MASS),
+                          SRC_ADDED_MASS, (0.2, 4.0)),
                 Parameter('Mqdot', 'x file value', 0.2, 4.0, 1.0, 0.05, (0.5, 2.0),
-                          SRC_ADDED_MASS))
+                          SRC_ADDED_MASS, (0.2, 4.0)))
 
     def apply(self, pert: Perturbation, values: np.ndarray, vehicle: VehicleParams) -> None:
         for key, value in zip(('Zwdot', 'Mqdot'), values):
@@ -632,6 +742,7 @@ class DepthSensorScale(Effect):
     description = 'the depth sensor reads a scale times the true depth'
     equations = ('depth kinematics',)
     signature = {'depth excursion': 1.0, 'surface reference': 1.0}
+    identify_by = 'depth excursion'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('scale', '-', 0.8, 1.25, 1.0, 0.002, (0.95, 1.05), SRC_DEPTH_SCALE),)
@@ -645,6 +756,7 @@ class DepthSensorLatency(Effect):
     description = 'the depth sensor reads the depth of a latency (s) ago'
     equations = ('depth kinematics',)
     signature = {'plane doublets of several periods': 1.0, 'depth excursion': 0.0}
+    identify_by = 'short plane doublets'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('latency', 's', 0.0, 3.0, 0.0, 0.05, (0.0, 1.0), SRC_DEPTH_LATENCY),)
@@ -658,6 +770,7 @@ class PitchSensorScale(Effect):
     description = 'the attitude sensor reads a scale times the true pitch'
     equations = ('depth kinematics', 'pitch')
     signature = {'plane steps of several sizes': 1.0, 'depth excursion': 1.0}
+    identify_by = 'plane steps of several sizes'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('scale', '-', 0.5, 1.5, 1.0, 0.01, (0.9, 1.1), SRC_PITCH_SCALE),)
@@ -671,6 +784,7 @@ class PitchSensorLatency(Effect):
     description = 'the attitude sensor reads the pitch of a latency (s) ago'
     equations = ('depth kinematics', 'pitch')
     signature = {'plane doublets of several periods': 1.0, 'plane steps of several sizes': 0.0}
+    identify_by = 'short plane doublets'
 
     def parameters(self, vehicle: VehicleParams) -> tuple[Parameter, ...]:
         return (Parameter('latency', 's', 0.0, 2.0, 0.0, 0.02, (0.0, 0.5), SRC_PITCH_LATENCY),)

@@ -8,12 +8,11 @@ Exit status 0 on success; on bad input one line ``error: ...`` and status 1.
 from __future__ import annotations
 
 import argparse
-import json
-import pathlib
 import sys
 import time
 
 from auv_gap.errors import GapError
+from auv_gap.job import GapOptions, run_gap
 from auv_logs.errors import LogError
 from auv_sim.cli_options import add_vehicle_option
 
@@ -32,9 +31,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='bags (among BAG...) held out whole to score the effects; '
                              'default: every third window of every bag')
     parser.add_argument('--window', type=float, default=None, metavar='S',
-                        help='free-run window [s]; runs restart from the log (default: 60, '
-                             'shorter for a vehicle unstable without feedback: 4 e-folding '
-                             'times of its fastest vertical-plane mode, at least 10)')
+                        help='window [s] the logs are cut into and held out by; free runs '
+                             'restart from the log at each (default: chosen from the data, '
+                             'the longest up to 60 s that gives 4 windows; on a vehicle '
+                             'unstable without feedback the runs restart within it every 4 '
+                             'e-folding times of its fastest vertical-plane mode)')
+    parser.add_argument('--ranges', default=None, metavar='FILE',
+                        help='typical and possible ranges of the effect parameters (default '
+                             'config/plausible_ranges.yaml; see docs/gap-diagnosis.md)')
+    parser.add_argument('--strict', action='store_true',
+                        help='with --map: refuse a row that does not parse or a log without a '
+                             'usable segment (default: leave it out and say so)')
     parser.add_argument('--effects', nargs='+', default=None, metavar='NAME',
                         help='catalogue effects to try (default: all)')
     parser.add_argument('--top', type=int, default=3,
@@ -43,14 +50,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--quiet', action='store_true', help='no progress lines')
 
 
+def options_from_args(args: argparse.Namespace) -> GapOptions:
+    """The :class:`auv_gap.job.GapOptions` of parsed ``auv gap`` arguments.
+
+    Raises
+    ------
+    GapError
+        An option out of its range (see :class:`auv_gap.job.GapOptions`).
+    """
+    return GapOptions(
+        logs=tuple(str(b) for b in args.bags), vehicle=str(args.vehicle), out=str(args.out),
+        map=args.map, holdout=tuple(str(h) for h in args.holdout), window=args.window,
+        ranges=args.ranges, strict=args.strict,
+        effects=None if args.effects is None else tuple(args.effects), top=args.top,
+        plots=not args.no_plots)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the diagnosis; 0 on success, 1 with ``error: ...`` on stderr on bad input."""
-    from auv_gap.diagnose import diagnose
-    from auv_gap.logs import GapLog, from_contract_arrays, load_bag, measured_fins_vehicle
-    from auv_gap.report import write_report
-    from auv_logs.limits import as_logged, describe
     from auv_sim.errors import ParameterError
-    from auv_sim.params import load_vehicle
 
     start = time.monotonic()
 
@@ -59,55 +77,14 @@ def run(args: argparse.Namespace) -> int:
             print(f'[{time.monotonic() - start:6.1f} s] {msg}', file=sys.stderr, flush=True)
 
     try:
-        if args.window is not None and not args.window > 0:
-            raise ValueError(f'--window must be > 0 s, got {args.window}')
-        vehicle = load_vehicle(args.vehicle)
-        bags = [str(b) for b in args.bags]
-        norm = {str(pathlib.Path(b).resolve()): i for i, b in enumerate(bags)}
-        held_bags = []
-        for h in args.holdout:
-            key = str(pathlib.Path(h).resolve())
-            if key not in norm:
-                raise ValueError(f'--holdout {h} is not one of the bags given')
-            held_bags.append(norm[key])
-        if held_bags and len(set(held_bags)) == len(bags):
-            raise ValueError('--holdout cannot hold out every bag')
-        logs: list[GapLog] = []
-        held_logs: list[int] = []
-        imports = []
-        for i, b in enumerate(bags):
-            say(f'reading {b}')
-            if args.map is not None:
-                from auv_logs.importer import contract_arrays, import_log
-                from auv_logs.mapping import load_map
-
-                imported = import_log(load_map(args.map), b)
-                imports.append(dict(imported.report))
-                pieces = from_contract_arrays(imported.name, contract_arrays(imported),
-                                              [imported.report])
-            else:
-                pieces = load_bag(b)
-            for piece in pieces:
-                if i in held_bags:
-                    held_logs.append(len(logs))
-                logs.append(piece)
-        unique = {id(lg.commands): lg.commands for lg in logs}
-        vehicle, limits = as_logged(vehicle, list(unique.values()))
-        for line in describe(limits):
-            say(line)
-        vehicle = measured_fins_vehicle(vehicle, logs)
-        diag = diagnose(vehicle, logs, window=args.window, held_out_logs=held_logs,
-                        effects=args.effects, top=args.top, progress=say)
-        path = write_report(diag, args.out, plots=not args.no_plots)
-        (path.parent / 'inputs.json').write_text(json.dumps(
-            {'logged_outside_limits': limits, 'imports': imports}, indent=2) + '\n')
-    except (GapError, LogError, ParameterError, ValueError) as exc:
+        done = run_gap(options_from_args(args), say)
+    except (GapError, LogError, ParameterError, ValueError, OSError) as exc:
         print(f'error: {exc}', file=sys.stderr)
         return 1
-    r = diag.report
+    r = done.diagnosis.report
     say(f'verdict {r["verdict"]}' + (f', best {r["best"]}' if r['best'] else '')
         + f'; held-out depth RMS {r["held_out"]["rms_before"]["z"]:.3g} -> '
-          f'{r["held_out"]["rms_after"]["z"]:.3g} m; wrote {path}')
+          f'{r["held_out"]["rms_after"]["z"]:.3g} m; wrote {done.path}')
     if not args.quiet:
         print(r['statement'], file=sys.stderr)
     return 0

@@ -1,19 +1,24 @@
 """The sim-to-real gap diagnosis: where the nominal model departs from a log, and which
 catalogue effect (or combination) explains it, scored on held-out windows.
 
-Steps (see :func:`diagnose`):
+Steps (see :func:`diagnose`; each a function that returns its data):
 
 1. Nominal free runs over all windows and their noise floor (a Monte Carlo over the
    initial-state uncertainty plus the sensor noise); channels whose RMS exceeds the floor by
-   ``GAP_FACTOR`` carry a gap. No such channel: ``no_gap``.
-2. Equation error of the nominal model; where the gap lies (:mod:`auv_gap.analysis`).
+   ``GAP_FACTOR`` carry a gap. No such channel: ``no_gap`` (:func:`nominal_runs`). A model
+   whose runs diverge on the logs (``DIVERGE_SHARE`` of them) is reported as such unless the
+   effect its equations want most keeps them with the logs (:func:`_steadied_by`).
+2. Equation error of the nominal model; where the gap lies (:mod:`auv_gap.analysis`,
+   :func:`locate_gap`); what the coasts and surface passes give (:mod:`auv_gap.static`).
 3. Every catalogue effect (among them ``coefficients``: the model's own vertical-plane
    coefficients re-fitted) fitted by equation error on the training windows, scored by free
    run on the held-out windows; the ``top`` best refined by free-run error and scored again.
 4. Combinations, greedily: the best plausible set plus each other effect, refitted jointly,
    kept while the held-out score improves, every parameter stays plausible and the added
    effect identifies something (an interval that excludes its "absent" value).
-5. Verdict (:func:`decide_verdict`): plausibility, the held-out share of the gap explained, the
+5. Verdict (:func:`judge`, :func:`decide_verdict`): typical and possible ranges (an atypical
+   fit that predicts the held-out windows significantly better is a finding, at most
+   ``partly_explained``: :func:`_atypical`), the held-out share of the gap explained, the
    residual tests of :mod:`auv_gap.residuals`, and the candidates the held-out windows
    cannot tell from the best (within ``AMBIGUOUS_RATIO`` of its held-out cost and of its
    explained share, and not worse by ``AMBIGUOUS_T`` standard errors over the windows).
@@ -32,17 +37,30 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from auv_contract import STATE_FIELDS
 from auv_gap import analysis, residuals
-from auv_gap.catalogue import CATALOGUE, Perturbation, get_effect, separating_manoeuvre
+from auv_gap.catalogue import (
+    CATALOGUE,
+    Envelope,
+    Perturbation,
+    get_effect,
+    separating_manoeuvre,
+)
 from auv_gap.fit import EquationFit, FitResult, FreeRunFit
-from auv_gap.logs import GapLog, measurement_weighting, other_hold
-from auv_gap.problem import CH_INDEX, CH_NAMES, EQUATIONS, EffectSet, Problem
+from auv_gap.logs import (
+    GapLog,
+    Weighting,
+    measurement_weighting,
+    other_hold,
+)
+from auv_gap.problem import CH_INDEX, CH_NAMES, EQUATIONS, Problem
+from auv_gap.ranges import Ranges
+from auv_gap.static import Finding, coast_findings, surface_finding
 from auv_gap.wording import describe
 from auv_sim.params import VehicleParams
 
@@ -70,15 +88,23 @@ class Candidate:
     rms: dict[str, float]       # held-out free-run RMS per state of CH_NAMES
     score: float = -math.inf
     explained: float = 0.0
+    #: identified parameters beyond their typical range -> that range
     beyond: dict[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
+    #: ... of them, those beyond what physics allows -> that range
+    impossible: dict[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
     empty: list[str] = dataclasses.field(default_factory=list)
     #: per held-out window: the loss of each sample (squared scaled errors over the states)
     loss: list[np.ndarray] = dataclasses.field(default_factory=list)
 
     @property
     def plausible(self) -> bool:
-        """Every identified parameter lies inside its physically plausible range."""
+        """Every identified parameter lies inside its typical range."""
         return not self.beyond
+
+    @property
+    def possible(self) -> bool:
+        """Every identified parameter lies inside the range physics allows."""
+        return not self.impossible
 
     @property
     def identifies(self) -> bool:
@@ -166,7 +192,7 @@ class _Scorer:
             gap = self.nominal_cost - self.floor_cost
             cand.explained = float(np.clip((self.nominal_cost - cost) / gap, 0.0, 1.0)) \
                 if gap > 0 else 0.0
-            cand.beyond, cand.empty = _plausibility(f)
+            cand.beyond, cand.impossible, cand.empty = _plausibility(f)
             res.append(cand)
         return res
 
@@ -174,49 +200,59 @@ class _Scorer:
         return float(math.log(self.nominal_cost / max(cost, 1e-12)) - PARAM_PRICE * k)
 
 
-def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | None = None,
-             held_out_logs: Sequence[int] = (), effects: Sequence[str] | None = None,
-             top: int = 3, max_effects: int = 3, progress: Progress | None = None
-             ) -> Diagnosis:
-    """Diagnose the gap between ``vehicle`` (the nominal model) and ``logs``.
+@dataclasses.dataclass
+class NominalRuns:
+    """Stage 1: the nominal model's free runs over every window against the log, their noise
+    floor, the states with a gap, the channel scales of the cost, and whether the model
+    diverges on the logs."""
 
-    Args:
-        vehicle: nominal vehicle parameters.
-        logs: log pieces (:func:`auv_gap.logs.load_bag`).
-        window: free-run window [s]; windows restart from the logged state. None: from the
-            vehicle (:func:`auv_gap.problem.free_run_window`: 60 s, shorter for a
-            vehicle unstable without feedback).
-        held_out_logs: indices of logs held out whole; default every third window.
-        effects: catalogue effects to try (default: all registered).
-        top: effects refined by free-run error and tried in combinations.
-        max_effects: largest combination.
-        progress: called with a line of text at each stage.
-    """
-    say = progress or (lambda _msg: None)
-    names = list(effects) if effects is not None else list(CATALOGUE)
-    for n in names:
-        get_effect(n)
-    pr = Problem(vehicle, logs, window=window, held_out_logs=held_out_logs)
-    window = pr.window
-    if pr.window_why != 'given':
-        say(f'free-run window: {pr.window_why}')
-    # -- derived or assumed signals of imported logs: left out, never counted twice ----------
-    weighting = measurement_weighting(pr.logs)
-    pr.eq_sigma = np.where(weighting.equation_mask(EQUATIONS), np.inf, pr.eq_sigma)
-    # free runs start from initial rates fitted to the measured depth and pitch, not from
-    # the differenced rates
-    pr.estimate_initial([s for s in ('w', 'q') if s in weighting.channels])
-    # ----------------------------------------------------------------------------------------
-    nom = Perturbation.nominal(vehicle)
+    all_w: list[int]                # the windows kept (the diverging ones left out)
+    err: np.ndarray                 # S x 12, nominal free run minus smoothed log
+    rms: np.ndarray                 # per channel of CH_NAMES
+    floor: np.ndarray               # per channel of CH_NAMES
+    gap_channels: list[str]
+    scales: np.ndarray
+    rms_z_win: np.ndarray           # depth RMS per window
+    other_logs: list[GapLog] | None
+    diverging: list[bool]           # per window of all windows
+    diverges: bool
+
+
+#: A free run diverges when its pitch leaves the log's by more than this [rad] (a vehicle
+#: tumbling in the model, not a biased flight) or its output is not finite; the nominal
+#: model diverges on the logs when at least :data:`DIVERGE_SHARE` of its runs do.
+DIVERGE_PITCH = math.radians(45.0)
+DIVERGE_SHARE = 0.1
+
+
+def nominal_runs(pr: Problem, weighting: Weighting, say: Progress) -> NominalRuns:
+    """Stage 1 (see :class:`NominalRuns`): a Monte Carlo over the initial-state uncertainty,
+    the plain smoother's bias and the commands between rows (where a log records them only at
+    its rows) make the floor; channels whose RMS exceeds ``GAP_FACTOR`` times it carry a
+    gap."""
+    nom = Perturbation.nominal(pr.vehicle)
+    every = pr.select(None)
+
+    def runs(windows: list[int]) -> tuple[np.ndarray, np.ndarray]:
+        rng = np.random.default_rng(12345)
+        x0_noise = np.zeros((MC_RUNS + 1, len(windows), 12))
+        x0_noise[1:] = pr.initial_noise(rng, MC_RUNS, windows)
+        return pr.free_run([nom] * (MC_RUNS + 1), windows, x0_noise=x0_noise)
+
+    out, meas = runs(every)
+    diverging = _diverging(pr, every, out[0] - meas)
+    diverges = bool(np.mean(diverging) >= DIVERGE_SHARE) if diverging else False
+    # runs on which the nominal model leaves the logs would weigh more than all the others
+    # together (a change that merely steadies the model would explain them): out of the
+    # free-run fits and scores, said
+    if any(diverging) and not diverges \
+            and pr.exclude([i for i, d in zip(every, diverging) if d]):
+        say(f'{int(np.sum(diverging))} of {len(every)} runs on which the nominal model '
+            'diverges are left out of the free-run fits and scores')
+        out, meas = runs(pr.select(None))
     all_w = pr.select(None)
-    say(f'nominal free runs over {len(all_w)} windows of {window:g} s')
-
-    # 1. nominal free run and its noise floor
-    rng = np.random.default_rng(12345)
-    x0_noise = np.zeros((MC_RUNS + 1, len(all_w), 12))
-    x0_noise[1:] = pr.initial_noise(rng, MC_RUNS, all_w)
-    out, meas = pr.free_run([nom] * (MC_RUNS + 1), all_w, x0_noise=x0_noise)
     err_nom = out[0] - meas
+    rows_all = pr.window_rows(all_w)
     finite = np.all(np.isfinite(err_nom[:, CH_INDEX]), axis=1)
     if not finite.all():
         say('the nominal free run diverges in some windows')
@@ -240,14 +276,42 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | 
     gap_channels = [CH_NAMES[i] for i in range(len(CH_INDEX))
                     if rms_nom[i] > GAP_FACTOR * floor[i]]
     scales = np.maximum(rms_nom, floor)
-    # -- derived or assumed signals: their free-run channels weigh nothing -------------------
+    # derived or assumed signals: their free-run channels weigh nothing
     scales = np.where(weighting.channel_mask(CH_NAMES), np.inf, scales)
     gap_channels = [c for c in gap_channels if c not in weighting.channels]
-    # ----------------------------------------------------------------------------------------
-    rows_all = pr.window_rows(all_w)
     rms_z_win = np.array([np.sqrt(np.nanmean(err_nom[r, 2] ** 2)) for r in rows_all])
+    return NominalRuns(all_w, err_nom, rms_nom, floor, gap_channels, scales, rms_z_win,
+                       other_logs, diverging, diverges)
 
-    # 2. equation error and where the gap lies
+
+def _diverging(pr: Problem, windows: Sequence[int], err: np.ndarray) -> list[bool]:
+    """Per window of ``windows``: whether the free run whose errors against the log are
+    ``err`` (rows of :meth:`Problem.window_rows`) diverges (pitch off by more than
+    :data:`DIVERGE_PITCH`, or not finite)."""
+    return [bool(not np.all(np.isfinite(err[r][:, list(CH_INDEX)]))
+                 or np.max(np.abs(err[r, 4])) > DIVERGE_PITCH)
+            for r in pr.window_rows(windows)]
+
+
+@dataclasses.dataclass
+class GapSite:
+    """Stage 2: where the gap lies (the ``gap`` entry of the report), the nominal equation
+    error, the signals the residuals are tested against, and what the plots need."""
+
+    gap: dict[str, Any]
+    e_nom: np.ndarray
+    eq_rms: np.ndarray
+    focus: int
+    corr: list[dict[str, Any]]
+    band_info: dict[str, Any]
+    signals: dict[str, np.ndarray]
+
+
+def locate_gap(pr: Problem, nominal: NominalRuns) -> GapSite:
+    """Stage 2 (see :class:`GapSite`): the nominal model's equation error at the logged
+    states, the dominant equation, the regimes and frequency band of its residual, and its
+    correlation with the inputs and states."""
+    nom = Perturbation.nominal(pr.vehicle)
     act_nom = pr.actuators(nom)
     e_nom = pr.equation_error(nom, act_nom)
     eq_rms = np.sqrt(np.mean(e_nom ** 2, axis=0))
@@ -257,52 +321,88 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | 
     residual = e_nom[:, focus]
     bar_act = np.interp(pr.eq_fine, np.arange(act_nom.shape[0]), act_nom[:, 0])
     band_hz, band_info = analysis.band(pr, residual, focus)
-    bar_cmd = np.concatenate([_held_at(lg.commands['bar'], pr.eq_t[pr.eq_log == li])
-                              for li, lg in enumerate(pr.logs)])
-    thr_cmd = np.concatenate([_held_at(lg.commands['thrust'], pr.eq_t[pr.eq_log == li])
-                              for li, lg in enumerate(pr.logs)])
-    bar_rate = np.concatenate([np.gradient(bar_cmd[pr.eq_log == li], pr.eq_t[pr.eq_log == li])
-                               for li in range(len(pr.logs))])
+    pieces = [pr.eq_log == li for li in range(len(pr.logs))]
+    bar_cmd = np.concatenate([_held_at(lg.commands['bar'], pr.eq_t[m])
+                              for m, lg in zip(pieces, pr.logs)])
+    thr_cmd = np.concatenate([_held_at(lg.commands['thrust'], pr.eq_t[m])
+                              for m, lg in zip(pieces, pr.logs)])
+    bar_rate = np.concatenate([np.gradient(bar_cmd[m], pr.eq_t[m]) if m.sum() > 1 else
+                               np.zeros(int(m.sum())) for m in pieces])
     signals = {'bar_command_rate': bar_rate, 'bar_command': bar_cmd, 'thrust_command': thr_cmd,
                'u': pr.eq_state[:, 6], 'w': pr.eq_state[:, 8], 'q': pr.eq_state[:, 10],
                'z': pr.eq_state[:, 2], 'theta': pr.eq_state[:, 4]}
     corr = analysis.correlations(pr, residual, signals)
     gap = {
-        'free_run_rms': {n: float(rms_nom[CH_NAMES.index(n)])
+        'free_run_rms': {n: float(nominal.rms[CH_NAMES.index(n)])
                          for n in ('z', 'theta', 'w', 'q', 'u')},
         'equation_rms': {n: float(eq_rms[i]) for i, n in enumerate(EQUATIONS[:5])},
         'dominant_equation': dom,
-        'segments': analysis.segments(pr, all_w, rms_z_win),
+        'segments': analysis.segments(pr, nominal.all_w, nominal.rms_z_win),
         'regimes': {'equation': EQUATIONS[focus],
                     **analysis.regimes(pr, residual, bar_act)},
         'band_hz': band_hz,
+        'time_origin': analysis.time_origin(pr),
     }
+    return GapSite(gap, e_nom, eq_rms, focus, corr, band_info, signals)
 
-    # 3. candidates
-    frf = FreeRunFit(pr, scales)
+
+@dataclasses.dataclass
+class Search:
+    """Stage 3: every candidate scored on the held-out windows, the best plausible set the
+    greedy search reached, and the fits and scorer that made them."""
+
+    candidates: list[Candidate]
+    best: Candidate
+    nominal: Candidate
+    scorer: _Scorer
+    eqf: EquationFit
+    frf: FreeRunFit
+    nominal_cost: float
+    floor_cost: float
+
+
+def search_candidates(pr: Problem, nominal: NominalRuns, names: Sequence[str], top: int,
+                      max_effects: int, say: Progress,
+                      fitted: Mapping[str, FitResult] | None = None,
+                      prefer: Sequence[str] = ()) -> Search:
+    """Stage 3: every catalogue effect fitted by equation error and scored by held-out free
+    run; the ``top`` plausible ones refined by free run (and the best one beyond its typical
+    range that physics allows, when it scores above them, and those of ``prefer``);
+    combinations grown greedily from the best plausible one (see the module docstring).
+    ``fitted``: equation-error fits already made."""
+    frf = FreeRunFit(pr, nominal.scales)
+    nom = Perturbation.nominal(pr.vehicle)
     held_rows = pr.window_rows(frf.held)
     held_idx = np.concatenate([np.arange(r.start + 1, r.stop) for r in held_rows])
     out_h, meas_h = pr.free_run([nom], frf.held)
-    err_h = (out_h[0][:, CH_INDEX] - meas_h[:, CH_INDEX]) / scales
+    err_h = (out_h[0][:, CH_INDEX] - meas_h[:, CH_INDEX]) / nominal.scales
     err_h = np.clip(np.where(np.isfinite(err_h), err_h, 1e3), -1e3, 1e3)
     nominal_cost = float(np.mean(np.sum(err_h[held_idx] ** 2, axis=1)))
     # the floor of each channel, but never above what the nominal model already reaches on
     # the held-out windows (a channel without a gap can shrink by nothing)
-    floor_cost = float(np.sum(np.minimum((floor / scales) ** 2,
+    floor_cost = float(np.sum(np.minimum((nominal.floor / nominal.scales) ** 2,
                                          np.mean(err_h[held_idx] ** 2, axis=0))))
-    scorer = _Scorer(pr, frf, nominal_cost, floor_cost, other_logs)
-    nominal_cand = scorer.evaluate([FitResult(EffectSet([], vehicle), np.zeros(0),
+    scorer = _Scorer(pr, frf, nominal_cost, floor_cost, nominal.other_logs)
+    nominal_cand = scorer.evaluate([FitResult(pr.effect_set([]), np.zeros(0),
                                               np.zeros(0, bool), np.zeros(0), np.zeros(0),
                                               'nominal')])[0]
     eqf = EquationFit(pr)
     say(f'equation-error fits of {len(names)} effects')
-    singles_a = {n: eqf.fit(EffectSet([n], vehicle)) for n in names}
+    singles_a = {n: fitted[n] if fitted and n in fitted else eqf.fit(pr.effect_set([n]))
+                 for n in names}
     cands_a = {c.label: c for c in scorer.evaluate(list(singles_a.values()))}
     order = sorted(names, key=lambda n: -cands_a[n].score)
-    # refine the best that identify something, plausible ones first
-    order = [n for n in order if singles_a[n].n_active > 0 and cands_a[n].plausible] + \
-        [n for n in order if singles_a[n].n_active > 0 and not cands_a[n].plausible]
-    refine = order[:top]
+    found = [n for n in order if singles_a[n].n_active > 0]
+    # refine the best that identify something, plausible ones first; and the best one
+    # beyond its typical range (but possible), when it scores above them (an atypical
+    # value is a finding, see _atypical)
+    refine = [n for n in found if cands_a[n].plausible][:top]
+    refine += [n for n in found if not cands_a[n].plausible][:max(0, top - len(refine))]
+    odd = next((n for n in found if cands_a[n].possible and not cands_a[n].plausible), None)
+    if odd is not None and odd not in refine and (
+            not refine or cands_a[odd].score > cands_a[refine[0]].score):
+        refine.append(odd)
+    refine += [n for n in prefer if n in found and n not in refine]
     say(f'free-run refinement of {", ".join(refine)}')
     singles: dict[str, Candidate] = dict(cands_a)
     refined = scorer.evaluate([frf.fit(singles_a[n]) for n in refine])
@@ -311,20 +411,19 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | 
             singles[c.label] = c
     ranked_singles = sorted(singles.values(), key=lambda c: -c.score)
     candidates: list[Candidate] = list(ranked_singles)
-
-    # 4. combinations: equation error ranks every addition, free run refines the best ones;
+    # combinations: equation error ranks every addition, free run refines the best ones;
     # only plausible sets whose every effect identifies something count
     viable = [c for c in ranked_singles if c.plausible and c.identifies]
     best = _simplest(viable) if viable else nominal_cand
     pool = list(names)
-    while gap_channels and viable and best.score > 0 and len(best.names) < max_effects \
-            and best.explained < 1.0:
+    while nominal.gap_channels and viable and best.score > 0 and \
+            len(best.names) < max_effects and best.explained < 1.0:
         base_cost = eqf.cost(best.fit.effects, best.fit.values, held_out=True)
         ranked, joint = [], {}
         for n in pool:
             if n in best.names:
                 continue
-            es = EffectSet((*best.names, n), vehicle)
+            es = pr.effect_set((*best.names, n))
             start = np.concatenate([best.fit.values, singles_a[n].values])
             fa = joint[n] = eqf.fit(es, start=start)
             cost = eqf.cost(es, fa.values, held_out=True)
@@ -352,20 +451,54 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | 
         if top_trial.score <= best.score + TIE:
             break
         best = top_trial
-    # ranked: the chosen best first, then the other plausible candidates that identify
-    # something, then the rest, each by score (ties: fewer parameters first)
+    _rank(candidates, best)
+    return Search(candidates, best, nominal_cand, scorer, eqf, frf, nominal_cost, floor_cost)
+
+
+def _rank(candidates: list[Candidate], best: Candidate) -> None:
+    """Sort in place: the chosen best first, then the plausible candidates that identify
+    something, then the rest, each by score (ties: fewer parameters first)."""
     candidates.sort(key=lambda c: (c is not best, not (c.plausible and c.identifies),
                                    -c.score, c.fit.n_active, len(c.names)))
 
-    # 5. residual tests of the best, and the verdict
+
+@dataclasses.dataclass
+class Judgement:
+    """Stage 4: the answer and how sure it is."""
+
+    verdict: str
+    best: Candidate | None          # the candidate named (None: no_gap, unexplained)
+    atypical: bool                  # named although beyond its typical range
+    ambiguous: list[str]
+    suggestion: str | None
+    white: bool
+    findings: list[residuals.Finding]
+    left: list[str]
+    #: the candidates behind ``ambiguous`` (for the statement)
+    rivals: list[Candidate] = dataclasses.field(default_factory=list)
+
+
+def judge(pr: Problem, search: Search, nominal: NominalRuns, site: GapSite,
+          weighting: Weighting, envelope: Envelope, say: Progress,
+          steadied: Sequence[str] = ()) -> Judgement:
+    """Stage 4: residual tests of the best (a larger plausible set with white residuals may
+    replace it), a better fit beyond physics as structure left, a better fit beyond the
+    typical range as the finding (verdict at most ``partly_explained`` or ``ambiguous``,
+    with the manoeuvre that would confirm it), and the verdict (:func:`decide_verdict`).
+    ``steadied``: the effect whose equation-error fit kept the runs of a diverging nominal
+    model with the logs (:func:`_steadied_by`); beyond its typical range, it is the finding
+    (the divergence was its) when it explains at least ``PARTLY`` of the gap."""
+    best = search.best
+    candidates = search.candidates
+    gap_channels = nominal.gap_channels
     res_signals = {'z': pr.eq_state[:, 2], 'u': pr.eq_state[:, 6], 'theta': pr.eq_state[:, 4],
-                   'w': pr.eq_state[:, 8], 'q': pr.eq_state[:, 10], 'bar_command': bar_cmd,
-                   'bar_command_rate': bar_rate, 'thrust_command': thr_cmd}
-    # -- a derived signal shares its noise with the equation errors: not a test signal -------
+                   'w': pr.eq_state[:, 8], 'q': pr.eq_state[:, 10]}
+    res_signals.update({k: site.signals[k] for k in ('bar_command', 'bar_command_rate',
+                                                     'thrust_command')})
+    # a derived signal shares its noise with the equation errors: not a test signal
     res_signals = {k: v for k, v in res_signals.items() if k not in weighting.channels}
-    # ----------------------------------------------------------------------------------------
     tested = best if best.names else None
-    white, findings, left = (_residual_tests(pr, eqf, frf, tested, res_signals)
+    white, findings, left = (_residual_tests(pr, search.eqf, search.frf, tested, res_signals)
                              if tested is not None and gap_channels else (False, [], []))
     if tested is not None and gap_channels and not white:
         # a larger plausible set whose residuals are white, within RESCUE of the score,
@@ -373,80 +506,311 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | 
         larger = [c for c in candidates if c.plausible and c.identifies
                   and set(c.names) > set(best.names) and c.score >= best.score - RESCUE]
         for c in sorted(larger, key=lambda c: -c.score)[:3]:
-            w2, f2, l2 = _residual_tests(pr, eqf, frf, c, res_signals)
+            w2, f2, l2 = _residual_tests(pr, search.eqf, search.frf, c, res_signals)
             if w2:
                 say(f'{c.label}: white residuals where {best.label} leaves structure')
                 best = tested = c
                 white, findings, left = w2, f2, l2
-                candidates.sort(key=lambda c: (c is not best, not (c.plausible and c.identifies),
-                                               -c.score, c.fit.n_active, len(c.names)))
+                _rank(candidates, best)
                 break
+    odd = _atypical(search.scorer, tested or search.nominal, candidates) \
+        if gap_channels else None
+    cause = next((c for c in candidates if c.names == tuple(steadied) and c.possible
+                  and not c.plausible and c.identifies and c.explained >= PARTLY), None)
+    if cause is not None and gap_channels:
+        odd = cause
+    if odd is not None:
+        say(f'{odd.label}: beyond its typical range, and a better fit than any typical set')
+        # rivals: typical or atypical (not impossible) answers the held-out windows cannot
+        # tell from it
+        rivals = [c for c in candidates if c is not odd and c.possible and c.identifies
+                  and not (_nested(set(c.names), set(odd.names))
+                           or _nested(set(odd.names), set(c.names)))
+                  and c.cost <= AMBIGUOUS_RATIO * odd.cost
+                  and c.explained >= odd.explained / AMBIGUOUS_RATIO
+                  and window_t_stat(c.window_cost - odd.window_cost) < AMBIGUOUS_T]
+        ambiguous = list(dict.fromkeys(n for c in rivals for n in c.names
+                                       if n not in odd.names))
+        rivals = list({c.label: c for c in reversed(rivals)}.values())[::-1]
+        _rank(candidates, odd)
+        eff = get_effect(odd.names[0])
+        hint = (separating_manoeuvre(odd.names[0], ambiguous[0], envelope)
+                if ambiguous else f'to confirm: {eff.advice(envelope)}')
+        return Judgement('ambiguous' if ambiguous else 'partly_explained', odd, True,
+                         ambiguous, hint, False, findings, left, rivals)
     if tested is not None and gap_channels:
         # a fit beyond physics that predicts the held-out windows significantly better than
         # the answer shows structure the answer leaves: not explained (its form is the hint)
-        rival = _better_implausible(scorer, tested, candidates)
+        rival = _better_implausible(search.scorer, tested, candidates)
         if rival is not None:
             white = False
             left = [rival, *left]
     verdict, ambiguous, suggestion = decide_verdict(gap_channels, tested, candidates, white,
-                                                    scorer.window_cost_other)
-    best_label = best.label if verdict not in ('no_gap', 'unexplained') else None
-    after = best if best_label else nominal_cand
-    z_i, th_i = CH_NAMES.index('z'), CH_NAMES.index('theta')
-    held = {
-        'rms_before': {'z': nominal_cand.rms['z'], 'theta': nominal_cand.rms['theta']},
-        'rms_after': {'z': after.rms['z'], 'theta': after.rms['theta']},
-        'shrink': after.explained,
-        'shrink_depth': _shrink(nominal_cand.rms['z'], after.rms['z'], float(floor[z_i])),
-        'floor': {'z': float(floor[z_i]), 'theta': float(floor[th_i])},
-    }
+                                                    search.scorer.window_cost_other, envelope)
+    named = best if verdict not in ('no_gap', 'unexplained') else None
+    return Judgement(verdict, named, False, ambiguous, suggestion, white, findings, left)
+
+
+def _atypical(scorer: _Scorer, best: Candidate, candidates: Sequence[Candidate]
+              ) -> Candidate | None:
+    """The candidate beyond its typical range but within what physics allows that is the
+    better answer: it identifies something, explains at least ``PARTLY`` of the gap, and
+    scores above the plausible best by more than ``TIE`` with held-out predictions
+    significantly better (Diebold-Mariano, level ``GAIN_LEVEL``), or there is no plausible
+    answer. A 10 deg fin zero error is no typical plane bias, but it is a finding to check,
+    not a reason to name a worse explanation."""
+    pool = [c for c in candidates if c.possible and not c.plausible and c.identifies
+            and c.explained >= PARTLY and c.score > 0]
+    for c in sorted(pool, key=lambda c: -c.score):
+        if not best.names or best.score <= 0 or best.explained < PARTLY:
+            return c
+        if c.score > best.score + TIE and c.loss and scorer.gain(best, c)[1] < GAIN_LEVEL:
+            return c
+    return None
+
+
+def _steadied_by(pr: Problem, names: Sequence[str], say: Progress
+                 ) -> tuple[dict[str, FitResult], list[str]]:
+    """A nominal model that diverges on the logs either has dynamics the logs do not
+    follow (re-identify it) or misses an effect large enough to throw its runs off (a 10 deg
+    fin zero error). Each effect is fitted by equation error alone (the model's equations at
+    the logged states: no free run that a steadying change could win); the one the equations
+    want most (the lowest held-out equation-error cost among those within what physics
+    allows that identify something) is run over every window: when fewer than half of
+    :data:`DIVERGE_SHARE` of its runs diverge, the divergence was that effect's (returned in
+    the list); otherwise the model is what diverges (an empty list: any other effect that
+    steadies it would do so by taking something away, a plane's lift, not by adding what
+    is missing). Returns the fits too (the search reuses them)."""
+    eqf = EquationFit(pr)
+    say(f'the nominal model diverges: equation-error fits of {len(names)} effects')
+    fits = {n: eqf.fit(pr.effect_set([n])) for n in names}
+    usable = [n for n in names if fits[n].n_active > 0
+              and not _plausibility(fits[n])[1] and not _plausibility(fits[n])[2]]
+    if not usable:
+        return fits, []
+    wanted = min(usable, key=lambda n: eqf.cost(fits[n].effects, fits[n].values,
+                                                held_out=True))
+    all_w = pr.select(None)
+    out, meas = pr.free_run([fits[wanted].effects.perturbation(fits[wanted].values)], all_w)
+    steady = np.mean(_diverging(pr, all_w, out[0] - meas)) < 0.5 * DIVERGE_SHARE
+    say(f'the effect the equations want most, {wanted}, '
+        + ('keeps' if steady else 'does not keep') + ' the free runs with the logs')
+    return fits, [wanted] if steady else []
+
+
+def _divergence_text(pr: Problem, nominal: NominalRuns) -> str:
+    """Why the diagnosis stops on a model that diverges on the logs."""
+    k = int(np.sum(nominal.diverging))
+    unstable = 'unstable' in pr.run_why
+    return (f'The nominal model diverges on these logs: {k} of {len(nominal.diverging)} free '
+            f'runs of {pr.run:.3g} s leave the logged motion (pitch off by more than '
+            f'{math.degrees(DIVERGE_PITCH):.0f} deg, or no finite state'
+            + (f'; {pr.run_why}' if unstable else '')
+            + '), and the effect its equations want most does not keep them with the logs. '
+            'Any effect that merely steadies it would seem to explain the gap, so none is '
+            'named: '
+            're-identify the model first (auv ident on these logs, or logs with manoeuvres), '
+            'then diagnose the identified file'
+            + ('; if the model is right and only unstable, log the pitch rate and heave '
+               'velocity (or faster rows): the runs start from states differenced at the '
+               'log\'s rows' if unstable and pr.x0_states else '') + '.')
+
+
+def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | None = None,
+             held_out_logs: Sequence[int] = (), effects: Sequence[str] | None = None,
+             top: int = 3, max_effects: int = 3, progress: Progress | None = None,
+             ranges: Ranges | None = None) -> Diagnosis:
+    """Diagnose the gap between ``vehicle`` (the nominal model) and ``logs``.
+
+    Parameters
+    ----------
+    vehicle
+        nominal vehicle parameters.
+    logs
+        log pieces (:func:`auv_gap.logs.load_bag`).
+    window
+        window [s] the data is cut into (held out whole); free runs restart at each
+        window, and within it every four e-folding times on a vehicle unstable without
+        feedback. None: chosen from the data
+        (:func:`auv_gap.problem.data_window`).
+    held_out_logs
+        indices of logs held out whole; default every third window.
+    effects
+        catalogue effects to try (default: all registered).
+    top
+        effects refined by free-run error and tried in combinations.
+    max_effects
+        largest combination.
+    progress
+        called with a line of text at each stage.
+    ranges
+        typical and possible parameter ranges (default: the ranges file,
+        :mod:`auv_gap.ranges`).
+    """
+    say = progress or (lambda _msg: None)
+    names = list(effects) if effects is not None else list(CATALOGUE)
+    for n in names:
+        get_effect(n)
+    # derived or assumed signals of imported logs: left out, never counted twice; free runs
+    # start from initial rates fitted to the measured depth and pitch
+    weighting = measurement_weighting(logs)
+    pr = Problem(vehicle, logs, window=window, held_out_logs=held_out_logs,
+                 left_out=weighting.equations, ranges=ranges,
+                 fitted_initial=[s for s in ('w', 'q') if s in weighting.channels])
+    if pr.window_why != 'given' or pr.run < pr.window:
+        say(f'free-run window: {pr.window_why}'
+            + (f'; runs restart every {pr.run:.3g} s: {pr.run_why}' if pr.run < pr.window
+               else ''))
+    say(f'nominal free runs over {len(pr.select(None))} runs in windows of {pr.window:g} s')
+    nominal = nominal_runs(pr, weighting, say)
+    site = locate_gap(pr, nominal)
+    envelope = _envelope(pr)
+    quiet = _quiet_findings(pr, site)
+    fitted: dict[str, FitResult] | None = None
+    steadied: list[str] = []
+    if nominal.diverges:
+        fitted, steadied = _steadied_by(pr, names, say)
+        if not steadied:
+            say('the nominal model diverges on the logs: re-identify it first')
+            statement = _divergence_text(pr, nominal)
+            judgement = Judgement('unexplained', None, False, [], None, False, [], [])
+            return _assemble(pr, nominal, site, None, judgement, weighting, quiet, statement,
+                             envelope)
+        say(f'with {", ".join(steadied)} fitted to the equations the free runs stay with the '
+            'logs: the divergence is an effect\'s, diagnosing on')
+    search = search_candidates(pr, nominal, names, top, max_effects, say, fitted, steadied)
+    judgement = judge(pr, search, nominal, site, weighting, envelope, say,
+                      steadied if fitted is not None else ())
+    judgement = _with_quiet(judgement, quiet)
     implausible = [{'effect': c.label, 'explained': c.explained,
-                    'beyond': {k: [v, *c.beyond[k]] for k, v in _entry_params(c).items()
-                               if k in c.beyond}}
-                   for c in candidates if not c.plausible and c.explained >= PARTLY]
+                    'kind': 'impossible' if not c.possible else 'atypical',
+                    'beyond': ({k: [v, *c.impossible[k]] for k, v in _entry_params(c).items()
+                                if k in c.impossible} if not c.possible else
+                               {k: [v, *c.beyond[k]] for k, v in _entry_params(c).items()
+                                if k in c.beyond})}
+                   for c in search.candidates if not c.plausible and c.explained >= PARTLY
+                   and c is not judgement.best]
+    statement = _statement(judgement, implausible, envelope)
+    return _assemble(pr, nominal, site, search, judgement, weighting, quiet, statement,
+                     envelope, implausible)
+
+
+def _envelope(pr: Problem) -> Envelope:
+    """Where the logs fly (median surge speed and depth) and the vehicle's limits."""
+    u = np.concatenate([lg.state[:, 6] for lg in pr.logs])
+    z = np.concatenate([lg.state[:, 2] for lg in pr.logs])
+    return Envelope(u0=float(np.median(np.abs(u))), z0=float(np.median(z)),
+                    depth_max=float(pr.vehicle.depth_max), bar_max=float(pr.vehicle.bar_max))
+
+
+def _quiet_findings(pr: Problem, site: GapSite) -> list[Finding]:
+    """What the log's coasts and surface passes give (:mod:`auv_gap.static`)."""
+    out = coast_findings(pr, site.e_nom)
+    passes: dict[tuple[Any, ...], Mapping[str, Any]] = {}
+    for lg in pr.logs:
+        for p in lg.surface_passes:
+            passes[(p.get('log'), p.get('from_s'))] = p
+    surface = surface_finding(list(passes.values()), float(pr.noise[2]))
+    return out + ([surface] if surface is not None else [])
+
+
+def _with_quiet(j: Judgement, quiet: Sequence[Finding]) -> Judgement:
+    """A significant buoyancy or centre-of-gravity offset from the coasts that the answer
+    does not hold (or holds with the other sign) keeps it from ``explained``."""
+    if j.best is None:
+        return j
+    names = j.best.names
+    values = _entry_params(j.best)
+    missing = []
+    for f in quiet:
+        if not f.significant or f.effect not in ('buoyancy_offset', 'cg_offset'):
+            continue
+        key = f.param if len(names) == 1 else f'{f.effect}.{f.param}'
+        if f.effect not in names or np.sign(values.get(key, 0.0)) != np.sign(f.value):
+            missing.append(f'the coasts show {f.text}, which the answer does not hold')
+    if not missing:
+        return j
+    verdict = 'partly_explained' if j.verdict == 'explained' else j.verdict
+    return dataclasses.replace(j, verdict=verdict, left=[*missing, *j.left])
+
+
+def _assemble(pr: Problem, nominal: NominalRuns, site: GapSite, search: Search | None,
+              j: Judgement, weighting: Weighting, quiet: Sequence[Finding], statement: str,
+              envelope: Envelope, implausible: Sequence[Mapping[str, Any]] = ()
+              ) -> Diagnosis:
+    """Stage 5: the report (the contract's keys and more), the details and the plots."""
+    z_i, th_i = CH_NAMES.index('z'), CH_NAMES.index('theta')
+    nominal_cand = search.nominal if search is not None else None
+    after = j.best if j.best is not None else nominal_cand
+    if nominal_cand is not None and after is not None:
+        held = {
+            'rms_before': {'z': nominal_cand.rms['z'], 'theta': nominal_cand.rms['theta']},
+            'rms_after': {'z': after.rms['z'], 'theta': after.rms['theta']},
+            'shrink': after.explained,
+            'shrink_depth': _shrink(nominal_cand.rms['z'], after.rms['z'],
+                                    float(nominal.floor[z_i])),
+            'floor': {'z': float(nominal.floor[z_i]), 'theta': float(nominal.floor[th_i])},
+        }
+    else:
+        before = {'z': float(nominal.rms[z_i]), 'theta': float(nominal.rms[th_i])}
+        held = {'rms_before': before, 'rms_after': before, 'shrink': 0.0, 'shrink_depth': 0.0,
+                'floor': {'z': float(nominal.floor[z_i]), 'theta': float(nominal.floor[th_i])}}
+    candidates = search.candidates if search is not None else []
+    quiet_text = '; '.join(f.text for f in quiet if f.significant)
+    if quiet_text:
+        statement += f' From the quiet stretches of the logs: {quiet_text}.'
     report = {
-        'verdict': verdict,
-        'gap': gap,
+        'verdict': j.verdict,
+        'gap': site.gap,
         'candidates': [_candidate_entry(c) for c in candidates],
-        'best': best_label,
-        'ambiguous_with': ambiguous,
-        'suggested_manoeuvre': suggestion,
+        'best': j.best.label if j.best is not None else None,
+        'ambiguous_with': j.ambiguous,
+        'suggested_manoeuvre': j.suggestion,
         'held_out': held,
-        'statement': _statement(verdict, best if best_label else None, implausible, left,
-                                ambiguous),
-        'residual_tests': {'white': white, 'left_over': left,
-                           'alpha': residuals.ALPHA, 'n_tests': len(findings),
+        'statement': ' '.join(filter(None, (statement, weighting.statement))),
+        'residual_tests': {'white': j.white, 'left_over': j.left,
+                           'alpha': residuals.ALPHA, 'n_tests': len(j.findings),
                            'residual': 'held-out equation error, one sample per smoothing '
                                        'window'},
-        'implausible': implausible,
+        'implausible': list(implausible),
+        'signals': weighting.report,
+        'findings': [f.as_dict() for f in quiet],
+        'diverges': nominal.diverges,
     }
-    # -- what was derived or assumed, and how it limits the answer ---------------------------
-    report['signals'] = weighting.report
-    report['statement'] = ' '.join(filter(None, (str(report['statement']),
-                                                 weighting.statement)))
-    # ----------------------------------------------------------------------------------------
+    scorer = search.scorer if search is not None else None
     details = {
-        'logs': [{'name': lg.name, 't0': float(lg.t[0]), 'duration_s': lg.duration,
-                  'period_s': lg.period, 'notes': list(lg.notes)} for lg in pr.logs],
-        'windows': [dataclasses.asdict(w) for w in pr.windows],
+        'logs': [{'name': lg.name, 't0': float(lg.t[0]) - lg.origin,
+                  'origin_stamp_s': lg.origin, 'origin_utc': lg.origin_utc,
+                  'duration_s': lg.duration, 'period_s': lg.period, 'notes': list(lg.notes)}
+                 for lg in pr.logs],
+        'windows': [dict(dataclasses.asdict(w), t0=w.t0 - pr.logs[w.log].origin,
+                         t1=w.t1 - pr.logs[w.log].origin) for w in pr.windows],
         'sensor_noise': dict(zip(STATE_FIELDS, map(float, pr.noise))),
-        'free_run_floor': dict(zip(CH_NAMES, map(float, floor))),
-        'free_run_rms_all': dict(zip(CH_NAMES, map(float, rms_nom))),
-        'gap_channels': gap_channels,
+        'free_run_floor': dict(zip(CH_NAMES, map(float, nominal.floor))),
+        'free_run_rms_all': dict(zip(CH_NAMES, map(float, nominal.rms))),
+        'gap_channels': nominal.gap_channels,
         'equation_sigma': dict(zip(EQUATIONS, map(float, pr.eq_sigma))),
-        'equation_rms_all': dict(zip(EQUATIONS, map(float, eq_rms))),
+        'equation_rms_all': dict(zip(EQUATIONS, map(float, site.eq_rms))),
         'correlation': [{k: v for k, v in c.items() if k not in ('curve', 'lags')}
-                        for c in corr],
-        'residual_tests': [dataclasses.asdict(f) for f in findings],
-        'held_out_cost': {'nominal': nominal_cost, 'floor': floor_cost, 'best': after.cost},
+                        for c in site.corr],
+        'residual_tests': [dataclasses.asdict(f) for f in j.findings],
+        'held_out_cost': ({'nominal': search.nominal_cost, 'floor': search.floor_cost,
+                           'best': after.cost if after is not None else math.nan}
+                          if search is not None else {}),
         'candidates': [_candidate_details(c) for c in candidates],
         'integration_step_s': pr.dt,
-        'window_s': window,
+        'window_s': pr.window,
         'window_why': pr.window_why,
+        'run_s': pr.run,
+        'run_why': pr.run_why,
+        'advice': {n: get_effect(n).advice(envelope) for n in CATALOGUE},
+        'diverging_runs': int(np.sum(nominal.diverging)),
+        'runs_left_out': sorted(pr.excluded),
     }
-    plots = {'problem': pr, 'best': best if best_label else None, 'nominal': nom,
-             'e_nom': e_nom, 'corr': corr, 'band': band_info, 'band_hz': band_hz,
-             'candidates': candidates, 'focus': EQUATIONS[focus]}
+    plots = {'problem': pr, 'best': j.best, 'nominal': Perturbation.nominal(pr.vehicle),
+             'e_nom': site.e_nom, 'corr': site.corr, 'band': site.band_info,
+             'band_hz': site.gap['band_hz'], 'candidates': candidates,
+             'focus': EQUATIONS[site.focus], 'scorer': scorer}
     return Diagnosis(report, details, plots)
 
 
@@ -458,8 +822,8 @@ def _held_at(cmd: tuple[np.ndarray, np.ndarray], t: np.ndarray) -> np.ndarray:
 
 def decide_verdict(gap_channels: list[str], best: Candidate | None,
                    candidates: list[Candidate], white: bool,
-                   other: Callable[[Candidate], np.ndarray | None] = lambda _c: None
-                   ) -> tuple[str, list[str], str | None]:
+                   other: Callable[[Candidate], np.ndarray | None] = lambda _c: None,
+                   envelope: Envelope | None = None) -> tuple[str, list[str], str | None]:
     """``(verdict, ambiguous_with, suggested_manoeuvre)``.
 
     ``explained`` needs all of: a plausible best that identifies every effect it names, an
@@ -469,7 +833,8 @@ def decide_verdict(gap_channels: list[str], best: Candidate | None,
     with the commands as reconstructed, or, for commands logged only at the rows, with them
     reconstructed the other way (``other``: cost per held-out window, or None). Contenders
     make the verdict ``ambiguous`` only when the best would be ``explained``: rivals of an
-    answer that falls short leave it ``partly_explained``, with the rivals listed.
+    answer that falls short leave it ``partly_explained``, with the rivals listed. The
+    separating manoeuvre is stated in the terms of the vehicle's ``envelope``.
     """
     if not gap_channels:
         return 'no_gap', [], None
@@ -498,7 +863,7 @@ def decide_verdict(gap_channels: list[str], best: Candidate | None,
                     ambiguous.append(n)
     if ambiguous:
         return ('ambiguous' if verdict == 'explained' else verdict), ambiguous, \
-            separating_manoeuvre(best.names[0], ambiguous[0])
+            separating_manoeuvre(best.names[0], ambiguous[0], envelope)
     return verdict, [], None
 
 
@@ -510,18 +875,19 @@ def window_t_stat(d: np.ndarray) -> float:
 
 def _better_implausible(scorer: _Scorer, best: Candidate, candidates: Sequence[Candidate]
                         ) -> str | None:
-    """The text naming an implausible candidate that predicts the held-out windows better
-    than ``best`` (Diebold-Mariano, level ``GAIN_LEVEL``), or None. A fit that needs
-    parameters beyond physics is no explanation, but when it beats the plausible answer on
-    data neither was fitted to, the answer has left structure of that fit's form (a
-    quadratic drag that a linear coefficient follows only on average, say)."""
+    """The text naming a candidate beyond what physics allows that predicts the held-out
+    windows better than ``best`` (Diebold-Mariano, level ``GAIN_LEVEL``), or None. A fit
+    that needs parameters beyond physics is no explanation, but when it beats the plausible
+    answer on data neither was fitted to, the answer has left structure of that fit's form
+    (a quadratic drag that a linear coefficient follows only on average, say). (A better fit
+    beyond the typical range but possible is the finding itself: :func:`_atypical`.)"""
     for c in sorted(candidates, key=lambda c: c.cost):
-        if c.plausible or c.cost >= best.cost or not c.loss:
+        if c.possible or c.cost >= best.cost or not c.loss:
             continue
         t, p = scorer.gain(best, c)
         if p < GAIN_LEVEL:
             ks = ', '.join(f'{k} = {v:.4g}' for k, v in _entry_params(c).items()
-                           if k in c.beyond)
+                           if k in c.impossible)
             return (f'a fit beyond the plausible range, {c.label} ({ks}), predicts the '
                     f'held-out data better (Diebold-Mariano t = {t:.1f}): structure of its '
                     'form is left')
@@ -546,23 +912,29 @@ def _shrink(before: float, after: float, floor: float) -> float:
     return float(np.clip((before - after) / room, 0.0, 1.0)) if room > 0 else 0.0
 
 
-def _plausibility(f: FitResult) -> tuple[dict[str, tuple[float, float]], list[str]]:
-    """Identified parameters at or beyond their plausible range (key -> range), and the
-    effects of the set that identify nothing (no identified parameter whose 95 % interval,
-    the fit's own before widening, excludes its "absent" value)."""
+def _plausibility(f: FitResult) -> tuple[dict[str, tuple[float, float]],
+                                         dict[str, tuple[float, float]], list[str]]:
+    """Identified parameters at or beyond their typical range (key -> range), those of them
+    beyond what physics allows (key -> that range), and the effects of the set that identify
+    nothing (no identified parameter whose 95 % interval, the fit's own before widening,
+    excludes its "absent" value)."""
     single = len(f.effects.names) == 1
     beyond: dict[str, tuple[float, float]] = {}
+    impossible: dict[str, tuple[float, float]] = {}
     found: dict[str, bool] = {n: False for n in f.effects.names}
     sig = f.significant if f.significant is not None else (f.lo95 > f.absent_values) | (
         f.hi95 < f.absent_values)
     for (e, p), v, a, s in zip(f.effects.params, f.values, f.active, sig):
         if not a:
             continue
+        key = p.name if single else f'{e}.{p.name}'
         if not p.is_plausible(float(v)):
-            beyond[p.name if single else f'{e}.{p.name}'] = p.plausible_range
+            beyond[key] = p.plausible_range
+        if not p.is_possible(float(v)):
+            impossible[key] = p.possible_range
         if s:
             found[e] = True
-    return beyond, [n for n, ok in found.items() if not ok]
+    return beyond, impossible, [n for n, ok in found.items() if not ok]
 
 
 def _residual_tests(pr: Problem, eqf: EquationFit, frf: FreeRunFit, cand: Candidate,
@@ -610,30 +982,68 @@ def _entry_params(c: Candidate) -> dict[str, float]:
                                                                      c.fit.values)}
 
 
-def _statement(verdict: str, best: Candidate | None, implausible: list[dict[str, Any]],
-               left: list[str], ambiguous: Sequence[str] = ()) -> str:
-    """One paragraph for the user: what the diagnosis found, in words and units (with the
+def _statement(j: Judgement, implausible: Sequence[Mapping[str, Any]],
+               envelope: Envelope) -> str:
+    """One paragraph for the user: what the diagnosis found, in words and units (an
+    atypical value named with its typical range, what to check and how to confirm it; the
     rivals the held-out data cannot tell from the best, ``ambiguous``)."""
     parts = []
-    if verdict == 'no_gap':
+    best = j.best
+    if j.verdict == 'no_gap':
         parts.append('The model matches the logs to within the noise floor.')
     elif best is None:
         parts.append('No plausible effect of the catalogue explains the gap.')
+    elif j.atypical:
+        parts.append(f'{j.verdict.replace("_", " ").capitalize()}, by a value beyond the '
+                     f'typical range: {describe(best.fit)} ({best.explained:.0%} of the '
+                     'held-out gap above the noise floor).')
+        parts += _beyond_typical(best)
+        if j.ambiguous:
+            texts = []
+            for c in j.rivals[:3]:
+                extra = ' '.join(_beyond_typical(c)).rstrip('.')
+                texts.append(f'{c.label} ({c.explained:.0%} of the gap'
+                             + (f'; {extra}' if extra else '') + ')')
+            parts.append('The held-out data cannot tell it from '
+                         + ('; '.join(texts) if texts else ', '.join(j.ambiguous))
+                         + ' (values in the candidates).')
+            parts.append(f'To tell them apart, fly {j.suggestion}.')
+        else:
+            parts.append(f'To confirm it, fly {get_effect(best.names[0]).advice(envelope)}.')
     else:
-        parts.append(f'{verdict.replace("_", " ").capitalize()}: '
+        parts.append(f'{j.verdict.replace("_", " ").capitalize()}: '
                      + describe(best.fit) + f' ({best.explained:.0%} of the held-out gap '
                      'above the noise floor).')
-        if ambiguous:
+        if j.ambiguous:
             parts.append('The held-out data cannot tell it from '
-                         + ', '.join(ambiguous) + '.')
+                         + ', '.join(j.ambiguous) + '.')
     for item in implausible[:3]:
-        ks = ', '.join(f'{k} = {v[0]:.4g} (plausible {v[1]:.4g} to {v[2]:.4g})'
+        tier = 'typical' if item['kind'] == 'atypical' else 'possible'
+        ks = ', '.join(f'{k} = {v[0]:.4g} ({tier} {v[1]:.4g} to {v[2]:.4g})'
                        for k, v in item['beyond'].items())
-        parts.append(f'{item["effect"]} would explain {item["explained"]:.0%} but only with '
-                     f'{ks}: not a physical explanation.')
-    if left and best is not None:
-        parts.append('Left over in the held-out residuals: ' + '; '.join(left[:4]) + '.')
+        what = ('only beyond the typical range' if item['kind'] == 'atypical'
+                else 'only beyond what physics allows')
+        tail = (': a finding only if the better answers fail' if item['kind'] == 'atypical'
+                else ': not a physical explanation')
+        parts.append(f'{item["effect"]} would explain {item["explained"]:.0%} but {what}, with '
+                     f'{ks}{tail}.')
+    if j.left and best is not None:
+        parts.append('Left over in the held-out residuals: ' + '; '.join(j.left[:4]) + '.')
     return ' '.join(parts)
+
+
+def _beyond_typical(c: Candidate) -> list[str]:
+    """One sentence per identified parameter of ``c`` beyond its typical range: the value,
+    the range and what to check."""
+    out = []
+    for (e, p), v, a in zip(c.fit.effects.params, c.fit.values, c.fit.active):
+        if a and not p.is_plausible(float(v)):
+            lo, hi = p.plausible_range
+            unit = '' if p.unit == '-' else f' {p.unit}'
+            out.append(f'{e}.{p.name} = {v:.4g}{unit} is beyond the typical range '
+                       f'({lo:.4g} to {hi:.4g}{unit}): check '
+                       f'{p.check or "how the vehicle is rigged"}.')
+    return out
 
 
 def _param_key(c: Candidate, effect: str, name: str) -> str:

@@ -82,6 +82,14 @@ def cluster_covariance(J: np.ndarray, r: np.ndarray, clusters: np.ndarray
     seen in the windows with doublets) gets fewer, and a wider t quantile: with few, unequally
     informative clusters the plain ``G - 1`` under-covers (Imbens and Kolesar 2016, Pustejovsky
     and Tipton 2018).
+
+    With no more clusters than parameters (short logs: one training window) the clusters'
+    scores, which sum to ``J^T r = 0`` at the least-squares optimum, span fewer directions
+    than there are parameters and CR2 gives some a variance of zero (a single cluster: zero
+    for all): an interval "3.33-3.33". There each variance is at least the model-based one, ``s^2
+    (J^T J)^-1`` with ``s^2 = r^T r / (n - p)``, times ``n / n_eff`` for the residuals'
+    correlation within clusters (lag-1, ``n_eff = n (1 - rho) / (1 + rho)``), and the degrees
+    of freedom stay ``G - 1`` (at least 1: a t quantile of 12.7 for one window).
     """
     ids = np.unique(clusters)
     p = J.shape[1]
@@ -120,7 +128,26 @@ def cluster_covariance(J: np.ndarray, r: np.ndarray, clusters: np.ndarray
         tr = float(np.trace(gtg))
         tr2 = float(np.sum(gtg * gtg))
         df[k] = tr * tr / tr2 if tr2 > 0 else float(len(ids) - 1)
+    if len(ids) <= p:
+        V = V + np.diag(np.maximum(np.diag(_model_covariance(J, r, clusters, b_inv))
+                                   - np.diag(V), 0.0))
     return V, np.clip(df, 1.0, max(len(ids) - 1, 1))
+
+
+def _model_covariance(J: np.ndarray, r: np.ndarray, clusters: np.ndarray, b_inv: np.ndarray
+                      ) -> np.ndarray:
+    """``s^2 (J^T J)^-1 n / n_eff``: the model-based covariance, inflated for the residuals'
+    lag-1 correlation within clusters (see :func:`cluster_covariance`)."""
+    n, p = J.shape
+    num = den = 0.0
+    for c in np.unique(clusters):
+        rc = r[clusters == c]
+        num += float(np.sum(rc[1:] * rc[:-1])) if rc.size > 1 else 0.0
+        den += float(np.sum(rc * rc))
+    rho = float(np.clip(num / den, 0.0, 0.95)) if den > 0 else 0.0
+    s2 = float(r @ r) / max(n - p, 1)
+    out: np.ndarray = s2 * b_inv * (1.0 + rho) / (1.0 - rho)
+    return out
 
 
 def _intervals(es: EffectSet, values: np.ndarray, active: np.ndarray, cov_s: np.ndarray,

@@ -65,6 +65,18 @@ class GapLog:
     #: logged rows are lost, commands logged at them are recognised by their spacing
     #: (:func:`sampled_commands`)
     irregular_rows: bool = False
+    #: state signal -> the least white noise it can have [SI unit]: the rounding of a value
+    #: logged in steps, or a slow sensor's own noise (from the import report's
+    #: ``noise_floor``); :func:`smooth` never estimates less
+    noise_floor: Mapping[str, float] = dataclasses.field(default_factory=dict)
+    #: the log's start [s] (its first stamp, before any piece was cut off it) and that
+    #: instant in UTC (ISO 8601; None for a clock started with the log and no file time):
+    #: reports give times since this start
+    origin: float = math.nan
+    origin_utc: str | None = None
+    #: the import's surface passes of the log (median depth reading, spread, samples; see
+    #: :func:`auv_logs.importer.usable_samples`)
+    surface_passes: tuple[Mapping[str, Any], ...] = ()
 
     @property
     def period(self) -> float:
@@ -77,11 +89,33 @@ class GapLog:
         return float(self.t[-1] - self.t[0])
 
 
+def log_period(t: np.ndarray) -> float:
+    """The sample period [s] of stamps ``t`` (increasing): the median step, or, for rows
+    whose spacing jitters (:func:`auv_logs.segments.spacing_jitter`: a logger writing
+    rows 0.39 and 0.61 s apart), the mean step below :data:`GAP_SPLIT` median steps (the
+    median of such rows is one of the two steps, not their rate), to two significant digits
+    (0.5 s for a 2 Hz logger whose rows jitter: the grid the rows are interpolated onto, the
+    same for every log of that logger)."""
+    from auv_logs.segments import spacing_jitter
+
+    d = np.diff(t)
+    d = d[d > 0]
+    med = float(np.median(d))
+    if spacing_jitter(t) is None:
+        return med
+    mean = float(np.mean(d[d <= GAP_SPLIT * med]))
+    return float(f'{mean:.2g}')     # the grid is ours: logs of one logger share it
+
+
 def from_arrays(name: str, t: np.ndarray, state: np.ndarray,
                 commands: Mapping[str, tuple[np.ndarray, np.ndarray]],
                 notes: Sequence[str] = (), origins: Mapping[str, str] | None = None,
-                measured_fins: Sequence[str] = (), irregular: bool = False) -> list[GapLog]:
-    """Check and regularise a log: split at pauses, resample onto a uniform grid.
+                measured_fins: Sequence[str] = (), irregular: bool = False,
+                noise_floor: Mapping[str, float] | None = None,
+                origin: float | None = None, origin_utc: str | None = None,
+                surface_passes: Sequence[Mapping[str, Any]] = ()) -> list[GapLog]:
+    """Check and regularise a log: split at pauses, resample onto a uniform grid (the
+    period of :func:`log_period`).
 
     ``t`` (N) [s] must be non-decreasing and finite; ``state`` (N x 12) finite. Yaw is
     unwrapped before resampling. Channels missing from ``commands`` other than the helm are
@@ -89,7 +123,8 @@ def from_arrays(name: str, t: np.ndarray, state: np.ndarray,
     state signals that were derived or assumed (see :attr:`GapLog.origins`);
     ``measured_fins``: channels of ``commands`` that hold measured fin positions;
     ``irregular``: the stamps ``t`` were themselves resampled from the log's rows by the
-    import (see :attr:`GapLog.irregular_rows`).
+    import (see :attr:`GapLog.irregular_rows`); ``noise_floor``, ``origin`` (default the
+    first stamp), ``origin_utc``, ``surface_passes``: see :class:`GapLog`.
     """
     origins = dict(origins or {})
     unknown = sorted(set(origins) - set(STATE_FIELDS))
@@ -112,6 +147,9 @@ def from_arrays(name: str, t: np.ndarray, state: np.ndarray,
     keep = np.concatenate([[True], dt > 0])
     t, state = t[keep], state[keep]
     notes = list(notes)
+    start = float(t[0]) if origin is None else float(origin)
+    from auv_logs.importer import utc
+    origin_utc = utc(start) or origin_utc       # an absolute clock over a file's own time
     cmds: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     for ch in CHANNELS:
         if ch not in commands or len(commands[ch][0]) == 0:
@@ -131,7 +169,7 @@ def from_arrays(name: str, t: np.ndarray, state: np.ndarray,
                          'the first command is assumed before it')
     state = state.copy()
     state[:, 5] = np.unwrap(state[:, 5])
-    period = float(np.median(np.diff(t)))
+    period = log_period(t)
     cuts = np.flatnonzero(np.diff(t) > GAP_SPLIT * period) + 1
     pieces = []
     for k, (a, b) in enumerate(zip(np.r_[0, cuts], np.r_[cuts, t.size])):
@@ -145,7 +183,9 @@ def from_arrays(name: str, t: np.ndarray, state: np.ndarray,
             xs[:, i] = np.interp(grid, tp, state[a:b, i])
         label = name if len(cuts) == 0 else f'{name}#{k}'
         pieces.append(GapLog(label, grid, xs, cmds, tuple(notes), origins,
-                             tuple(measured_fins), rows=tp, irregular_rows=irregular))
+                             tuple(measured_fins), rows=tp, irregular_rows=irregular,
+                             noise_floor=dict(noise_floor or {}), origin=start,
+                             origin_utc=origin_utc, surface_passes=tuple(surface_passes)))
     if not pieces:
         raise GapError(f'{name}: no continuous stretch of 20 samples or more')
     return pieces
@@ -191,9 +231,22 @@ def from_contract_arrays(name: str, arrays: Mapping[str, np.ndarray],
              'commands; the actuator model passes them through (lag of one simulation step, '
              'no rate limit)' for ch in fins]
     resampled = any(not str(rep.get('resampled', 'no')).startswith('no') for rep in imports)
+    floor: dict[str, float] = {}
+    for rep in imports:
+        for sig, value in (rep.get('noise_floor') or {}).items():
+            floor[sig] = max(floor.get(sig, 0.0), float(value))
+    starts = [float(rep['start']['stamp_s']) for rep in imports
+              if (rep.get('start') or {}).get('stamp_s') is not None]
+    clocks = [rep['start'].get('file_time_utc') for rep in imports
+              if (rep.get('start') or {}).get('file_time_utc')]
+    passes = [dict(p, log=str(rep.get('log', ''))) for rep in imports
+              for p in rep.get('surface_passes') or []]
     pieces = from_arrays(name, st['t'], state, commands, notes,
                          origins=import_origins(imports), measured_fins=fins,
-                         irregular=resampled)
+                         irregular=resampled, noise_floor=floor,
+                         origin=min(starts) if starts else None,
+                         origin_utc=clocks[0] if clocks and len(imports) == 1 else None,
+                         surface_passes=passes)
     return [first_order_hold(lg) for lg in pieces]
 
 
@@ -484,7 +537,9 @@ class Smoothed:
 def smooth(log: GapLog, window: float = 1.0, order: int = 3) -> Smoothed:
     """Smooth a log with a Savitzky-Golay filter of ``window`` [s] and polynomial ``order``.
 
-    The white noise of each state is estimated from second differences; for a rate the
+    The white noise of each state is estimated from second differences, never below its
+    :attr:`GapLog.noise_floor` (a value logged in 0.1 m steps has second differences of zero
+    between its steps, not zero noise); for a rate the
     import derived by central differences (:attr:`GapLog.origins`, :data:`DERIVED_FROM`) it
     is set to the level of white noise that leaves the same error after the smoothing as its
     source's noise, differenced, does (``sigma_src ||h_s * d|| / ||h_s||``, ``d`` the central
@@ -499,6 +554,9 @@ def smooth(log: GapLog, window: float = 1.0, order: int = 3) -> Smoothed:
     d2 = np.diff(log.state, 2, axis=0)
     mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0)
     noise = 1.4826 * mad / np.sqrt(6.0)
+    for sig, least in log.noise_floor.items():     # a rounding the estimate cannot see
+        k = STATE_FIELDS.index(sig)
+        noise[k] = max(noise[k], float(least))
     imp = np.zeros(n)
     imp[n // 2] = 1.0
     hd = savgol_filter(imp, n, order, deriv=1, delta=log.period, mode='interp')

@@ -29,6 +29,7 @@ from auv_gap.catalogue import (
 from auv_gap.errors import GapError
 from auv_gap.kernel import actuator_series, equation_terms, free_run_batch
 from auv_gap.logs import DERIVED_FROM, GapLog, Smoothed, smooth
+from auv_gap.ranges import Ranges, default_ranges
 from auv_sim.model import ENV_SIZE
 from auv_sim.params import VehicleParams, mass_matrix
 
@@ -43,24 +44,79 @@ CH_NAMES = ('z', 'theta', 'u', 'w', 'q', 'v', 'r')
 #: Seconds at the start of each log piece for the actuator models to forget their unknown
 #: initial position (5 time constants of a 1-s lag).
 ACT_SETTLE = 5.0
-#: Free-run window [s] of a vehicle whose vertical-plane motion is stable without feedback.
+#: Longest window [s] (and the free-run length of a vehicle whose vertical-plane motion is
+#: stable without feedback).
 STABLE_WINDOW = 60.0
 #: e-folding times of the fastest unstable vertical-plane mode that a window spans (a free
 #: run from a state a little off grows about e^4 = 55-fold), and the shortest window [s].
 UNSTABLE_FOLDS = 4.0
 MIN_WINDOW = 10.0
+#: Shortest free run [s] of a vehicle unstable without feedback (within a window).
+MIN_RUN = 5.0
+#: Windows the data should give at least (two training, one held out): the window is the
+#: longest, up to :data:`STABLE_WINDOW`, that gives them.
+MIN_WINDOWS = 3
+#: Shortest window [s] made at the end of a log piece (a shorter tail joins the window before
+#: it, or starts none).
+MIN_TAIL = 4.0
 
 
-def free_run_window(vehicle: VehicleParams, logs: Sequence[GapLog]) -> tuple[float, str]:
-    """The free-run window [s] for ``vehicle`` on ``logs``, and why.
+def window_starts(n: int, step: float, window: float, settle: float = ACT_SETTLE,
+                  min_tail: float = MIN_TAIL, m: int = 1) -> list[tuple[int, int]]:
+    """``(i0, i1)`` sample ranges (``i1`` inclusive) of the windows of ``window`` [s] in a log
+    piece of ``n`` samples ``step`` [s] apart (each ``m`` log samples), from ``settle`` [s]
+    on; a tail shorter than half a window joins the window before it, and a piece shorter
+    than ``min_tail`` [s] after ``settle`` starts none."""
+    last = n - 1
+    first = int(np.ceil(settle / step - 1e-9))
+    nwin = max(2, int(round(window / step)))
+    if last - first < max(2, min_tail / step):
+        return []
+    starts = list(range(first, last, nwin))
+    if len(starts) > 1 and (last - starts[-1]) * m < (nwin * m) // 2:
+        starts.pop()
+    return [(a, (starts[j + 1] if j + 1 < len(starts) else last))
+            for j, a in enumerate(starts)]
+
+
+def data_window(logs: Sequence[GapLog]) -> tuple[float, str]:
+    """The window [s] chosen from the data alone (so that diagnoses of the same logs with two
+    vehicle files compare): the longest up to :data:`STABLE_WINDOW`, and at least
+    :data:`MIN_WINDOW`, whose windows the log pieces give at least :data:`MIN_WINDOWS` of
+    (each piece gives its own windows: a piece shorter than the window is one window); and
+    why, in words."""
+    period = float(np.median([lg.period for lg in logs]))
+    durations = [lg.duration for lg in logs]
+
+    def count(w: float) -> int:
+        return sum(len(window_starts(lg.t.size, period, w)) for lg in logs)
+
+    chosen = STABLE_WINDOW
+    if count(STABLE_WINDOW) < MIN_WINDOWS:
+        best = max(np.arange(STABLE_WINDOW, MIN_WINDOW - 1e-9, -1.0),
+                   key=lambda w: (min(count(float(w)), MIN_WINDOWS), w))
+        chosen = float(best)
+    n = count(chosen)
+    short = sum(d - ACT_SETTLE < chosen for d in durations)
+    return chosen, (f'{chosen:g} s, chosen from the data: {len(logs)} log piece(s) of '
+                    f'{min(durations):.3g}-{max(durations):.3g} s give {n} window(s)'
+                    + (f' ({short} piece(s) shorter than a window are one window each)'
+                       if short else ''))
+
+
+def free_run_window(vehicle: VehicleParams, logs: Sequence[GapLog],
+                    shortest: float = MIN_WINDOW) -> tuple[float, str]:
+    """The longest free run [s] for ``vehicle`` on ``logs``, and why.
 
     A free run restarts from the log at every window; on a vehicle that is unstable without
     feedback (the REMUS 100: a vertical-plane pair at +0.39 +- 0.38j 1/s at 1.5 m/s) a run of
     :data:`STABLE_WINDOW` seconds diverges from any start, and every effect looks alike. The
-    window spans :data:`UNSTABLE_FOLDS` e-folding times ``1/lambda`` of the fastest unstable
+    run spans :data:`UNSTABLE_FOLDS` e-folding times ``1/lambda`` of the fastest unstable
     mode of the nominal vertical plane (``w, q, theta``; linearised at the logs' median surge
-    speed and depth), within [:data:`MIN_WINDOW`, :data:`STABLE_WINDOW`];
-    :data:`STABLE_WINDOW` when no mode is unstable or no trim exists there.
+    speed and depth), within [``shortest``, :data:`STABLE_WINDOW`]; :data:`STABLE_WINDOW`
+    when no mode is unstable or no trim exists there. The diagnosis cuts the data into
+    windows chosen from the data alone (:func:`data_window`) and restarts the free runs of
+    such a vehicle within them.
     """
     from auv_sim.errors import TrimError
     from auv_sim.trim import VerticalPlane
@@ -79,7 +135,7 @@ def free_run_window(vehicle: VehicleParams, logs: Sequence[GapLog]) -> tuple[flo
     if lam <= 0.0:
         return STABLE_WINDOW, (f'vertical plane stable without feedback at {u0:.3g} m/s: '
                                f'{STABLE_WINDOW:g} s')
-    window = float(np.clip(UNSTABLE_FOLDS / lam, MIN_WINDOW, STABLE_WINDOW))
+    window = float(np.clip(UNSTABLE_FOLDS / lam, shortest, STABLE_WINDOW))
     return window, (f'vertical plane unstable without feedback at {u0:.3g} m/s (mode '
                     f'+{lam:.3g} 1/s): {UNSTABLE_FOLDS:g} e-folding times, {window:.3g} s')
 
@@ -103,16 +159,20 @@ class Window:
 
 
 class EffectSet:
-    """Several catalogue effects as one model: parameters concatenated in effect order."""
+    """Several catalogue effects as one model: parameters concatenated in effect order, with
+    the typical and possible ranges of ``ranges`` (default: :func:`default_ranges`)."""
 
-    def __init__(self, names: Sequence[str], vehicle: VehicleParams) -> None:
+    def __init__(self, names: Sequence[str], vehicle: VehicleParams,
+                 ranges: Ranges | None = None) -> None:
         self.names = tuple(names)
         self.effects = [get_effect(n) for n in self.names]
         for e in self.effects:
             check_declared(e, vehicle)
         self.vehicle = vehicle
+        table = ranges if ranges is not None else default_ranges()
         self.params: list[tuple[str, Parameter]] = [
-            (e.name, p) for e in self.effects for p in e.parameters(vehicle)]
+            (e.name, p) for e in self.effects
+            for p in table.apply(e.name, e.parameters(vehicle), vehicle)]
         self.absent = np.array([p.absent for _, p in self.params])
         self.lo = np.array([p.lo for _, p in self.params])
         self.hi = np.array([p.hi for _, p in self.params])
@@ -137,33 +197,58 @@ class EffectSet:
 class Problem:
     """Logs, windows and the model of one vehicle, ready for free runs and equation errors.
 
-    Args:
-        vehicle: the nominal model.
-        logs: log pieces (see :mod:`auv_gap.logs`).
-        window: free-run window length [s]; None: :func:`free_run_window` (kept with its
-            reason in ``window`` and ``window_why``).
-        held_out_logs: indices of logs held out entirely; if empty, every third window
-            (the 2nd, 5th, ...) is held out.
-        eq_period: spacing of equation-error samples [s].
-        smooth_window: Savitzky-Golay window [s] for states and derivatives.
-        cost_period: spacing of the free-run samples compared with the log [s].
-        max_step: largest integration step of the vehicle [s]; the actuators are integrated
-            apart on a finer grid, so the step only has to resolve the vehicle's own motion.
+    Parameters
+    ----------
+    vehicle
+        the nominal model.
+    logs
+        log pieces (see :mod:`auv_gap.logs`).
+    window
+        window length [s] (the unit held out whole); None: chosen from the data,
+        :func:`data_window` (kept with its reason in ``window`` and ``window_why``). On
+        a vehicle unstable without feedback the free runs restart within each window
+        every :func:`free_run_window` seconds (``run``, ``run_why``).
+    held_out_logs
+        indices of logs held out entirely; if empty, every third window
+        (the 2nd, 5th, ...) is held out.
+    eq_period
+        spacing of equation-error samples [s].
+    smooth_window
+        Savitzky-Golay window [s] for states and derivatives.
+    cost_period
+        spacing of the free-run samples compared with the log [s].
+    max_step
+        largest integration step of the vehicle [s]; the actuators are integrated
+        apart on a finer grid, so the step only has to resolve the vehicle's own motion.
+    left_out
+        equations (of :data:`EQUATIONS`) left out of the fits and tests (their
+        noise set to infinity: weight zero), e.g. the depth kinematics when ``w`` was
+        derived from the depth.
+    fitted_initial
+        derived rates (``w``, ``q``) whose initial values every free run
+        fits to the measured depth and pitch (:meth:`estimate_initial`).
+    ranges
+        the typical and possible ranges of the effects' parameters
+        (:mod:`auv_gap.ranges`; default the ranges file).
     """
 
     def __init__(self, vehicle: VehicleParams, logs: Sequence[GapLog],
                  window: float | None = None,
                  held_out_logs: Sequence[int] = (), eq_period: float = 0.5,
                  smooth_window: float = 1.0, cost_period: float = 0.2,
-                 max_step: float = 0.05) -> None:
+                 max_step: float = 0.05, left_out: Sequence[str] = (),
+                 fitted_initial: Sequence[str] = (), ranges: Ranges | None = None) -> None:
         if not logs:
             raise GapError('no logs to diagnose')
         self.window_why = 'given'
         if window is None:
-            window, self.window_why = free_run_window(vehicle, logs)
+            window, self.window_why = data_window(logs)
         self.window = window
         if not window > 0:
             raise GapError(f'window must be > 0 s, got {window}')
+        run, self.run_why = free_run_window(vehicle, logs, MIN_RUN)
+        #: free-run length [s]: the window, or shorter on a vehicle unstable without feedback
+        self.run = min(run, window)
         self.vehicle = vehicle
         self.logs = list(logs)
         self.P = vehicle.as_array()
@@ -212,7 +297,9 @@ class Problem:
         # fine actuator grids, one per log, concatenated
         self.fine_n = [((lg.t.size - 1) // self.m) * self.sub * 2 + 1 for lg in self.logs]
         self.fine_off = np.r_[0, np.cumsum(self.fine_n)[:-1]].astype(np.int64)
-        self.windows = self._windows(window, held_out_logs)
+        self.windows = self._windows(window, self.run, held_out_logs)
+        #: windows left out of the free runs (:meth:`exclude`)
+        self.excluded: frozenset[int] = frozenset()
         self.x0_cov = [None] * len(self.windows)
         if not any(w.held_out for w in self.windows) or all(w.held_out for w in self.windows):
             raise GapError('the logs are too short to hold out whole windows: need at least '
@@ -222,31 +309,52 @@ class Problem:
         self._act_cache: dict[bytes, np.ndarray] = {}
         self._eq_act_cache: dict[bytes, np.ndarray] = {}
         self._eq_samples(eq_period, smooth_window)
+        self.ranges = ranges
+        sigma: np.ndarray = np.where(np.isin(EQUATIONS, list(left_out)), np.inf,
+                                     self.equation_sigma(self.M))
+        self.eq_sigma = sigma
+        self.estimate_initial(list(fitted_initial))
+
+    def effect_set(self, names: Sequence[str]) -> EffectSet:
+        """The effects ``names`` on this problem's vehicle, with its ranges."""
+        return EffectSet(names, self.vehicle, self.ranges)
 
     # -- windows -----------------------------------------------------------------------------
-    def _windows(self, window: float, held_out_logs: Sequence[int]) -> list[Window]:
+    def _windows(self, window: float, run: float, held_out_logs: Sequence[int]
+                 ) -> list[Window]:
+        """Windows of ``window`` [s] per log piece (every third held out, or the pieces of
+        ``held_out_logs``), each cut into free runs of ``run`` [s] that share its flag."""
         wins: list[Window] = []
-        nwin = max(2, int(round(window / (self.period * self.m)))) * self.m
+        step = self.period * self.m
         k = 0
         for li, lg in enumerate(self.logs):
-            n = lg.t.size
-            last = ((n - 1) // self.m) * self.m  # last sample on the output grid
-            settle = int(np.ceil(ACT_SETTLE / (self.period * self.m) - 1e-9)) * self.m
-            starts = list(range(min(settle, last), last, nwin))
-            if len(starts) > 1 and last - starts[-1] < nwin // 2:
-                starts.pop()
-            for j, i0 in enumerate(starts):
-                i1 = starts[j + 1] + 1 if j + 1 < len(starts) else last + 1
+            n_out = (lg.t.size - 1) // self.m + 1       # samples on the output grid
+            for a, b in window_starts(n_out, step, window, m=self.m):
                 held = (li in held_out_logs) if held_out_logs else (k % 3 == 1)
-                wins.append(Window(li, i0, i1 - i0, held, float(lg.t[i0]),
-                                   float(lg.t[i1 - 1])))
                 k += 1
+                for ra, rb in window_starts(b - a + 1, step, run, settle=0.0,
+                                            min_tail=0.0, m=self.m):
+                    i0, i1 = (a + ra) * self.m, (a + rb) * self.m + 1
+                    wins.append(Window(li, i0, i1 - i0, held, float(lg.t[i0]),
+                                       float(lg.t[i1 - 1])))
         return wins
 
     def select(self, held_out: bool | None) -> list[int]:
-        """Indices of the held-out (True), training (False) or all (None) windows."""
+        """Indices of the held-out (True), training (False) or all (None) windows, less the
+        :attr:`excluded` ones."""
         return [i for i, w in enumerate(self.windows)
-                if held_out is None or w.held_out == held_out]
+                if (held_out is None or w.held_out == held_out) and i not in self.excluded]
+
+    def exclude(self, windows: Sequence[int]) -> bool:
+        """Leave ``windows`` out of every later :meth:`select` (free-run fits, scores and
+        tests; the equation error keeps their samples), unless that would leave no training
+        or no held-out window; returns whether they were left out."""
+        left = set(windows) | self.excluded
+        keep = [w for i, w in enumerate(self.windows) if i not in left]
+        if not any(w.held_out for w in keep) or all(w.held_out for w in keep):
+            return False
+        self.excluded = frozenset(left)
+        return True
 
     # -- actuators ---------------------------------------------------------------------------
     def actuators(self, pert: Perturbation) -> np.ndarray:
@@ -480,6 +588,8 @@ class Problem:
     # -- equation error ----------------------------------------------------------------------
     def _eq_samples(self, eq_period: float, smooth_window: float) -> None:
         every = max(1, int(round(eq_period / self.period)))
+        #: spacing of the equation samples [s] (every log piece alike)
+        self.eq_step = every * self.period
         edge = int(round(0.5 * smooth_window / self.period)) + 1
         idx, logi, win = [], [], []
         for wi, w in enumerate(self.windows):
@@ -570,6 +680,24 @@ class Problem:
                 + kin[:, 8] * np.cos(th) * np.cos(ph))
         e[:, 5] = depth_rate - pert.scale[2] * zdot
         return e
+
+    def wrench_terms(self, pert: Perturbation) -> np.ndarray:
+        """The model's wrench at the equation samples by term (n x 4 x 6: hydrodynamic,
+        Coriolis, restoring, actuators; body FRD [N, N m]) for ``pert``'s model and water,
+        at the smoothed logged states (:func:`auv_sim.model.wrench_series`; the extra wrench
+        of ``pert`` is not in it)."""
+        from auv_sim.model import wrench_series
+
+        key = np.concatenate([pert.delay, pert.tau, pert.rate]).tobytes()
+        eq_act = self._eq_act_cache.get(key)
+        if eq_act is None:
+            eq_act = self._smoothed_actuators(self.actuators(pert))
+        X = np.empty((self.eq_index.size, 15))
+        X[:, :12] = self.eq_state - pert.bias
+        X[:, 12:] = eq_act
+        out: np.ndarray = wrench_series(self.eq_t - self.t_ref, X, self.model_arrays(pert)[0],
+                                        pert.env_vector(), np.zeros((0, 4)))
+        return out
 
     def _smoothed_actuators(self, act: np.ndarray) -> np.ndarray:
         """Actuator positions at the equation samples, smoothed by the same filter as the

@@ -9,14 +9,14 @@ from typing import Any
 
 import numpy as np
 
-from auv_gap.catalogue import CATALOGUE, MANOEUVRES
+from auv_gap.catalogue import CATALOGUE
 from auv_gap.diagnose import Diagnosis
 from auv_gap.errors import GapError
 from auv_gap.problem import EQ_UNITS, EQUATIONS
 
 REPORT_KEYS = ('verdict', 'gap', 'candidates', 'best', 'ambiguous_with',
                'suggested_manoeuvre', 'held_out', 'statement', 'residual_tests', 'implausible',
-               'signals')
+               'signals', 'findings', 'diverges')
 
 
 def _clean(obj: Any) -> Any:
@@ -73,6 +73,11 @@ def _markdown(diag: Diagnosis, figures: list[tuple[str, str]]) -> str:
         lines += ['', f'The held-out data cannot tell `{r["best"]}` from '
                   + ', '.join(f'`{n}`' for n in r['ambiguous_with'])
                   + f'. To separate them, fly {r["suggested_manoeuvre"]}.']
+    elif r['suggested_manoeuvre']:
+        lines += ['', f'Suggested: {r["suggested_manoeuvre"]}.']
+    if r.get('findings'):
+        lines += ['', '## From the quiet stretches (thruster-off coasts, surface passes)', '']
+        lines += [f'- {f["text"]} ({f["source"]})' for f in r['findings']]
     held = r['held_out']
     lines += ['', '## Held-out free run (depth, pitch)', '',
               '| | before (nominal) | after (best) |', '| --- | --- | --- |',
@@ -86,6 +91,8 @@ def _markdown(diag: Diagnosis, figures: list[tuple[str, str]]) -> str:
               'used to fit the effects. Free runs restart from the logged state at each '
               f'{d["window_s"]:.3g}-s window'
               + (f' ({d["window_why"]})' if d.get('window_why', 'given') != 'given' else '')
+              + (f', and within it every {d["run_s"]:.3g} s ({d["run_why"]})'
+                 if d.get('run_s', d['window_s']) < d['window_s'] else '')
               + '; the log is compared smoothed over 1 s.']
     gap = r['gap']
     lines += ['', '## Where the gap lies', '',
@@ -105,9 +112,11 @@ def _markdown(diag: Diagnosis, figures: list[tuple[str, str]]) -> str:
     lines += ['', f'Dominant equation: {gap["dominant_equation"] or "none"}; frequency band: '
               + (f'{gap["band_hz"][0]:.3g}-{gap["band_hz"][1]:.3g} Hz' if gap['band_hz']
                  else 'none above the noise') + '.', '',
-              'Windows with the largest nominal depth error:', '']
+              'Windows with the largest nominal depth error (seconds since the start of '
+              'the log; ' + _starts(gap.get('time_origin') or {}) + '):', '']
     for s in gap['segments']:
-        lines.append(f'- {s["t0"]:.1f}-{s["t1"]:.1f} s: {s["rms_z"]:.3g} m')
+        lines.append(f'- {s.get("log", "")} {s["t0"]:.1f}-{s["t1"]:.1f} s: '
+                     f'{_fmt(s["rms_z"], "m", 3)}')
     lines += ['', f'Residual of the {gap["regimes"]["equation"]} equation by regime '
               '(RMS / mean):', '']
     for key, rows in gap['regimes'].items():
@@ -145,14 +154,16 @@ def _markdown(diag: Diagnosis, figures: list[tuple[str, str]]) -> str:
     unseen = [c['effect'] for c in d['candidates']
               if '+' not in c['effect'] and c['effect'] not in seen]
     if unseen:
+        advice = d.get('advice') or {}
         lines += ['', 'Not identifiable from these logs: '
                   + ', '.join(f'`{n}`' for n in unseen) + '. '
-                  + ' '.join(f'`{n}` needs {_needs(n)}.' for n in unseen)]
+                  + ' '.join(f'`{n}` needs {advice.get(n) or _needs(n)}.' for n in unseen)]
     lines += _signals_section(r.get('signals') or {})
     lines += ['', '## Figures', '']
     for title, name in figures:
         lines += [f'![{title}]({name})', '']
     notes = sorted({n for lg in d['logs'] for n in lg['notes']})
+    notes += list(d.get('skipped') or [])
     if notes:
         lines += ['## Notes on the logs', ''] + [f'- {n}' for n in notes] + ['']
     return '\n'.join(lines) + '\n'
@@ -184,11 +195,18 @@ def _signals_section(sig: dict[str, Any]) -> list[str]:
 
 
 def _needs(name: str) -> str:
-    sig = CATALOGUE[name].signature
-    if not sig:
-        return 'a manoeuvre that excites it'
-    key = max(sig, key=lambda k: abs(sig[k]))
-    return MANOEUVRES[key]
+    """What identifies effect ``name`` (in the default envelope's terms)."""
+    return CATALOGUE[name].advice()
+
+
+def _starts(origin: dict[str, Any]) -> str:
+    """The logs' starts in UTC, for the reader of relative times."""
+    logs = origin.get('logs') or {}
+    parts = [f'{name} started {v["utc"]}' if v.get('utc') else f'{name}: no date'
+             for name, v in list(logs.items())[:4]]
+    if not parts:
+        return 'no date'
+    return '; '.join(parts) + ('; ...' if len(logs) > 4 else '')
 
 
 def _plots(diag: Diagnosis, out: pathlib.Path) -> list[tuple[str, str]]:
@@ -203,7 +221,9 @@ def _plots(diag: Diagnosis, out: pathlib.Path) -> list[tuple[str, str]]:
     perts = [p['nominal']] + ([p['best'].fit.effects.perturbation(p['best'].fit.values)]
                               if p['best'] is not None else [])
     pred, meas = pr.free_run(perts, held)
-    t = pr.output_times(held)
+    # times since the start of each window's log
+    t = np.concatenate([pr.output_times([i]) - pr.logs[pr.windows[i].log].origin
+                        for i in held])
     rows = pr.window_rows(held)
     fig, axes = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
     for k, (idx, label, scale) in enumerate(((2, 'depth z [m]', 1.0),
@@ -219,18 +239,19 @@ def _plots(diag: Diagnosis, out: pathlib.Path) -> list[tuple[str, str]]:
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     axes[0].legend(loc='best', fontsize=8)
-    axes[1].set_xlabel('time [s] (held-out windows)')
+    axes[1].set_xlabel('time since the log\'s start [s] (held-out windows)')
     fig.tight_layout()
     fig.savefig(out / 'free_run_held_out.png', dpi=90)
     plt.close(fig)
     figs.append(('held-out free runs', 'free_run_held_out.png'))
 
     e = p['e_nom'] / pr.eq_sigma
+    since = pr.eq_t - np.array([lg.origin for lg in pr.logs])[pr.eq_log]
     fig, ax = plt.subplots(figsize=(10, 4))
     for k, n in enumerate(EQUATIONS):
-        ax.plot(pr.eq_t + 0.0, e[:, k], '.', ms=1.5, label=n)
+        ax.plot(since, e[:, k], '.', ms=1.5, label=n)
     ax.set_ylabel('equation error / noise')
-    ax.set_xlabel('time [s]')
+    ax.set_xlabel('time since the log\'s start [s]')
     ax.legend(fontsize=8, markerscale=6, ncol=3)
     ax.grid(alpha=0.3)
     fig.tight_layout()

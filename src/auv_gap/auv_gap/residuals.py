@@ -188,12 +188,13 @@ def residual_tests(groups: Sequence[Group], alpha: float = ALPHA
                    ) -> tuple[bool, list[Finding], list[str]]:
     """Run every test on every residual of ``groups``.
 
-    Returns:
-        ``(white, findings, left_over)``: whether every test passes at the family-wise level
-        ``alpha`` (Bonferroni over all tests), every test's finding, and the texts of the
-        significant ones, most significant first ("heave: grows with depth (r = +0.41)").
-        With no test possible (every piece too short) ``white`` is False and ``left_over``
-        says so.
+    Returns
+    -------
+    ``(white, findings, left_over)``: whether every test passes at the family-wise level
+    ``alpha`` (Bonferroni over all tests), every test's finding, and the texts of the
+    significant ones, most significant first ("heave: grows with depth (r = +0.41)").
+    With no test possible (every piece too short) ``white`` is False and ``left_over``
+    says so.
     """
     findings = [f for g in groups for f in _group_findings(g)]
     if not findings:    # nothing could be tested: not evidence of white residuals

@@ -81,6 +81,11 @@ class Scenario:
     command_rate: float = 10.0
     pilot: bool = True
     bar_steps: tuple[tuple[float, float], ...] = ((0.0, 0.0),)
+    #: thruster-off stretches ``(t0, t1)`` [s]: thrust 0 N and the plane held at
+    #: ``coast_bar`` [rad] (no pilot, no doublets): the vehicle coasts, then rises or sinks
+    #: and hangs at the pitch its restoring moments give
+    coasts: tuple[tuple[float, float], ...] = ()
+    coast_bar: float = 0.0
 
 
 def panel_scenario(repeat: int = 1) -> Scenario:
@@ -116,7 +121,9 @@ def open_loop_scenario() -> Scenario:
                                (520.0, -0.015)))
 
 
-def _held(rows: tuple[tuple[float, float], ...], t: float) -> float:
+def held(rows: tuple[tuple[float, float], ...], t: float) -> float:
+    """The value of schedule ``rows`` ``(t [s], value)`` at ``t`` [s]: the last row at or
+    before it (before the first, the first)."""
     value = rows[0][1]
     for tr, v in rows:
         if tr <= t + 1e-9:
@@ -173,6 +180,7 @@ def simulate(params: VehicleParams, effects: Environment | Mapping[str, Any] | N
     sigma = sensors.sigmas() if isinstance(sensors, SensorNoise) else np.asarray(sensors, float)
     rng = np.random.default_rng(seed)
     trim = VerticalPlane(params).trim(sc.u0, z=sc.z0)
+    coasting = False
     sim = Simulator(params, env, x0=trim.state())
     pilot = new_pilot(params, sc.command_rate) if sc.pilot else None
     every = int(round(sample_period / sim.dt))
@@ -188,22 +196,29 @@ def simulate(params: VehicleParams, effects: Environment | Mapping[str, Any] | N
         x[:12] += rng.standard_normal(12) * sigma
         samples.append((t, x_true, x, applied, wrench))
         if i % per_cmd == 0:
-            thrust = _held(sc.thrust, t)
+            coast = any(a <= t + 1e-9 < b for a, b in sc.coasts)
+            thrust = 0.0 if coast else held(sc.thrust, t)
             if thrust != last_thrust:
                 sim.command('thrust', thrust)
                 cmds['thrust'].append((t, thrust))
                 last_thrust = thrust
             if pilot is not None:
-                depth = _held(sc.depth, t)
+                depth = held(sc.depth, t)
                 if depth != last_depth:
                     pilot.set_depth_command(depth)
                     last_depth = depth
                 pilot.on_state(t, z=x[2], theta=x[4], w=x[8], q=x[10], u=x[6])
-                bar = pilot.command(t)[0]
+                if coasting and not coast:      # the pilot takes over again from scratch
+                    pilot = new_pilot(params, sc.command_rate)
+                    pilot.set_depth_command(depth)
+                    pilot.on_state(t, z=x[2], theta=x[4], w=x[8], q=x[10], u=x[6])
+                bar = sc.coast_bar if coast else pilot.command(t)[0]
             else:
-                bar = trim.bar + _held(sc.bar_steps, t)
-            bar = float(np.clip(bar + doublet(sc.doublets, t), -params.bar_max,
-                                params.bar_max))
+                bar = sc.coast_bar if coast else trim.bar + held(sc.bar_steps, t)
+            coasting = coast
+            if not coast:
+                bar += doublet(sc.doublets, t)
+            bar = float(np.clip(bar, -params.bar_max, params.bar_max))
             sim.command('bar', bar)
             cmds['bar'].append((t, bar))
         if i < n - 1:

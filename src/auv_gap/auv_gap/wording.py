@@ -9,6 +9,16 @@ import numpy as np
 from auv_gap.fit import FitResult
 
 
+def interval(lo: float, hi: float, digits: int = 3, sep: str = ' to ') -> str:
+    """``lo`` and ``hi`` with as many significant digits (at least ``digits``) as it takes to
+    print them apart: an interval never reads as a point ("3.33-3.33")."""
+    for d in range(digits, 10):
+        a, b = f'{lo:.{d}g}', f'{hi:.{d}g}'
+        if a != b or lo == hi:
+            return f'{a}{sep}{b}'
+    return f'{lo:.10g}{sep}{hi:.10g}'
+
+
 def _coefficients(fit: FitResult, idx: list[int]) -> tuple[list[str], list[str]]:
     """Texts of the identified coefficients (those the free run kept) that differ from the
     file value, and the names of every identified coefficient."""
@@ -23,7 +33,7 @@ def _coefficients(fit: FitResult, idx: list[int]) -> tuple[list[str], list[str]]
             how = 'low' if f > 1.0 else 'high'
             texts.append(f"the model's {p.name} is {abs(f - 1.0) * 100:.0f} % {how} (the "
                          f'logs give {f:.2f} x its value, 95 % interval '
-                         f'{fit.lo95[i]:.2f}-{fit.hi95[i]:.2f})')
+                         f'{interval(fit.lo95[i], fit.hi95[i], sep="-")})')
     return texts, names
 
 
@@ -62,7 +72,7 @@ def describe(fit: FitResult) -> str:
             if fit.active[i]:
                 unit = '' if p.unit == '-' else f' {p.unit}'
                 vals.append(f'{p.name} = {fit.values[i]:.4g}{unit} (95 % interval '
-                            f'{fit.lo95[i]:.4g} to {fit.hi95[i]:.4g})')
+                            f'{interval(fit.lo95[i], fit.hi95[i], 4)})')
         parts.append(f'{name} ' + ', '.join(vals) if vals else name)
     text = '; '.join(parts)
     if after:

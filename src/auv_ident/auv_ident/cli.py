@@ -11,29 +11,19 @@ from __future__ import annotations
 
 import argparse
 import json
-import pathlib
 import sys
-import time
-from collections.abc import Callable, Sequence
-from typing import Any
+from collections.abc import Sequence
 
-from auv_contract import COMMAND_TOPICS, MEASURED_TOPICS, config_path
-from auv_ident.errors import IdentError, IdentificationError, NotIdentifiableError
-from auv_ident.identify import (
-    EQUATIONS,
-    ERROR_METHODS,
-    SIGN_BOUNDS,
-    ForceRecord,
-    Identification,
-    compare_nelder_mead,
-    identify,
-)
-from auv_ident.motion import SOURCES, WINDOW_S, choose_source, needed_topics, records_from_topics
-from auv_ident.report import write_outputs
+from auv_contract import config_path
+from auv_ident.errors import IdentError
+from auv_ident.identify import EQUATIONS, ERROR_METHODS
+from auv_ident.job import OUTPUT_ERROR_MODES, STRUCTURES, IdentOptions, run_ident
+from auv_ident.motion import SOURCES, WINDOW_S
 from auv_sim.cli_options import add_vehicle_option
-from auv_sim.params import VehicleParams, load_vehicle
 
-Progress = Callable[[str], None]
+#: Exit status when the identified model is not written (it predicts held-out data worse
+#: than the base file, or diverges): not an error of the input.
+NOT_WRITTEN = 3
 
 
 def stderr_progress(text: str) -> None:
@@ -59,8 +49,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              'part of the heave force and pitch moment (forces from motion; '
                              'default: fixed at the base values)')
     parser.add_argument('--bounds', action='store_true',
-                        help='bounded solve with physical signs (Ksh >= 0; CZuw, CMuq, CYuv, '
-                             'CNur <= 0)')
+                        help='physical bounds (the default; kept for old scripts)')
+    parser.add_argument('--unbounded', action='store_true',
+                        help='no physical bounds (default: each coefficient within the sign '
+                             'and range physics allows it, see docs/identification.md)')
+    parser.add_argument('--no-priors', action='store_true',
+                        help='the data alone (default: the posterior of the file\'s values, '
+                             'each with a width set by its source, and the data)')
+    parser.add_argument('--no-validation', action='store_true',
+                        help='fit every sample and write without the held-out comparison '
+                             'with the base file')
+    parser.add_argument('--structure', choices=STRUCTURES, default='chosen',
+                        help='the quadratic cross-flow structure of each equation: chosen by '
+                             'held-out prediction (default), or the file\'s as it is')
+    parser.add_argument('--output-error', choices=OUTPUT_ERROR_MODES, default='auto',
+                        help='refine heave and pitch by output error (multiple shooting): '
+                             'auto when the derivatives are poor (slow, quantised or '
+                             'differenced logs; default), always, never')
     parser.add_argument('--source', choices=SOURCES, default='auto',
                         help='forces from the force topic, from the motion, or auto (the '
                              'topic when every bag has it)')
@@ -79,215 +84,40 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              'stopping; the default with --map when --equations is not given')
 
 
-def load_records(bags: Sequence[str], base: VehicleParams, source: str = 'auto',
-                 window_s: float = WINDOW_S, progress: Progress | None = None,
-                 limits: dict[str, Any] | None = None) -> tuple[list[ForceRecord], str]:
-    """Read the bags and build force records; returns them and the source used.
+def options_from_args(args: argparse.Namespace) -> IdentOptions:
+    """The :class:`auv_ident.job.IdentOptions` of parsed ``auv ident`` arguments.
 
-    ``auto`` uses the force topic when every bag has it, else the motion of every bag.
-    Logged commands outside the vehicle file's limits are used as logged and counted into
-    ``limits`` (see :mod:`auv_logs.limits`).
+    Raises
+    ------
+    IdentificationError
+        An option out of its range (see :class:`auv_ident.job.IdentOptions`).
     """
-    limits = {} if limits is None else limits
-    from auv_bag import bag_topics, read_arrays
-
-    present = [set(bag_topics(b)) for b in bags]
-    if source == 'auto':
-        source = 'forces' if all(choose_source(p) == 'forces' for p in present) else 'motion'
-    topics = needed_topics(source)
-    records: list[ForceRecord] = []
-    for bag, have in zip(bags, present):
-        name = pathlib.Path(bag).name
-        if name.endswith('.mcap'):
-            name = name[:-5]
-        last = [-1]
-
-        def report(done: int, total: int, bag: str = bag, last: list[int] = last) -> None:
-            pct = int(100 * done / total) if total else 100
-            if progress is not None and pct // 25 != last[0] // 25:
-                last[0] = pct
-                progress(f'reading {bag}: {pct}%')
-
-        t0 = time.perf_counter()
-        measured = [tp for tp in MEASURED_TOPICS.values() if tp in have] \
-            if source == 'motion' else []
-        arrays = read_arrays(bag, topics + measured, progress=report)
-        if progress is not None:
-            n = sum(len(a) for a in arrays.values())
-            progress(f'read {bag}: {n} messages in {time.perf_counter() - t0:.2f} s')
-        records += records_as_logged(arrays, base, source, name, window_s, limits)
-    return records, source
-
-
-def records_as_logged(arrays: Any, base: VehicleParams, source: str, name: str,
-                       window_s: float, limits: dict[str, Any]) -> list[ForceRecord]:
-    """Force records with the actuator limits widened to the logged commands
-    (:mod:`auv_logs.limits`: used as logged, never clipped); what lay outside the vehicle
-    file's limits is merged into ``limits`` (channel -> count, total, range)."""
-    from auv_logs.limits import as_logged
-
-    commands = {ch: (arrays[tp]['t'], arrays[tp]['value']) for ch, tp in COMMAND_TOPICS.items()
-                if tp in arrays}
-    params, found = as_logged(base, [commands])
-    for ch, r in found.items():
-        old = limits.get(ch)
-        limits[ch] = r if old is None else {**r, 'count': old['count'] + r['count'],
-                                            'total': old['total'] + r['total'],
-                                            'min': min(old['min'], r['min']),
-                                            'max': max(old['max'], r['max'])}
-    return records_from_topics(arrays, params, source, name=name, window_s=window_s)
-
-
-#: Equations whose regressors need a state signal: not identifiable when it was only assumed.
-_REGRESSOR_NEEDS = {'sway': 'v', 'yaw': 'v'}
-#: Equations whose reconstructed force needs a signal (Coriolis terms): biased in turns when
-#: it was only assumed (the surge force holds (m - Yvdot) v r).
-_FORCE_NEEDS = {'surge': 'v'}
-
-
-def unsupported_equations(imports: Sequence[dict[str, Any]], requested: Sequence[str] | None
-                           ) -> tuple[list[str], dict[str, str]]:
-    """Equations to fit, and why others are left out, when the import only assumed a signal
-    (``v`` = 0 with no DVL or position). Sway and yaw requested explicitly: an error; surge
-    requested explicitly: fitted, with the warning in the returned reasons."""
-    assumed = {line.split(':')[0] for imp in imports for line in imp['derived']
-               if 'assumed' in line}
-    out: dict[str, str] = {}
-    keep = []
-    for eq in requested or EQUATIONS:
-        sig = _REGRESSOR_NEEDS.get(eq)
-        if sig in assumed:
-            why = (f'{sig} was not logged (assumed 0 in the import); log it (a DVL, odometry '
-                   'twist or position fixes) to identify this equation')
-            if requested is not None:
-                raise NotIdentifiableError(f'{eq}: {why}')
-            out[eq] = why
-            continue
-        sig = _FORCE_NEEDS.get(eq)
-        if sig in assumed:
-            why = (f'{sig} was not logged (assumed 0): its Coriolis term is missing from the '
-                   'reconstructed force, which biases the fit wherever the vehicle turns')
-            if requested is None:
-                out[eq] = why + '; left out (ask for it with --equations on straight runs)'
-                continue
-            out[eq] = why + '; fitted as asked: use straight runs only'
-        keep.append(eq)
-    if not keep:
-        raise NotIdentifiableError('no equation can be identified from these logs: '
-                                   + '; '.join(f'{k}: {v}' for k, v in out.items()))
-    return keep, out
-
-
-def bag_imports(bags: Sequence[str]) -> list[dict[str, Any]]:
-    """The import reports in the provenance of bags ``auv import`` wrote (none for others):
-    the same knowledge of derived and assumed signals as ``--map`` gives."""
-    from auv_logs.importer import read_provenance
-
-    out: list[dict[str, Any]] = []
-    for bag in bags:
-        prov = read_provenance(bag) if pathlib.Path(bag).is_dir() else None
-        out += [dict(rep) for rep in (prov or {}).get('imports', [])]
-    return out
-
-
-def load_records_from_map(map_path: str, logs: Sequence[str], base: VehicleParams,
-                          window_s: float = WINDOW_S, progress: Progress | None = None,
-                          limits: dict[str, Any] | None = None
-                          ) -> tuple[list[ForceRecord], list[dict[str, Any]]]:
-    """Import the original logs through a map (:mod:`auv_logs`) into the contract's
-    arrays and build force records from motion exactly as from the imported bag; returns the
-    records and each log's import report."""
-    from auv_logs.importer import contract_arrays, import_logs
-
-    _, imported = import_logs(map_path, logs)
-    records: list[ForceRecord] = []
-    for lg in imported:
-        if progress is not None:
-            progress(f'imported {lg.name}: {len(lg.t)} state samples, '
-                     f'{len(lg.segments)} segment(s)')
-        records += records_as_logged(contract_arrays(lg), base, 'motion', lg.name, window_s,
-                                      {} if limits is None else limits)
-    return records, [dict(lg.report) for lg in imported]
-
-
-def identify_and_report(records: Sequence[ForceRecord], base: VehicleParams, out: str,
-                        bags: Sequence[str], *, fit_c0: bool = False, bounds: bool = False,
-                        errors: str = 'hac', equations: Sequence[str] | None = None,
-                        nelder_mead: bool = True, progress: Progress | None = None,
-                        extra: dict[str, Any] | None = None, partial: bool = False,
-                        fit_planes: bool = False) -> tuple[Identification, dict[str, str]]:
-    """Fit, compare with Nelder-Mead (optional) and write every output into ``out``
-    (``partial``: see :func:`auv_ident.identify.identify`)."""
-    if progress is not None:
-        progress(f'fitting {", ".join(equations or EQUATIONS)} on {len(records)} record(s), '
-                 f'{sum(len(r.t) for r in records)} samples')
-    t0 = time.perf_counter()
-    result = identify(records, base, equations=equations, fit_offsets=fit_c0,
-                      bounds=SIGN_BOUNDS if bounds else None, errors=errors, partial=partial,
-                      fit_planes=fit_planes)
-    if progress is not None:
-        progress(f'fitted in {time.perf_counter() - t0:.2f} s')
-        for eq, why in result.not_identifiable.items():
-            progress(f'{eq} left out: {why}')
-    extra = dict(extra or {})
-    if result.not_identifiable:
-        extra['not_identifiable'] = {**result.not_identifiable,
-                                     **extra.get('not_identifiable', {})}
-    sources = {ch: src for r in records for ch, src in r.actuators.items()}
-    if sources:
-        extra['actuators'] = sources
-    nm = None
-    if nelder_mead:
-        t0 = time.perf_counter()
-        nm = compare_nelder_mead(records, result)
-        if progress is not None:
-            progress(f'Nelder-Mead comparison in {time.perf_counter() - t0:.2f} s')
-    files = write_outputs(result, out, bags, nm, extra)
-    return result, files
+    return IdentOptions(
+        logs=tuple(str(b) for b in args.bags), out=str(args.out), vehicle=str(args.vehicle),
+        map=args.map, fit_c0=args.fit_c0, fit_planes=args.fit_planes, bounds=not args.unbounded,
+        priors=not args.no_priors, validation=not args.no_validation, structure=args.structure,
+        output_error=args.output_error, source=args.source,
+        equations=None if args.equations is None else tuple(args.equations),
+        errors=args.errors, window=args.window, nelder_mead=not args.no_nelder_mead,
+        partial=args.partial)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Identify from the bags of ``args``; prints the coefficients as JSON on stdout."""
-    base = load_vehicle(args.vehicle)
-    if not (args.window > 0):
-        raise IdentificationError(f'--window must be > 0 s, got {args.window}')
-    limits: dict[str, Any] = {}
-    extra: dict[str, Any] = {}
-    partial = args.partial or (args.map is not None and args.equations is None)
-    if args.map is not None:
-        if args.source == 'forces':
-            raise IdentificationError('--map logs have no force topic: use --source motion')
-        records, extra['imports'] = load_records_from_map(
-            args.map, args.bags, base, args.window, stderr_progress, limits)
-        source = 'motion'
-        args.equations, extra['not_identifiable'] = unsupported_equations(
-            extra['imports'], args.equations)
-        for eq, why in extra['not_identifiable'].items():
-            stderr_progress(f'{eq}: {why}')
-    else:
-        records, source = load_records(args.bags, base, args.source, args.window,
-                                       stderr_progress, limits)
-        imports = bag_imports(args.bags)
-        if imports:   # bags `auv import` wrote: what their imports derived or assumed
-            partial = args.partial or args.equations is None
-            extra['imports'] = imports
-            args.equations, extra['not_identifiable'] = unsupported_equations(
-                imports, args.equations)
-            for eq, why in extra['not_identifiable'].items():
-                stderr_progress(f'{eq}: {why}')
-    stderr_progress(f'force source: {source}')
-    from auv_logs.limits import describe
-    for line in describe(limits):
-        stderr_progress(line)
-    extra['logged_outside_limits'] = limits
-    result, files = identify_and_report(
-        records, base, args.out, args.bags, fit_c0=args.fit_c0, bounds=args.bounds,
-        errors=args.errors, equations=args.equations, nelder_mead=not args.no_nelder_mead,
-        progress=stderr_progress, extra=extra, partial=partial, fit_planes=args.fit_planes)
+    """Identify from the bags of ``args``; prints the coefficients as JSON on stdout. 0 when
+    the vehicle file was written, :data:`NOT_WRITTEN` when it predicts worse than the base.
+
+    Raises
+    ------
+    IdentError, ParameterError, OSError
+        Bad input (:func:`auv_ident.job.run_ident`).
+    """
+    done = run_ident(options_from_args(args), stderr_progress)
     out = {name: {'value': c.value, 'std_error': c.std_error, 'ci95': list(c.ci95)}
-           for name, c in result.coefficients.items()}
-    print(json.dumps({'source': source, 'coefficients': out, 'files': files}, indent=2))
-    return 0
+           for name, c in done.result.coefficients.items()}
+    print(json.dumps({'source': done.source, 'coefficients': out, 'files': done.files,
+                      'validation': done.outcome.validation.verdict,
+                      'written': done.written}, indent=2))
+    return 0 if done.written else NOT_WRITTEN
 
 
 def main(argv: Sequence[str] | None = None) -> int:

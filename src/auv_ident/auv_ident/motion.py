@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from numba import njit
@@ -60,7 +60,7 @@ from auv_contract import (
     STATE_TOPIC,
 )
 from auv_ident.errors import IdentificationError
-from auv_ident.identify import ForceRecord, NoisePropagation
+from auv_ident.identify import ForceRecord, LoggedRun, NoisePropagation
 from auv_sim.environment import Environment
 from auv_sim.model import NX, actuator_steps, wrench_series
 from auv_sim.params import VehicleParams, mass_matrix
@@ -243,8 +243,10 @@ def actuator_track(t: np.ndarray, commands: Mapping[str, Series], params: Vehicl
     return out
 
 
-def actuator_sources(measured: Mapping[str, Series] | None) -> dict[str, str]:
-    """Per channel, where :func:`actuator_track` takes the positions from."""
+def actuator_sources(measured: Mapping[str, Series] | None,
+                     sampled: Sequence[str] = ()) -> dict[str, str]:
+    """Per channel, where :func:`actuator_track` takes the positions from (``sampled``:
+    channels whose commands were sampled at the log's rows, see :func:`sampled_commands`)."""
     out = {}
     for ch in ('bar', 'helm', 'thrust'):
         if measured and ch in measured and len(measured[ch][0]):
@@ -252,7 +254,47 @@ def actuator_sources(measured: Mapping[str, Series] | None) -> dict[str, str]:
                        'between its samples)')
         else:
             out[ch] = 'command through the actuator model (delay-free, lag, rate and angle limits)'
+            if ch in sampled:
+                out[ch] += ('; the command was sampled at the log\'s rows and changes at most '
+                            'of them: taken as linear between rows (held, it would lag by half '
+                            'a row)')
     return out
+
+
+#: A command series counts as sampled at the log's rows when its stamps are among the state's,
+#: it has a sample on at least this share of the rows and changes value at this share of them,
+#: and the rows are slower than :data:`SAMPLED_RATE_HZ` (a pilot runs at 5-10 Hz: at that rate
+#: or faster, a command at every row is the pilot's own step, held).
+SAMPLED_SHARE = 0.5
+SAMPLED_RATE_HZ = 5.0
+
+
+def sampled_commands(t: np.ndarray, commands: Mapping[str, Series], dt: float
+                     ) -> tuple[dict[str, Series], list[str]]:
+    """Commands logged as samples at the slow rows of a log (below :data:`SAMPLED_RATE_HZ`)
+    of a command that moves between them (a pilot's, sent faster than the rows:
+    :data:`SAMPLED_SHARE`) taken as linear between rows,
+    as events every ``dt`` [s] (the vehicle's step), instead of held from each row (which
+    delays them by half a row on average); other series (change events, steps) as they are.
+    Returns the commands and the channels changed."""
+    out = dict(commands)
+    changed: list[str] = []
+    if len(t) < 3 or float(np.median(np.diff(t))) < 1.0 / SAMPLED_RATE_HZ:
+        return out, changed
+    rows = set(np.round(np.asarray(t, float), 6).tolist())
+    for ch, (st, va) in commands.items():
+        st = np.asarray(st, float)
+        va = np.asarray(va, float)
+        if len(st) < 3 or len(st) < SAMPLED_SHARE * len(t):
+            continue
+        on_rows = np.mean([round(float(x), 6) in rows for x in st])
+        moves = float(np.mean(np.diff(va) != 0.0))
+        if on_rows < 0.9 or moves < SAMPLED_SHARE:
+            continue
+        dense = np.arange(float(st[0]), float(st[-1]) + 0.5 * dt, dt)
+        out[ch] = (dense, np.interp(dense, st, va))
+        changed.append(ch)
+    return out, changed
 
 
 def actuator_interval_means(t: np.ndarray, X: np.ndarray, commands: Mapping[str, Series],
@@ -308,24 +350,37 @@ def _interval_filter(means: np.ndarray, window: int) -> np.ndarray:
 def reconstruct(t: np.ndarray, state: np.ndarray,
                 commands: Mapping[str, tuple[np.ndarray, np.ndarray]], params: VehicleParams,
                 name: str = 'log', window_s: float = WINDOW_S,
-                measured: Mapping[str, Series] | None = None) -> ForceRecord:
+                measured: Mapping[str, Series] | None = None,
+                sampled: Sequence[str] = ()) -> ForceRecord:
     """Hydrodynamic wrench from motion for one uniformly sampled stretch.
 
-    Args:
-        t: stamps (N,) [s], uniformly spaced.
-        state: (N, 12) ``x, y, z [m] NED, phi, theta, psi [rad], u, v, w [m/s], p, q, r
-            [rad/s]`` body FRD, as logged.
-        commands: ``bar``/``helm``/``thrust`` -> (stamps [s], set-points [rad, rad, N]).
-        params: the base vehicle (mass, added mass, restoring, actuators).
-        name: record name.
-        window_s: Savitzky-Golay window [s].
-        measured: measured fin positions ``bar``/``helm`` -> (stamps [s], angles [rad]),
-            used in place of the commands run through the actuator model.
+    Parameters
+    ----------
+    t
+        stamps (N,) [s], uniformly spaced.
+    state
+        (N, 12) ``x, y, z [m] NED, phi, theta, psi [rad], u, v, w [m/s], p, q, r
+        [rad/s]`` body FRD, as logged.
+    commands
+        ``bar``/``helm``/``thrust`` -> (stamps [s], set-points [rad, rad, N]).
+    params
+        the base vehicle (mass, added mass, restoring, actuators).
+    name
+        record name.
+    window_s
+        Savitzky-Golay window [s].
+    measured
+        measured fin positions ``bar``/``helm`` -> (stamps [s], angles [rad]),
+        used in place of the commands run through the actuator model.
+    sampled
+        channels whose commands were sampled at the rows (said in the record's
+        actuator sources; see :func:`sampled_commands`).
 
-    Returns:
-        A ForceRecord with the filtered wrench (NaN over the first and last half window), its
-        kernel (so the regressors get the same filter) and how sensor noise propagates into
-        it (noise levels estimated from ``state``).
+    Returns
+    -------
+    A ForceRecord with the filtered wrench (NaN over the first and last half window), its
+    kernel (so the regressors get the same filter) and how sensor noise propagates into
+    it (noise levels estimated from ``state``).
     """
     n = len(t)
     dt = float(np.median(np.diff(t))) if n > 1 else math.nan
@@ -360,8 +415,8 @@ def reconstruct(t: np.ndarray, state: np.ndarray,
     # the plane's wrench per unit CZbar / CMbar, as subtracted (linear in each; no thrust-line
     # term in the identification's still water)
     plane_unit = np.zeros((n, 6))
-    for axis, name in ((2, 'CZbar'), (4, 'CMbar')):
-        value = float(params.values[name])
+    for axis, coefficient in ((2, 'CZbar'), (4, 'CMbar')):
+        value = float(params.values[coefficient])
         subtracted = act_f[:, axis] if sub > 1 else np.convolve(W[:, 3, axis], kernel,
                                                                 mode='same')
         plane_unit[:, axis] = subtracted / value if value != 0.0 else np.nan
@@ -377,9 +432,12 @@ def reconstruct(t: np.ndarray, state: np.ndarray,
     saturated[:, :2] = np.abs(X[:, 12:14]) >= limits * (1.0 - 1e-3)
     saturated[:, 2] = (X[:, 14] >= params.thrust_max * (1.0 - 1e-3)) | (
         X[:, 14] <= params.thrust_min + 1e-3 * abs(params.thrust_min))
+    log = LoggedRun(t=np.asarray(t, float), state=np.asarray(state, float),
+                    commands=dict(commands), measured=dict(measured or {}))
     return ForceRecord(name=name, t=np.asarray(t, float), nu=np.asarray(nu, float), tau=tau,
                        source='motion', kernel=kernel, noise=noise, saturated=saturated,
-                       actuators=actuator_sources(measured), plane_unit=plane_unit)
+                       actuators=actuator_sources(measured, sampled), plane_unit=plane_unit,
+                       log=log)
 
 
 def _columns(arr: np.ndarray, fields: tuple[str, ...], topic: str) -> np.ndarray:
@@ -416,9 +474,11 @@ def records_from_topics(arrays: Mapping[str, np.ndarray], params: VehicleParams,
     The log is split into uniformly sampled stretches (see :func:`segments`); stretches too
     short for the derivative window are left out.
 
-    Raises:
-        IdentificationError: a needed topic is missing or empty, stamps go back, the force
-            stamps do not match the state stamps, a value is not finite.
+    Raises
+    ------
+    IdentificationError
+        a needed topic is missing or empty, stamps go back, the force
+        stamps do not match the state stamps, a value is not finite.
     """
     source = choose_source(set(arrays), source)
     for topic in needed_topics(source):
@@ -458,11 +518,44 @@ def records_from_topics(arrays: Mapping[str, np.ndarray], params: VehicleParams,
                 f'{name}: only {np.count_nonzero(match)} of {len(t)} {STATE_TOPIC} stamps have '
                 f'a {FORCES_TOPIC} message with the same stamp')
         tau = np.where(match[:, None], tau_all[idx] if len(tf) else np.nan, np.nan)
+        logged = _logged_commands(arrays, name)
         for k, sl in enumerate(parts):
+            log = None if logged is None else LoggedRun(
+                t=t[sl], state=state[sl], commands=logged[0], measured=logged[1])
             records.append(ForceRecord(name=name if len(parts) == 1 else f'{name}#{k}',
                                        t=t[sl], nu=state[sl, 6:12], tau=tau[sl],
-                                       source='forces'))
+                                       source='forces', log=log))
         return records
+    logged = _logged_commands(arrays, name)
+    if logged is None:
+        empty = next(ch for ch, tp in COMMAND_TOPICS.items() if not len(arrays[tp]))
+        raise IdentificationError(f'no {empty} command in the log: the {empty} position '
+                                  'cannot be reconstructed')
+    commands, measured = logged
+    commands, sampled = sampled_commands(t, commands, float(params.dt))
+    dt = float(np.median(np.diff(t)))
+    for k, sl in enumerate(parts):
+        if sl.stop - sl.start < window_samples(dt, window_s) + 2:
+            continue
+        records.append(reconstruct(t[sl], state[sl], commands, params,
+                                   name if len(parts) == 1 else f'{name}#{k}', window_s,
+                                   measured, sampled))
+    if not records:
+        from auv_logs.segments import spacing_jitter
+
+        why = spacing_jitter(t)
+        raise IdentificationError(f'{name}: no stretch of {STATE_TOPIC} is long enough for the '
+                                  f'{window_s:g} s derivative window'
+                                  + (f': {why}' if why else ''))
+    return records
+
+
+def _logged_commands(arrays: Mapping[str, np.ndarray], name: str
+                     ) -> tuple[dict[str, Series], dict[str, Series]] | None:
+    """The command topics (channel -> (stamps [s], set-points), sorted by stamp) and the
+    measured fin positions of a log's arrays; None when a command topic is missing."""
+    if any(topic not in arrays or not len(arrays[topic]) for topic in COMMAND_TOPICS.values()):
+        return None
     commands = {}
     for ch, topic in COMMAND_TOPICS.items():
         arr = arrays[topic]
@@ -481,14 +574,4 @@ def records_from_topics(arrays: Mapping[str, np.ndarray], params: VehicleParams,
             raise IdentificationError(f'{name}: non-finite value on {tp}')
         order = np.argsort(st, kind='stable')
         measured[ch] = (st[order], va[order])
-    dt = float(np.median(np.diff(t)))
-    for k, sl in enumerate(parts):
-        if sl.stop - sl.start < window_samples(dt, window_s) + 2:
-            continue
-        records.append(reconstruct(t[sl], state[sl], commands, params,
-                                   name if len(parts) == 1 else f'{name}#{k}', window_s,
-                                   measured))
-    if not records:
-        raise IdentificationError(f'{name}: no stretch of {STATE_TOPIC} is long enough for the '
-                                  f'{window_s:g} s derivative window')
-    return records
+    return commands, measured

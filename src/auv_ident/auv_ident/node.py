@@ -5,7 +5,7 @@ are reconstructed from the motion) and the actuator commands ``/auv/bar_command`
 ``/auv/helm_command``, ``/auv/thrust_command`` (reliable, deep queues), stores every message's
 fields in growing numpy buffers keyed by the message *header stamp* (not the arrival time),
 and on request (service ``~/identify``, std_srvs/Trigger) and on shutdown runs the same
-identification as ``auv ident`` (:func:`auv_ident.cli.identify_and_report`), writing the same
+identification as ``auv ident`` (:func:`auv_ident.job.identify_and_report`), writing the same
 outputs into the ``out`` directory. Fed the messages of a bag, it gives the offline command's
 coefficients. With ``estimate_period > 0`` it publishes the running estimate as JSON
 (std_msgs/String on ``~/estimate``) every so many seconds.
@@ -16,15 +16,19 @@ their contract topics had been received, then goes on accumulating live topics.
 
 Parameters: ``vehicle_file`` (the vehicle file the identified values replace), ``out``
 (output directory), ``source`` (auto|forces|motion), ``fit_c0``, ``fit_planes`` (the dive
-plane's CZbar and CMbar too, forces from motion), ``bounds``, ``errors``
-(hac|ess|iid), ``equations`` (list; empty: all), ``window`` [s], ``estimate_period`` [s],
-``qos_depth`` (messages).
+plane's CZbar and CMbar too, forces from motion), ``bounds`` (the physical bounds, default
+true), ``errors`` (hac|ess|iid), ``equations`` (list; empty: all), ``window`` [s],
+``estimate_period`` [s], ``qos_depth`` (messages). Each is declared with a descriptor
+(:mod:`auv_ident.node_parameters`: description with its unit, range, choices); a bad value
+ends the start with one line ``error: ...``; a change while running is validated first
+(refused with the reason, nothing changed) and then applied: a new ``vehicle_file`` is loaded,
+a new ``estimate_period`` restarts the estimate, the others are read when used; ``qos_depth``
+applies at start only.
 """
 from __future__ import annotations
 
 import argparse
 import json
-import math
 import signal
 import sys
 from collections.abc import Sequence
@@ -37,6 +41,7 @@ from auv_contract import COMMAND_TOPICS, FORCES_TOPIC, STATE_FIELDS, STATE_TOPIC
 from auv_ident.errors import IdentError
 from auv_ident.identify import EQUATIONS, ERROR_METHODS
 from auv_ident.motion import FORCE_FIELDS, SOURCES, WINDOW_S
+from auv_ident.node_parameters import PARAMETERS, START_ONLY, problem
 from auv_sim.cli_options import add_vehicle_option
 
 NODE_NAME = 'identifier'
@@ -89,8 +94,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='fit CZ0 and CM0 too (default: fixed at the vehicle file values)')
     parser.add_argument('--fit-planes', action='store_true',
                         help='fit the dive plane\'s CZbar and CMbar too (forces from motion)')
-    parser.add_argument('--bounds', action='store_true',
-                        help='bounded solve with the physical signs of the coefficients')
+    parser.add_argument('--unbounded', action='store_true',
+                        help='no physical bounds on the coefficients (default: bounded)')
     parser.add_argument('--errors', choices=ERROR_METHODS, default='hac',
                         help='covariance estimator of the intervals (default: %(default)s)')
     parser.add_argument('--equations', nargs='+', choices=list(EQUATIONS), default=[],
@@ -116,13 +121,14 @@ def _make_node(overrides: dict[str, Any]) -> Any:
     from std_msgs.msg import String
     from std_srvs.srv import Trigger
 
-    from auv_contract import config_path
-    from auv_ident.cli import (
+    from auv_ident.job import (
         identify_and_report,
         records_as_logged,
         unsupported_equations,
     )
     from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
+    from auv_sim.errors import AuvSimError
+    from auv_sim.parameter_descriptor import descriptor
     from auv_sim.params import load_vehicle
 
     class IdentifierNode(Node):
@@ -131,22 +137,21 @@ def _make_node(overrides: dict[str, Any]) -> Any:
         def __init__(self) -> None:
             super().__init__(NODE_NAME, parameter_overrides=[
                 Parameter(k, value=v) for k, v in overrides.items()])
-            self.declare_parameter('vehicle_file', str(config_path('a18m.yaml')))
-            self.declare_parameter('out', 'out/ident')
-            self.declare_parameter('source', 'auto')
-            self.declare_parameter('fit_c0', False)
-            self.declare_parameter('fit_planes', False)
-            self.declare_parameter('bounds', False)
-            self.declare_parameter('errors', 'hac')
-            self.declare_parameter('equations', [''])
-            self.declare_parameter('window', WINDOW_S)
-            self.declare_parameter('estimate_period', 0.0)
-            self.declare_parameter('qos_depth', 10000)
-            names = ('source', 'errors', 'equations', 'window', 'estimate_period', 'qos_depth')
-            problem = self._check({n: self.get_parameter(n).value for n in names})
-            if problem:
-                raise IdentError(problem)
+            # ranges after the check, so that a bad value at start gets the message naming it
+            for spec in PARAMETERS.values():
+                default = list(spec.default) if isinstance(spec.default, tuple) \
+                    else spec.default
+                self.declare_parameter(spec.name, default, descriptor(spec, ranged=False))
+            wrong = problem({n: self.get_parameter(n).value for n in PARAMETERS})
+            if wrong:
+                raise IdentError(wrong)
+            for spec in PARAMETERS.values():
+                if spec.range is not None:
+                    self.set_descriptor(spec.name, descriptor(spec))
+            # a change validated by _on_set, applied by _post_set once ROS has stored it
+            self._candidate: dict[str, Any] | None = None
             self.add_on_set_parameters_callback(self._on_set)
+            self.add_post_set_parameters_callback(self._post_set)
             self.base = load_vehicle(self.get_parameter('vehicle_file').value)
             self.state = ColumnBuffer(('t', *STATE_FIELDS))
             self.forces = ColumnBuffer(('t', *FORCE_FIELDS))
@@ -164,9 +169,8 @@ def _make_node(overrides: dict[str, Any]) -> Any:
                                          qos)
             self.create_service(Trigger, '~/identify', self._on_identify)
             self.estimate_pub = self.create_publisher(String, '~/estimate', 10)
-            period = float(self.get_parameter('estimate_period').value)
-            if period > 0:
-                self.create_timer(period, self._publish_estimate)
+            self.estimate_timer: Any = None
+            self._start_estimates(float(self.get_parameter('estimate_period').value))
             self._string = String
             self._identify_and_report = identify_and_report
             self.imports: list[dict[str, Any]] = []
@@ -204,28 +208,69 @@ def _make_node(overrides: dict[str, Any]) -> Any:
                 eqs, _ = unsupported_equations(self.imports, eqs)
             return eqs
 
-        @staticmethod
-        def _check(values: dict[str, Any]) -> str | None:
-            if values.get('source', 'auto') not in SOURCES:
-                return f'parameter source must be one of {SOURCES}, got {values["source"]!r}'
-            if values.get('errors', 'hac') not in ERROR_METHODS:
-                return f'parameter errors must be one of {ERROR_METHODS}'
-            for eq in values.get('equations', ['']) or []:
-                if eq and eq not in EQUATIONS:
-                    return f'parameter equations: unknown equation {eq!r}'
-            window = values.get('window', WINDOW_S)
-            if not (isinstance(window, float) and math.isfinite(window) and window > 0):
-                return f'parameter window must be > 0 s, got {window!r}'
-            period = values.get('estimate_period', 0.0)
-            if not (isinstance(period, float) and math.isfinite(period) and period >= 0):
-                return f'parameter estimate_period must be >= 0 s, got {period!r}'
-            if int(values.get('qos_depth', 1)) < 1:
-                return 'parameter qos_depth must be >= 1'
-            return None
+        def _start_estimates(self, period: float) -> None:
+            """(Re)start the running estimate every ``period`` [s]; 0 stops it."""
+            if self.estimate_timer is not None:
+                self.destroy_timer(self.estimate_timer)
+                self.estimate_timer = None
+            if period > 0:
+                self.estimate_timer = self.create_timer(period, self._publish_estimate)
 
         def _on_set(self, params: list[Any]) -> Any:
-            problem = self._check({p.name: p.value for p in params})
-            return SetParametersResult(successful=problem is None, reason=problem or '')
+            """Validate a change (nothing is applied here: see :meth:`_post_set`).
+
+            Parameters
+            ----------
+            params : list of rclpy.parameter.Parameter
+                What a ``set_parameters`` request asks for, all or nothing.
+
+            Returns
+            -------
+            SetParametersResult
+                Refused, with the reason, for a parameter applied at start only, a value
+                :func:`~auv_ident.node_parameters.problem` finds wrong or a vehicle file that
+                does not load.
+            """
+            self._candidate = None
+            changes = {p.name: p.value for p in params if p.name in PARAMETERS}
+            fixed = [n for n in changes if n in START_ONLY
+                     and changes[n] != self.get_parameter(n).value]
+            if fixed:
+                return SetParametersResult(successful=False, reason=(
+                    f'{", ".join(fixed)} applied at start only; restart the node to change '
+                    f'it'))
+            wrong = problem(changes)
+            if wrong:
+                return SetParametersResult(successful=False, reason=wrong)
+            candidate: dict[str, Any] = {}
+            if 'vehicle_file' in changes:
+                try:
+                    candidate['base'] = load_vehicle(changes['vehicle_file'])
+                except (AuvSimError, ValueError) as exc:
+                    return SetParametersResult(successful=False, reason=str(exc))
+            if 'estimate_period' in changes:
+                candidate['estimate_period'] = float(changes['estimate_period'])
+            self._candidate = candidate
+            return SetParametersResult(successful=True)
+
+        def _post_set(self, params: list[Any]) -> None:
+            """Apply the change :meth:`_on_set` accepted: the vehicle file loaded there, the
+            period of the running estimate; the other parameters are read when used.
+
+            Parameters
+            ----------
+            params : list of rclpy.parameter.Parameter
+                The parameters set (the candidate holds what needs applying).
+            """
+            candidate, self._candidate = self._candidate, None
+            if candidate is None:
+                return
+            if 'base' in candidate:
+                self.base = candidate['base']
+            if 'estimate_period' in candidate:
+                self._start_estimates(candidate['estimate_period'])
+            self.get_logger().info(
+                f'parameters changed: {", ".join(p.name for p in params)}')
 
         def _on_state(self, msg: Any) -> None:
             self.state.append((stamp_seconds(msg.header.stamp), msg.x, msg.y, msg.z, msg.phi,
@@ -256,13 +301,15 @@ def _make_node(overrides: dict[str, Any]) -> Any:
             def log_info(text: str) -> None:
                 self.get_logger().info(text)
 
-            result, files = self._identify_and_report(
+            result, files, outcome = self._identify_and_report(
                 records, self.base, p['out'], ['live topics'], fit_c0=p['fit_c0'],
                 bounds=p['bounds'], errors=p['errors'], equations=equations,
                 nelder_mead=nelder_mead, progress=log_info,
                 partial=bool(self.imports) and not any(p['equations'] or []),
                 fit_planes=bool(p['fit_planes']))
             return {'source': result.source, 'files': files,
+                    'validation': outcome.validation.verdict,
+                    'written': outcome.validation.written,
                     'coefficients': {n: {'value': c.value, 'std_error': c.std_error,
                                          'ci95': list(c.ci95)}
                                      for n, c in result.coefficients.items()},
@@ -308,7 +355,7 @@ def run(args: argparse.Namespace, ros_args: Sequence[str] | None = None) -> int:
     overrides: dict[str, Any] = {'out': args.out, 'source': args.source,
                                  'fit_c0': bool(args.fit_c0),
                                  'fit_planes': bool(args.fit_planes),
-                                 'bounds': bool(args.bounds),
+                                 'bounds': not bool(args.unbounded),
                                  'errors': args.errors,
                                  'equations': list(args.equations) or [''],
                                  'window': float(args.window),

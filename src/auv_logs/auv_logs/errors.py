@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from auv_bag.errors import BagError
 
-__all__ = ['BagError', 'LogError', 'LogReadError', 'MapError', 'RealLogError']
+__all__ = ['BagError', 'LogError', 'LogReadError', 'MapError', 'NoSegmentError', 'RealLogError']
 
 
 class LogError(ValueError):
@@ -28,3 +28,8 @@ class MapError(RealLogError):
 class LogReadError(RealLogError):
     """A log cannot be read as the map says: missing topic, column or field path, ragged
     rows, unknown log kind or message type, unusable time stamps."""
+
+
+class NoSegmentError(RealLogError):
+    """A log holds no usable segment (empty after the segment rules: surfaced, propeller
+    off, too short); a batch import leaves such a log out and says so, unless strict."""

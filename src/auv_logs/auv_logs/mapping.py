@@ -133,6 +133,12 @@ class Scalar:
     pressure: Pressure | None = None
     full_scale: float | None = None
     origin: str = 'signals'
+    #: the sensor's own update rate [Hz] when the log repeats its value on several rows or
+    #: messages (a 1 Hz DVL on 2 Hz rows); None: a new value at every stamp
+    rate: float | None = None
+    #: the step of the logged values in the contract's SI unit (0.1 m: depth printed in
+    #: 0.1 m steps); None: full precision
+    resolution: float | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -162,6 +168,11 @@ class Vector:
     #: ``angular_velocity_covariance[0]``); such samples are not usable, and a topic with no
     #: estimate in any message is an error
     unset: str | None = None
+    #: update rate [Hz] and resolution [SI unit of its signals] as for :class:`Scalar`
+    rate: float | None = None
+    resolution: float | None = None
+    #: the unit its fields are logged in (length, speed, rate vectors; '' for quaternions)
+    unit: str = ''
 
     @property
     def gives(self) -> tuple[str, ...]:
@@ -188,8 +199,9 @@ class TextFormat:
 class TimeSpec:
     """Time stamps: ``stamp`` ``header`` or ``log`` (bags), ``column`` and its unit factor
     (text), the state's time ``base`` topic, the zero-order-hold ``max_age`` [s], per-topic
-    clock ``offsets`` [s], and the optional uniform ``grid`` period [s] onto which each
-    segment's state is resampled (linear interpolation; said in the report)."""
+    clock ``offsets`` [s], the optional uniform ``grid`` period [s] onto which each
+    segment's state is resampled (linear interpolation; said in the report), and per-topic
+    ``stamps`` (``header`` or ``log``) overriding ``stamp`` for that topic."""
 
     stamp: str
     column: str | None
@@ -198,6 +210,11 @@ class TimeSpec:
     max_age: float
     offsets: Mapping[str, float]
     grid: float | None = None
+    stamps: Mapping[str, str] = dataclasses.field(default_factory=dict)
+
+    def stamp_of(self, topic: str | None) -> str:
+        """``header`` or ``log`` for a bag topic (its ``stamps`` entry, else ``stamp``)."""
+        return self.stamps.get(str(topic), self.stamp)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -392,7 +409,20 @@ def _law(node: _Node) -> ThrustLaw:
 
 
 _SCALAR_KEYS = ('topic', 'field', 'column', 'unit', 'scale', 'offset', 'sign', 'frame', 'sum',
-                'law', 'full_scale', 'pressure')
+                'law', 'full_scale', 'pressure', 'rate', 'resolution')
+
+
+def _rate_resolution(node: _Node, name: str, factor: float) -> tuple[float | None, float | None]:
+    """``rate`` [Hz] and ``resolution`` (in the logged unit, returned times ``factor``: SI) of
+    a state signal or vector, or None."""
+    rate = node.number('rate', positive=True) if node.has('rate') else None
+    res = node.number('resolution', positive=True) if node.has('resolution') else None
+    if (rate is not None or res is not None) and name not in STATE and \
+            name not in VECTOR_KINDS:
+        key = 'rate' if rate is not None else 'resolution'
+        raise MapError(f'{node.where(key)}: {key}: is for state signals ({name} is a command, '
+                       'an event stream at its own stamps)')
+    return rate, None if res is None else res * abs(factor)
 
 
 def _scalar(name: str, node: _Node, kind: str, origin: str = 'signals') -> Scalar:
@@ -468,8 +498,10 @@ def _scalar(name: str, node: _Node, kind: str, origin: str = 'signals') -> Scala
     elif node.has('frame'):
         raise MapError(f'{node.where("frame")}: {name} has no frame (use sign: for its '
                        'convention)')
+    si = common * (1.0 / (pressure.density * pressure.g) if pressure is not None else 1.0)
+    rate, resolution = _rate_resolution(node, name, si)
     return Scalar(name, tuple(terms), str(unit_name), u.dimension, node.number('offset', 0.0),
-                  enu, node.where(), law, pressure, full_scale, origin)
+                  enu, node.where(), law, pressure, full_scale, origin, rate, resolution)
 
 
 def _vector(kind_name: str, node: _Node, topic: str | None, fields: Sequence[str],
@@ -477,6 +509,7 @@ def _vector(kind_name: str, node: _Node, topic: str | None, fields: Sequence[str
     world, body = _frame(node)
     dim = _VECTOR_DIMENSION[kind_name]
     factor = 1.0
+    uname = None
     if dim is not None:
         uname = node.get('unit', unit_default)
         if uname is None:
@@ -484,12 +517,17 @@ def _vector(kind_name: str, node: _Node, topic: str | None, fields: Sequence[str
         u = unit(str(uname), str(node.where('unit')))
         if u.dimension != dim:
             raise MapError(f'{node.where("unit")}: unit {uname} does not fit a {kind_name}')
-        factor = u.factor
+        # scale: raw sensor counts per ... (a gyro logging counts: 1 / counts per unit)
+        factor = u.factor * (node.number('scale', 1.0) if node.has('scale') else 1.0)
+    elif node.has('scale'):
+        raise MapError(f'{node.where("scale")}: a quaternion has no scale')
     need = 4 if kind_name == 'orientation' else 3
     if len(fields) != need:
         raise MapError(f'{node.where("fields")}: a {kind_name} needs {need} fields')
+    rate, resolution = _rate_resolution(node, kind_name, factor)
     return Vector(kind_name, topic, tuple(str(f) for f in fields), world, body, factor,
-                  node.where(), origin)
+                  node.where(), origin, rate=rate, resolution=resolution,
+                  unit=str(uname) if uname is not None else '')
 
 
 def _triple(node: _Node, name: str) -> tuple[float, float, float]:
@@ -535,16 +573,18 @@ def _preset(node: _Node, kind: str) -> tuple[list[Vector], list[Scalar]]:
     topic = node.text('topic')
     origin = f'{preset} {topic}'
     if preset == 'fluid_pressure':
-        node.finish(('preset', 'topic', 'density', 'surface_pressure', 'g', 'offset'))
+        node.finish(('preset', 'topic', 'density', 'surface_pressure', 'g', 'offset', 'rate',
+                     'resolution'))
         press = Pressure(node.number('density', positive=True),
                          node.number('surface_pressure', 101325.0),
                          node.number('g', 9.80665, positive=True))
+        rate, resolution = _rate_resolution(node, 'z', 1.0 / (press.density * press.g))
         return [], [Scalar('z', (Term(topic, 'fluid_pressure', 1.0, node.where()),), 'Pa',
                            'pressure', node.number('offset', 0.0), False, node.where(),
-                           pressure=press, origin=origin)]
+                           pressure=press, origin=origin, rate=rate, resolution=resolution)]
     if preset in ('float64', 'float64_array'):
         node.finish(('preset', 'topic', 'signal', 'index', 'unit', 'scale', 'offset', 'sign',
-                     'frame', 'law', 'full_scale'))
+                     'frame', 'law', 'full_scale', 'rate', 'resolution'))
         signal = node.text('signal')
         path = 'data'
         if preset == 'float64_array':
@@ -555,7 +595,8 @@ def _preset(node: _Node, kind: str) -> tuple[list[Vector], list[Scalar]]:
         body = {k: v for k, v in node.data.items() if k not in ('preset', 'signal', 'index')}
         body['field'] = path
         return [], [_scalar(signal, _Node(body, node.key, node.line), kind, origin)]
-    node.finish(('preset', 'topic', 'frame', 'use', 'unit', 'skip', 'mounting', 'lever_arm'))
+    node.finish(('preset', 'topic', 'frame', 'use', 'unit', 'skip', 'mounting', 'lever_arm',
+                 'rate', 'resolution', 'scale'))
     fields = _preset_fields(preset, node.where('preset'))
     use = node.get('use') or list(fields)
     if isinstance(use, str):
@@ -586,8 +627,10 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
               text: str = '') -> LogMap:
     """Validate a loaded map document (ruamel round-trip data keep line numbers).
 
-    Raises:
-        MapError: naming the key and line of the first problem.
+    Raises
+    ------
+    MapError
+        naming the key and line of the first problem.
     """
     root = _Node(data, '', 1)
     root.finish(('format', 'kind', 'description', 'text', 'time', 'sources', 'vectors',
@@ -617,7 +660,7 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
     elif root.has('text'):
         raise MapError(f'{root.where("text")}: text: is for kind text')
     tm = root.child('time') if root.has('time') else _Node({}, 'time', root.line)
-    tm.finish(('stamp', 'column', 'unit', 'base', 'max_age', 'offsets', 'grid'))
+    tm.finish(('stamp', 'column', 'unit', 'base', 'max_age', 'offsets', 'grid', 'stamps'))
     stamp = tm.text('stamp', 'header' if kind == 'bag' else 'column')
     col = None
     factor = 1.0
@@ -637,9 +680,19 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
             raise MapError(f'{tm.where("offsets")}: offset of {k} must be a number of seconds')
         offsets[str(k)] = float(v)
+    stamps_raw = tm.get('stamps') or {}
+    if stamps_raw and (not isinstance(stamps_raw, Mapping) or kind != 'bag'):
+        raise MapError(f'{tm.where("stamps")}: stamps: is topic: header|log, for bags')
+    per_topic: dict[str, str] = {}
+    for k, v in stamps_raw.items():
+        if v not in ('header', 'log'):
+            raise MapError(f'{tm.where("stamps")}: stamps of {k} must be header or log, '
+                           f'got {v!r}')
+        per_topic[str(k)] = str(v)
     time_spec = TimeSpec(stamp, col, factor, tm.get('base'), tm.number('max_age', 0.0) if
                          tm.has('max_age') else 0.0, offsets,
-                         tm.number('grid', positive=True) if tm.has('grid') else None)
+                         tm.number('grid', positive=True) if tm.has('grid') else None,
+                         per_topic)
     if time_spec.max_age < 0:
         raise MapError(f'{tm.where("max_age")}: must be >= 0 s')
     scalars: dict[str, Scalar] = {}
@@ -668,7 +721,7 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
                 scalars[sc.name] = sc
     for node in root.items('vectors'):
         node.finish(('kind', 'topic', 'fields', 'columns', 'frame', 'unit', 'mounting',
-                     'lever_arm'))
+                     'lever_arm', 'rate', 'resolution', 'scale'))
         kname = node.text('kind')
         if kname not in VECTOR_KINDS:
             raise MapError(f'{node.where("kind")}: unknown vector kind {kname!r} '
@@ -700,11 +753,13 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
             raise MapError(f'{root.where()}: no state signal mapped')
         time_spec = dataclasses.replace(time_spec, base=topics[0])
     read = {v.topic for v in vectors} | {t.topic for s in scalars.values() for t in s.terms}
-    for name in time_spec.offsets:      # a misspelt topic would leave its clock uncorrected
-        if name not in read:
-            known = ', '.join(sorted(str(t) for t in read if t)) or 'a text log has no topics'
-            raise MapError(f'{tm.where("offsets")}: {name} is not a topic the map reads '
-                           f'({known})')
+    for key, names in (('offsets', time_spec.offsets), ('stamps', time_spec.stamps)):
+        for name in names:      # a misspelt topic would leave its clock uncorrected
+            if name not in read:
+                known = ', '.join(sorted(str(t) for t in read if t)) or \
+                    'a text log has no topics'
+                raise MapError(f'{tm.where(key)}: {name} is not a topic the map reads '
+                               f'({known})')
     if 'thrust' not in scalars:
         raise MapError(f'{root.where("signals")}: thrust is not mapped (a thrust, or a '
                        'propeller speed with law:)')
@@ -717,8 +772,10 @@ def parse_map(data: Any, kind_hint: str | None = None, path: str = '<map>',
 def load_map(path: str | os.PathLike[str]) -> LogMap:
     """Read and validate a map file.
 
-    Raises:
-        MapError: the file is missing, is not YAML, or is not a valid map.
+    Raises
+    ------
+    MapError
+        the file is missing, is not YAML, or is not a valid map.
     """
     p = pathlib.Path(path)
     try:

@@ -15,8 +15,10 @@ fields it does not give as plain columns fall back to the per-message path above
 directory compressed by the recorder (``compression_format`` in ``metadata.yaml``: a
 ``.mcap.zstd`` file or compressed messages) is read by rosbags, which decompresses it.
 
-Text logs: CSV, semicolon, tab or whitespace separated, with or without a header line; every
-row must have the same number of fields (a ragged row is an error naming the file and line);
+Text logs: CSV, semicolon, tab or whitespace separated, with or without a header line; a row
+with another number of fields or a field that is not a number (a last row cut off mid-line)
+is left out and said in the table's ``skipped`` lines (``strict``: an error naming the file
+and line);
 lines starting with the comment character are skipped; a UTF-8 byte-order mark at the
 start of the file is dropped; LF or CRLF line ends; double-quoted fields (``"Depth (cm)"``)
 are unquoted.
@@ -50,20 +52,27 @@ _STEP = re.compile(r'^([A-Za-z_][A-Za-z0-9_]*)((?:\[\d+\])*)$')
 class Table:
     """Columns of one topic (or one text file): ``stamps`` [s] (N) and, per requested field
     path or column, its values (N, float64) as logged (no unit conversion); ``stamp_kind``
-    says which stamps: ``header``, ``log`` or ``column``."""
+    says which stamps: ``header``, ``log`` or ``column``; for a text log, the rows left out
+    (``skipped``) and the file line of each row kept (``lines``)."""
 
     source: str
     msgtype: str
     stamps: np.ndarray
     columns: Mapping[str, np.ndarray]
     stamp_kind: str = 'header'
+    #: rows of a text log left out, one line per kind of problem (see :func:`read_text`)
+    skipped: tuple[str, ...] = ()
+    #: the file line of each row (text logs), for messages that name a row
+    lines: np.ndarray | None = None
 
 
 def log_kind(path: str | os.PathLike[str]) -> str:
     """``rosbag2``, ``mcap``, ``ros1`` or ``text``.
 
-    Raises:
-        LogReadError: the path is missing or of a kind the readers do not know.
+    Raises
+    ------
+    LogReadError
+        the path is missing or of a kind the readers do not know.
     """
     p = pathlib.Path(path)
     if not p.exists():
@@ -90,14 +99,72 @@ def log_kind(path: str | os.PathLike[str]) -> str:
 
 
 # --------------------------------------------------------------------------------------------
+# the file's own time
+
+#: A date and time in a file name or a header comment: ``2025-04-10T14:33:41``,
+#: ``2025-04-10_14-33-41``, ``20250410_143341``, ``2025-04-10 14:33`` (seconds optional), an
+#: optional ``Z`` or ``+hh:mm`` zone (default UTC).
+_DATETIME = re.compile(
+    r'(?<!\d)(\d{4})-?(\d{2})-?(\d{2})[T_ \-]?(\d{2})[:\-h]?(\d{2})(?:[:\-m]?(\d{2})'
+    r'(?:\.(\d+))?)?(Z|[+\-]\d{2}:?\d{2})?(?!\d)')
+#: Leading lines of a text log searched for a start time in a comment.
+HEADER_LINES = 20
+
+
+def _parse_datetime(text: str) -> float | None:
+    """The first plausible date and time in ``text`` as seconds since the epoch, or None."""
+    import datetime
+
+    for m in _DATETIME.finditer(text):
+        y, mo, d, h, mi, sec, frac, zone = m.groups()
+        try:
+            tz = datetime.UTC
+            if zone and zone != 'Z':
+                sign = 1 if zone[0] == '+' else -1
+                hh, mm = int(zone[1:3]), int(zone[-2:])
+                tz = datetime.timezone(sign * datetime.timedelta(hours=hh, minutes=mm))
+            stamp = datetime.datetime(int(y), int(mo), int(d), int(h), int(mi),
+                                      int(sec or 0), tzinfo=tz).timestamp()
+        except ValueError:
+            continue
+        if 1990 <= int(y) <= 2100:
+            return stamp + (float(f'0.{frac}') if frac else 0.0)
+    return None
+
+
+def file_time(path: str | os.PathLike[str]) -> float | None:
+    """The start time a log file states of itself [s since the epoch, UTC unless a zone is
+    given], or None: a date and time in a comment among the first :data:`HEADER_LINES` lines
+    of a text log (``# start 2025-04-10T14:33:41Z``), else in the file's name
+    (``dive_2025-04-10_14-33-41.txt``, ``20250410_143341.log``). For a log timed from its own
+    start, this is the clock of its first row."""
+    p = pathlib.Path(path)
+    if p.is_file() and p.suffix.lower() in TEXT_SUFFIXES:
+        try:
+            with open(p, encoding='utf-8-sig', errors='replace') as fh:
+                head = [fh.readline() for _ in range(HEADER_LINES)]
+        except OSError:
+            head = []
+        for line in head:
+            s = line.strip()
+            if s.startswith(('#', '%', ';', '//')):
+                found = _parse_datetime(s)
+                if found is not None:
+                    return found
+    return _parse_datetime(p.stem if p.is_file() else p.name)
+
+
+# --------------------------------------------------------------------------------------------
 # field paths
 
 def compile_path(path: str) -> Callable[[Any], Any]:
     """A getter for a field path such as ``pose.pose.position.x`` or ``data[2]`` or
     ``fins[1].angle``.
 
-    Raises:
-        LogReadError: the path is not well formed.
+    Raises
+    ------
+    LogReadError
+        the path is not well formed.
     """
     steps: list[tuple[str, tuple[int, ...]]] = []
     for part in path.split('.'):
@@ -175,8 +242,14 @@ def _has_header(msg: Any) -> bool:
     return hasattr(st, 'sec') and hasattr(st, 'nanosec')
 
 
+def _stamp_kind(stamp: str | Mapping[str, str], topic: str) -> str:
+    """The stamp source asked for ``topic``: ``stamp`` itself, or its entry in a per-topic
+    mapping (default ``header``)."""
+    return stamp if isinstance(stamp, str) else stamp.get(topic, 'header')
+
+
 def _collect(messages: Iterable[tuple[str, str, int, Any]], requests: Mapping[str, Sequence[str]],
-             stamp: str) -> dict[str, Table]:
+             stamp: str | Mapping[str, str]) -> dict[str, Table]:
     """Gather (topic, msgtype, log time ns, message) into tables of the requested fields."""
     getters = {topic: [(p, compile_path(p)) for p in paths] for topic, paths in requests.items()}
     stamps: dict[str, list[float]] = {t: [] for t in requests}
@@ -189,7 +262,8 @@ def _collect(messages: Iterable[tuple[str, str, int, Any]], requests: Mapping[st
             types[topic] = msgtype
             for p in requests[topic]:
                 _check_path(msg, p, topic, msgtype)
-            kinds[topic] = 'header' if stamp == 'header' and _has_header(msg) else 'log'
+            kinds[topic] = ('header' if _stamp_kind(stamp, topic) == 'header'
+                            and _has_header(msg) else 'log')
         stamps[topic].append(_stamp_of(msg) if kinds[topic] == 'header' else _seconds(log_ns))
         c = cols[topic]
         for p, get in getters[topic]:
@@ -214,7 +288,7 @@ def _unknown_type(topic: str, msgtype: str, in_bag: Iterable[str],
 
 
 def _read_anyreader(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
-                    stamp: str) -> dict[str, Table]:
+                    stamp: str | Mapping[str, str]) -> dict[str, Table]:
     from rosbags.highlevel import AnyReader
     from rosbags.interfaces import Connection
 
@@ -254,7 +328,7 @@ def _read_anyreader(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
 
 
 def _read_mcap_file(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
-                    stamp: str) -> dict[str, Table]:
+                    stamp: str | Mapping[str, str]) -> dict[str, Table]:
     from mcap.exceptions import McapError
     from mcap.reader import make_reader
     from rosbags.typesys import Stores, get_typestore
@@ -302,20 +376,29 @@ def _read_mcap_file(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
 
 
 def read_bag(path: str | os.PathLike[str], requests: Mapping[str, Sequence[str]],
-             stamp: str = 'header', fast: bool = True) -> dict[str, Table]:
+             stamp: str | Mapping[str, str] = 'header', fast: bool = True
+             ) -> dict[str, Table]:
     """Read the requested fields of the requested topics of a bag.
 
-    Args:
-        path: rosbag2 directory (MCAP or sqlite3), bare ``.mcap`` file or ROS 1 ``.bag``.
-        requests: topic -> field paths (``pose.pose.position.x``, ``data[2]``).
-        stamp: ``header`` (header stamps; the receive times for a type with no header, said
-            in the table's ``stamp_kind``) or ``log`` (receive times).
-        fast: MCAP storage through the columnar decoder of :func:`auv_bag.read_arrays`
-            (falls back to rosbags for what it cannot give); False: rosbags only.
+    Parameters
+    ----------
+    path
+        rosbag2 directory (MCAP or sqlite3), bare ``.mcap`` file or ROS 1 ``.bag``.
+    requests
+        topic -> field paths (``pose.pose.position.x``, ``data[2]``).
+    stamp
+        ``header`` (header stamps; the receive times for a type with no header, said
+        in the table's ``stamp_kind``) or ``log`` (receive times), for every topic or
+        per topic (a mapping topic -> ``header``/``log``; a topic not in it: header).
+    fast
+        MCAP storage through the columnar decoder of :func:`auv_bag.read_arrays`
+        (falls back to rosbags for what it cannot give); False: rosbags only.
 
-    Raises:
-        LogReadError: unknown kind, missing topic, field path not in the message, message
-            type the readers do not know, a topic with no messages.
+    Raises
+    ------
+    LogReadError
+        unknown kind, missing topic, field path not in the message, message
+        type the readers do not know, a topic with no messages.
     """
     p = pathlib.Path(path)
     kind = log_kind(p)
@@ -380,7 +463,7 @@ def _header_topics(files: Sequence[pathlib.Path], topics: Iterable[str]) -> dict
 
 
 def _read_columnar(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
-                   stamp: str) -> dict[str, Table] | None:
+                   stamp: str | Mapping[str, str]) -> dict[str, Table] | None:
     """MCAP storage through this project's columnar decoder (:func:`auv_bag.read_arrays`:
     vectorised CDR decoding on the ``mcap`` container, damage reported as one line). None when
     a requested topic or field is not a plain column there (the per-message readers then
@@ -405,7 +488,7 @@ def _read_columnar(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
             return None
         if len(arr) == 0:
             raise LogReadError(f'topic {topic} has no messages')
-        kind = 'header' if stamp == 'header' and headers[topic] else 'log'
+        kind = 'header' if _stamp_kind(stamp, topic) == 'header' and headers[topic] else 'log'
         tables[topic] = Table(topic, present[topic],
                               np.array(arr['t'] if kind == 'header' else arr['t_log']),
                               {p: np.array(arr[c]) for p, c in cols.items()}, kind)
@@ -415,23 +498,45 @@ def _read_columnar(path: pathlib.Path, requests: Mapping[str, Sequence[str]],
 # --------------------------------------------------------------------------------------------
 # text logs
 
+#: Above this share of bad rows (wrong field count, a field not a number) a text log is refused
+#: even when bad rows are skipped: the map's delimiter or columns do not fit the file.
+BAD_ROW_SHARE = 0.2
+
+
 def read_text(path: str | os.PathLike[str], columns: Sequence[str], time_column: str, *,
               delimiter: str | None, header: bool, names: Sequence[str] = (),
-              comment: str = '#') -> Table:
+              comment: str = '#', strict: bool = False) -> Table:
     """Read a text log's columns.
 
-    Args:
-        path: the file.
-        columns: column names wanted (besides the time column).
-        time_column: name of the time column (its values are returned as ``stamps``, in the
-            log's unit; the caller converts).
-        delimiter: ``None`` for whitespace, else the separator character.
-        header: the first non-comment line names the columns.
-        names: column names when there is no header (or to override it).
-        comment: lines starting with this are skipped.
+    Parameters
+    ----------
+    path
+        the file.
+    columns
+        column names wanted (besides the time column).
+    time_column
+        name of the time column (its values are returned as ``stamps``, in the
+        log's unit; the caller converts).
+    delimiter
+        ``None`` for whitespace, else the separator character.
+    header
+        the first non-comment line names the columns.
+    names
+        column names when there is no header (or to override it).
+    comment
+        lines starting with this are skipped.
+    strict
+        refuse a row with the wrong number of fields or a field that is not a
+        number; otherwise such a row (typically the last, cut off mid-line by a logger
+        switched off while writing) is left out and said in :attr:`Table.skipped`, one
+        line per kind of problem.
 
-    Raises:
-        LogReadError: missing file or column, ragged row, a field that is not a number.
+    Raises
+    ------
+    LogReadError
+        missing file or column, no data rows, a non-finite time; with
+        ``strict`` a ragged row or a field that is not a number; without it, more than
+        :data:`BAD_ROW_SHARE` of the rows bad (the map does not fit the file).
     """
     p = pathlib.Path(path)
     try:
@@ -459,34 +564,62 @@ def read_text(path: str | os.PathLike[str], columns: Sequence[str], time_column:
             continue
         rows.append(fields)
         line_no.append(i)
+    if not rows:
+        raise LogReadError(f'{p}: no data rows' + ('' if head else ' (the file is empty)'))
     col_names = list(names) if names else (head or [])
     if not col_names:
         raise LogReadError(f'{p}: no column names (no header line and no columns: in the map)')
     if len(set(col_names)) != len(col_names):
         raise LogReadError(f'{p}: column names repeat: {col_names}')
-    width = len(col_names)
-    for fields, no in zip(rows, line_no):
-        if len(fields) != width:
-            raise LogReadError(f'{p} line {no}: {len(fields)} fields, expected {width} '
-                               f'({", ".join(col_names)})')
-    if not rows:
-        raise LogReadError(f'{p}: no data rows')
     index = {n: k for k, n in enumerate(col_names)}
-    out: dict[str, np.ndarray] = {}
     for name in [time_column, *columns]:
         if name not in index:
             raise LogReadError(f'{p}: no column {name!r} (columns: {", ".join(col_names)})')
-        k = index[name]
-        vals = np.empty(len(rows))
-        for j, fields in enumerate(rows):
-            try:
-                vals[j] = float(fields[k])
-            except ValueError:
-                raise LogReadError(f'{p} line {line_no[j]}: column {name!r} is not a number: '
-                                   f'{fields[k]!r}') from None
-        out[name] = vals
+    width = len(col_names)
+    wanted = [(name, index[name]) for name in [time_column, *columns]]
+    bad: dict[str, list[int]] = {}          # problem -> line numbers
+    values = np.empty((len(rows), len(wanted)))
+    good = np.ones(len(rows), bool)
+    for j, (fields, no) in enumerate(zip(rows, line_no)):
+        problem = None
+        if len(fields) != width:
+            problem = (f'{len(fields)} fields, expected {width} '
+                       f'({", ".join(col_names)})')
+        else:
+            for c, (name, k) in enumerate(wanted):
+                try:
+                    values[j, c] = float(fields[k])
+                except ValueError:
+                    problem = f'column {name!r} is not a number: {fields[k]!r}'
+                    break
+        if problem is None:
+            continue
+        if strict:
+            raise LogReadError(f'{p} line {no}: {problem}')
+        good[j] = False
+        bad.setdefault(problem if len(fields) == width else f'{len(fields)} fields, '
+                       f'expected {width}', []).append(no)
+    nbad = int(np.count_nonzero(~good))
+    if nbad > BAD_ROW_SHARE * len(rows):
+        first = next(iter(bad))
+        raise LogReadError(f'{p}: {nbad} of {len(rows)} rows do not parse (line '
+                           f'{bad[first][0]}: {first}): does the map\'s delimiter or '
+                           'columns: fit this file?')
+    skipped = []
+    last = line_no[-1]
+    for problem, nos in bad.items():
+        where = (f'line {nos[0]}' if len(nos) == 1 else
+                 f'{len(nos)} rows (lines {", ".join(map(str, nos[:5]))}'
+                 f'{", ..." if len(nos) > 5 else ""})')
+        cut = ' (the last row, cut off mid-line?)' if nos == [last] else ''
+        skipped.append(f'{p.name} {where}: {problem}: left out{cut}')
+    values = values[good]
+    if not len(values):
+        raise LogReadError(f'{p}: no data rows that parse ({"; ".join(skipped)})')
+    out = {name: values[:, c] for c, (name, _) in enumerate(wanted)}
     stamps = out.pop(time_column)
-    bad = np.flatnonzero(~np.isfinite(stamps))
-    if len(bad):
-        raise LogReadError(f'{p} line {line_no[int(bad[0])]}: time is not finite')
-    return Table(str(p), 'text', stamps, out, 'column')
+    rows_kept = np.asarray(line_no)[good]
+    nonfinite = np.flatnonzero(~np.isfinite(stamps))
+    if len(nonfinite):
+        raise LogReadError(f'{p} line {rows_kept[int(nonfinite[0])]}: time is not finite')
+    return Table(str(p), 'text', stamps, out, 'column', tuple(skipped), rows_kept)

@@ -23,6 +23,52 @@ import numpy as np
 GAP_SPLIT = 5.0
 #: Default largest step inside a segment, in median sample periods.
 DEFAULT_GAP_PERIODS = 3.0
+#: A step departing from the median step by more than this share of it breaks a uniformly
+#: sampled stretch (the identification's derivative filter needs uniform samples).
+UNIFORM_TOLERANCE = 0.25
+#: Rows departing from the mean step by more than this share of it, in at least
+#: :data:`JITTER_SHARE` of the steps, jitter (see :func:`spacing_jitter`).
+JITTER_MEAN = 0.1
+JITTER_SHARE = 0.25
+
+
+def spacing_jitter(t: np.ndarray, tolerance: float = UNIFORM_TOLERANCE) -> str | None:
+    """Why stamps ``t`` [s] (increasing) are not uniformly sampled, or None.
+
+    A logger that writes rows at uneven intervals (a 2 Hz log whose rows alternate 0.39 and
+    0.61 s apart) leaves no stretch uniform enough for a derivative filter, however long the
+    segment: a quarter or more of the steps departing from the median step by more than
+    ``tolerance`` of it (the rule by which the identification splits a log into uniformly
+    sampled stretches), or from the mean step by more than :data:`JITTER_MEAN` of it (taken
+    as uniform, the rows would sit that far from their stamps). The sentence names the
+    spacing found and the fix, resampling onto a grid (``time: {grid: PERIOD}`` in the map,
+    at the mean step).
+    """
+    d = np.diff(np.asarray(t, float))
+    d = d[d > 0]
+    if d.size < 4:
+        return None
+    med = float(np.median(d))
+    d = d[d <= DEFAULT_GAP_PERIODS * med]          # gaps split segments anyway
+    mean = float(np.mean(d))
+    off_median = float(np.mean(np.abs(d - med) > tolerance * med))
+    off_mean = float(np.mean(np.abs(d - mean) > JITTER_MEAN * mean))
+    if max(off_median, off_mean) < JITTER_SHARE:
+        return None
+    lo, hi = (float(v) for v in np.quantile(d, [0.05, 0.95]))
+    return (f'row spacing jitter: steps of {lo:.3g} to {hi:.3g} s around a mean of '
+            f'{mean:.3g} s ({off_mean:.0%} depart from it by more than {JITTER_MEAN:.0%}, '
+            f'{off_median:.0%} from the median {med:.3g} s by more than {tolerance:.0%}), so no '
+            'stretch is uniformly sampled; resample onto a uniform grid with time: {grid: '
+            f'{_round_period(mean):g}}} in the map')
+
+
+def _round_period(p: float) -> float:
+    """A period [s] rounded to two significant digits (a grid the user would write)."""
+    if p <= 0:
+        return p
+    digits = 1 - int(np.floor(np.log10(p)))
+    return float(round(p, digits))
 
 
 def split(t: np.ndarray, usable: np.ndarray, *, max_gap: float | None,

@@ -22,6 +22,7 @@ lower rudder its negative. Propeller speed from thrust by ``T = k n |n|`` (``k``
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import pathlib
@@ -61,6 +62,24 @@ def _state(rec: Record, noise: np.ndarray | None) -> np.ndarray:
     return meas
 
 
+def _imu_and_pressure(T: Any, t: float, imu_header: Any, pressure_header: Any, q: np.ndarray,
+                      rates: np.ndarray, depth: float) -> list[tuple[float, str, str, Any]]:
+    """The ``sensor_msgs/Imu`` (orientation ``q`` x y z w, angular velocity ``rates`` as
+    given) and ``sensor_msgs/FluidPressure`` (``P0 + rho g depth`` [Pa]) events of one sample
+    at ``t`` [s]; ``T`` the typestore's types."""
+    V3, cov9 = T['geometry_msgs/msg/Vector3'], np.zeros(9)
+    return [
+        (t, '/imu/data', 'sensor_msgs/msg/Imu', T['sensor_msgs/msg/Imu'](
+            header=imu_header,
+            orientation=T['geometry_msgs/msg/Quaternion'](x=q[0], y=q[1], z=q[2], w=q[3]),
+            orientation_covariance=cov9,
+            angular_velocity=V3(x=rates[0], y=rates[1], z=rates[2]),
+            angular_velocity_covariance=cov9,
+            linear_acceleration=V3(x=0.0, y=0.0, z=0.0), linear_acceleration_covariance=cov9)),
+        (t, '/pressure', 'sensor_msgs/msg/FluidPressure', T['sensor_msgs/msg/FluidPressure'](
+            header=pressure_header, fluid_pressure=P0 + RHO * G * depth, variance=0.0))]
+
+
 def write_ros2(path: str | os.PathLike[str], rec: Record, *, storage: str = 'mcap',
                ros1: bool = False, every: int = 1, custom_fins: bool = False,
                noise: np.ndarray | None = None, t0: float = 1.7e9) -> int:
@@ -75,13 +94,13 @@ def write_ros2(path: str | os.PathLike[str], rec: Record, *, storage: str = 'mca
     store.register(get_types_from_msg(FIN_MSG, FIN_TYPE))
     T = store.types
     Header, Time = T['std_msgs/msg/Header'], T['builtin_interfaces/msg/Time']
-    Odometry, Imu = T['nav_msgs/msg/Odometry'], T['sensor_msgs/msg/Imu']
+    Odometry = T['nav_msgs/msg/Odometry']
     V3, Q, Pt = T['geometry_msgs/msg/Vector3'], T['geometry_msgs/msg/Quaternion'], \
         T['geometry_msgs/msg/Point']
     Pose, PoseC = T['geometry_msgs/msg/Pose'], T['geometry_msgs/msg/PoseWithCovariance']
     Twist, TwistC = T['geometry_msgs/msg/Twist'], T['geometry_msgs/msg/TwistWithCovariance']
-    Press, F64, Fins = T['sensor_msgs/msg/FluidPressure'], T['std_msgs/msg/Float64'], T[FIN_TYPE]
-    cov36, cov9 = np.zeros(36), np.zeros(9)
+    F64, Fins = T['std_msgs/msg/Float64'], T[FIN_TYPE]
+    cov36 = np.zeros(36)
     meas = _state(rec, noise)
     idx = np.arange(0, len(rec.t), every)
     odom = state_to_odometry(meas[idx])
@@ -104,14 +123,8 @@ def write_ros2(path: str | os.PathLike[str], rec: Record, *, storage: str = 'mca
             twist=TwistC(twist=Twist(linear=V3(x=lin[0], y=lin[1], z=lin[2]),
                                      angular=V3(x=ang[0], y=ang[1], z=ang[2])),
                          covariance=cov36))))
-        events.append((t, '/imu/data', 'sensor_msgs/msg/Imu', Imu(
-            header=header(t, 'imu_link'), orientation=quat, orientation_covariance=cov9,
-            angular_velocity=V3(x=ang[0], y=ang[1], z=ang[2]),
-            angular_velocity_covariance=cov9,
-            linear_acceleration=V3(x=0.0, y=0.0, z=0.0), linear_acceleration_covariance=cov9)))
-        events.append((t, '/pressure', 'sensor_msgs/msg/FluidPressure', Press(
-            header=header(t, 'pressure'), fluid_pressure=P0 + RHO * G * meas[i, 2],
-            variance=0.0)))
+        events += _imu_and_pressure(T, t, header(t, 'imu_link'), header(t, 'pressure'), q,
+                                    ang, float(meas[i, 2]))
     change = np.flatnonzero(np.any(np.diff(rec.cmd, axis=0, prepend=np.nan) != 0, axis=1))
     for i in change:
         t = float(rec.t[i])
@@ -193,3 +206,185 @@ def record_of(t: np.ndarray, state: np.ndarray,
     measured[:, :12] = state
     return Record(np.asarray(t, float), np.full((n, 15), np.nan), measured, cmd,
                   np.full((n, 4, 6), np.nan))
+
+
+# --------------------------------------------------------------------------------------------
+# a vendor's text log as real loggers write them
+
+@dataclasses.dataclass(frozen=True)
+class VendorText:
+    """How a vendor's text logger writes a flight (see :func:`write_vendor_text`).
+
+    ``steps``: the row spacing [s], a pattern repeated over the log (``(0.39, 0.61)``: rows
+    alternating 0.39 and 0.61 s apart, 2 Hz on average); ``depth_unit`` ``m`` or ``cm`` and
+    ``depth_resolution`` [m] (0.1: depth printed in 0.1 m steps; 0: full precision);
+    ``speed_period`` [s]: the DVL's update period (1.0 on 2 Hz rows: each value on two rows;
+    0: a new value on every row); ``thrust`` ``rpm`` (``T = K_RPM n |n|``) or ``percent``
+    (of ``thrust_full_scale`` [N]); ``fins`` ``pair`` (port and starboard elevators, the
+    starboard mirrored, an upper and a lower rudder, the lower mirrored) or ``y`` (a top
+    rudder and two lower fins at +-120 deg from the top, each deflected by ``bar /
+    cos(30 deg)`` so that their vertical forces sum to a pair's); ``roll_rudders`` [rad]: the
+    two rudders also move together (not mirrored) by this amplitude, a roll command that
+    cancels in the helm; ``cut_last_row``: the last row stops mid-line (a logger switched off
+    while writing); ``nan_rows``: row indices whose speed field reads ``nan``; ``t0`` [s]:
+    the clock at the first sample (an epoch time, or 0 for a log timed from its start).
+    """
+
+    steps: tuple[float, ...] = (0.5,)
+    depth_unit: str = 'cm'
+    depth_resolution: float = 0.0
+    speed_period: float = 0.0
+    thrust: str = 'rpm'
+    thrust_full_scale: float = 0.0
+    fins: str = 'pair'
+    roll_rudders: float = 0.0
+    cut_last_row: bool = False
+    nan_rows: tuple[int, ...] = ()
+    t0: float = 0.0
+
+    def columns(self) -> tuple[str, ...]:
+        """The header line's column names."""
+        depth = 'depth_m' if self.depth_unit == 'm' else 'depth_cm'
+        fins = (('fin_top_deg', 'fin_port_deg', 'fin_stbd_deg') if self.fins == 'y' else
+                ('elev_port_deg', 'elev_stbd_deg', 'rudder_up_deg', 'rudder_low_deg'))
+        thrust = 'thrust_pct' if self.thrust == 'percent' else 'rpm'
+        return ('time', depth, 'roll_deg', 'pitch_deg', 'heading_deg', 'speed_ms', *fins,
+                thrust)
+
+
+#: Cosine of the angle between a lower fin of a Y (at 120 deg from the top) and the
+#: horizontal: the share of its lift that acts vertically.
+COS_30 = math.cos(math.radians(30.0))
+
+
+def vendor_rows(t: np.ndarray, steps: tuple[float, ...]) -> np.ndarray:
+    """Indices into sample times ``t`` [s] (uniform) of rows spaced by the repeated pattern
+    ``steps`` [s] from ``t[0]`` (each row at the sample nearest its time)."""
+    dt = float(t[1] - t[0])
+    span = float(t[-1] - t[0])
+    pattern = np.asarray(steps, float)
+    n = int(span / pattern.mean()) + len(pattern) + 1
+    times = np.r_[0.0, np.cumsum(np.resize(pattern, n))]
+    times = times[times <= span + 1e-9]
+    out: np.ndarray = np.unique(np.clip(np.round(times / dt).astype(np.int64), 0, t.size - 1))
+    return out
+
+
+def write_vendor_text(path: str | os.PathLike[str], rec: Record, fmt: VendorText,
+                      noise: np.ndarray | None = None) -> int:
+    """Write ``rec`` as the vendor text log ``fmt`` describes (whitespace, header line; the
+    measured state plus ``noise`` (N x 12) at the rows, the commands applied at each row);
+    returns the rows written (a cut-off last row included)."""
+    meas = _state(rec, noise)
+    rows = vendor_rows(rec.t, fmt.steps)
+    # the DVL's value at each row: its latest update at or before the row
+    if fmt.speed_period > 0.0:
+        k = np.floor((rec.t[rows] - rec.t[0]) / fmt.speed_period + 1e-9)
+        first = np.r_[True, np.diff(k) > 0]
+        src = rows[np.maximum.accumulate(np.where(first, np.arange(rows.size), 0))]
+        speed_rows = meas[src, 6]
+    else:
+        speed_rows = meas[rows, 6]
+    depth = meas[rows, 2]
+    if fmt.depth_resolution > 0.0:
+        depth = np.round(depth / fmt.depth_resolution) * fmt.depth_resolution
+    depth = depth * (100.0 if fmt.depth_unit == 'cm' else 1.0)
+    lines = [' '.join(fmt.columns())]
+    for j, i in enumerate(rows):
+        bar, helm, thrust = rec.cmd[i]
+        bd, hd = math.degrees(bar), math.degrees(helm)
+        roll = math.degrees(fmt.roll_rudders) * math.sin(2 * math.pi * rec.t[i] / 20.0)
+        if fmt.fins == 'y':
+            fins: tuple[float, ...] = (hd, bd / COS_30, bd / COS_30)
+        else:
+            fins = (bd, -bd, hd + roll, -hd + roll)
+        thr = (100.0 * thrust / fmt.thrust_full_scale if fmt.thrust == 'percent'
+               else float(rpm_of_thrust(np.array(thrust))))
+        vals = (fmt.t0 + rec.t[i], depth[j], math.degrees(meas[i, 3]),
+                math.degrees(meas[i, 4]), math.degrees(meas[i, 5]) % 360.0, speed_rows[j],
+                *fins, thr)
+        text = [f'{vals[0]:.3f}', *(f'{v:.10g}' for v in vals[1:])]
+        if fmt.depth_resolution > 0.0:
+            digits = max(0, -int(math.floor(math.log10(fmt.depth_resolution * (
+                100.0 if fmt.depth_unit == 'cm' else 1.0)) + 1e-9)))
+            text[1] = f'{vals[1]:.{digits}f}'
+        if j in fmt.nan_rows:
+            text[5] = 'nan'
+        lines.append(' '.join(text))
+    if fmt.cut_last_row and len(lines) > 2:
+        lines[-1] = lines[-1][:len(lines[-1]) // 2].rstrip()
+    text_out = '\n'.join(lines) + ('' if fmt.cut_last_row else '\n')
+    pathlib.Path(path).write_text(text_out)
+    return len(rows)
+
+
+#: Raw counts of a MEMS gyro per deg/s (the +-250 deg/s range of common parts).
+GYRO_COUNTS_PER_DEG_S = 131.0
+
+
+def write_ybag(path: str | os.PathLike[str], rec: Record, *, t0: float = 1.744e9,
+               thrust_full_scale: float = 10.0, every: int = 5, dvl_every: int = 10,
+               zero_imu_stamps: bool = True, noise: np.ndarray | None = None) -> int:
+    """Write ``rec`` as a small vehicle's rosbag2 MCAP bag with three fins in a Y (see the
+    module docstring for the vendor conventions) and returns the messages written:
+
+    * ``/imu/data`` ``sensor_msgs/Imu``: orientation ENU/FLU, angular velocity FLU in raw
+      gyro counts (:data:`GYRO_COUNTS_PER_DEG_S` per deg/s); header stamps all zero when
+      ``zero_imu_stamps`` (a driver that does not stamp);
+    * ``/pressure`` ``sensor_msgs/FluidPressure`` [Pa] and ``/dvl/twist``
+      ``geometry_msgs/TwistStamped`` (FLU, every ``dvl_every``-th sample), stamped;
+    * ``/fins/top``, ``/fins/port``, ``/fins/stbd`` ``std_msgs/Float64`` [deg] (no header:
+      receive times): the top fin is the rudder, the lower fins at +-120 deg from the top
+      are each deflected by ``bar / cos(30 deg)``;
+    * ``/thruster/percent`` ``std_msgs/Float64``: thrust in per cent of
+      ``thrust_full_scale`` [N].
+
+    State messages every ``every``-th sample; receive times ``t0 + t`` [s] plus 2 ms.
+    """
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.LATEST)
+    T = store.types
+    Header, Time = T['std_msgs/msg/Header'], T['builtin_interfaces/msg/Time']
+    V3 = T['geometry_msgs/msg/Vector3']
+    Twist, TwistS, F64 = (T['geometry_msgs/msg/Twist'], T['geometry_msgs/msg/TwistStamped'],
+                          T['std_msgs/msg/Float64'])
+    meas = _state(rec, noise)
+    idx = np.arange(0, len(rec.t), every)
+    odom = state_to_odometry(meas[idx])
+
+    def header(t: float | None, frame: str) -> Any:
+        ns = 0 if t is None else int(round((t0 + t) * 1e9))
+        return Header(stamp=Time(sec=ns // 10**9, nanosec=ns % 10**9), frame_id=frame)
+
+    events: list[tuple[float, str, str, Any]] = []
+    for k, i in enumerate(idx):
+        t = float(rec.t[i])
+        q, lin, ang = odom.orientation[k], odom.linear[k], odom.angular[k]
+        counts = np.degrees(ang) * GYRO_COUNTS_PER_DEG_S
+        events += _imu_and_pressure(T, t, header(None if zero_imu_stamps else t, 'imu'),
+                                    header(t, 'pressure'), q, counts, float(meas[i, 2]))
+        if k % max(1, dvl_every // every) == 0:
+            events.append((t, '/dvl/twist', 'geometry_msgs/msg/TwistStamped', TwistS(
+                header=header(t, 'dvl'),
+                twist=Twist(linear=V3(x=lin[0], y=lin[1], z=lin[2]),
+                            angular=V3(x=0.0, y=0.0, z=0.0)))))
+    change = np.flatnonzero(np.any(np.diff(rec.cmd, axis=0, prepend=np.nan) != 0, axis=1))
+    for i in change:
+        t = float(rec.t[i])
+        bar, helm, thrust = (float(v) for v in rec.cmd[i])
+        lower = math.degrees(bar) / COS_30
+        for topic, value in (('/fins/top', math.degrees(helm)), ('/fins/port', lower),
+                             ('/fins/stbd', lower),
+                             ('/thruster/percent', 100.0 * thrust / thrust_full_scale)):
+            events.append((t, topic, 'std_msgs/msg/Float64', F64(data=value)))
+    events.sort(key=lambda e: e[0])
+    with Writer(pathlib.Path(path), version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        conns: dict[str, Any] = {}
+        for t, topic, msgtype, msg in events:
+            if topic not in conns:
+                conns[topic] = w.add_connection(topic, msgtype, typestore=store)
+            w.write(conns[topic], int(round((t0 + t + 0.002) * 1e9)),
+                    store.serialize_cdr(msg, msgtype))
+    return len(events)

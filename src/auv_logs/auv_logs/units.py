@@ -63,8 +63,10 @@ SIGNAL_DIMENSION: dict[str, tuple[str, ...]] = {
 def unit(name: str, where: str) -> Unit:
     """The unit called ``name``; ``where`` (map key and line) goes into the error.
 
-    Raises:
-        MapError: the unit is not known (the message lists the known ones).
+    Raises
+    ------
+    MapError
+        the unit is not known (the message lists the known ones).
     """
     found = UNITS.get(str(name))
     if found is None:

@@ -15,12 +15,18 @@ def add_vehicle_option(parser: argparse.ArgumentParser, *, default: str | None =
                        old_names: Sequence[str] = ()) -> None:
     """Add ``--vehicle VEHICLE.yaml`` (the vehicle file, ``args.vehicle``) to ``parser``.
 
-    Args:
-        parser: the subcommand's parser.
-        default: the file used when the option is not given (None: no default).
-        required: the option must be given.
-        help_text: what the file is for in this command.
-        old_names: former spellings (e.g. ``--model``), accepted silently.
+    Parameters
+    ----------
+    parser
+        the subcommand's parser.
+    default
+        the file used when the option is not given (None: no default).
+    required
+        the option must be given.
+    help_text
+        what the file is for in this command.
+    old_names
+        former spellings (e.g. ``--model``), accepted silently.
     """
     what = help_text or 'the vehicle file'
     group = parser.add_mutually_exclusive_group(required=required)

@@ -28,13 +28,17 @@ from typing import Any
 
 import numpy as np
 
-from auv_contract import YamlError, read_yaml
+from auv_contract import read_yaml_file
 from auv_sim.errors import ParameterError
+from auv_sim.hull import strip_stations
 from auv_sim.model import (
     E_BARBIAS,
     E_BCOMP,
     E_BDRIFT,
     E_DRIFT,
+    E_HULL_CD,
+    E_HULL_W,
+    E_HULL_XI,
     E_MQQ,
     E_NRR,
     E_SHEAR,
@@ -47,6 +51,7 @@ from auv_sim.model import (
     E_YVV,
     E_ZWW,
     ENV_SIZE,
+    HULL_STRIPS,
 )
 from auv_sim.params import VehicleParams
 
@@ -85,6 +90,9 @@ EFFECT_FIELDS: dict[str, dict[str, tuple[str, float]]] = {
     'plane_stall': {'angle': ('rad', 0.0)},
     'buoyancy_drift': {'rate': ('N/s', 0.0)},
     'depth_sensor_drift': {'rate': ('m/s', 0.0)},
+    # a plant whose cross-flow drag is strip theory over a Myring hull (auv_sim.hull), not the
+    # model's separate quadratic terms: the identification's panel of non-model plants
+    'hull_crossflow': {'cd': ('-', 0.0), 'length': ('m', 0.0), 'diameter': ('m', 0.0)},
 }
 #: Effects the simulator implements (an effect declared later with :func:`declare_effect`
 #: is known to the registry but not simulated).
@@ -172,6 +180,13 @@ class Environment:
         env[E_TZ] = self.field('thrust_moment', 'zt')
         env[E_STALL] = self.field('plane_stall', 'angle')
         env[E_BDRIFT] = self.field('buoyancy_drift', 'rate')
+        cd = self.field('hull_crossflow', 'cd')
+        if cd > 0.0:
+            xi, w = strip_stations(self.field('hull_crossflow', 'length'),
+                                   self.field('hull_crossflow', 'diameter'), HULL_STRIPS)
+            env[E_HULL_CD] = cd
+            env[E_HULL_XI:E_HULL_XI + HULL_STRIPS] = xi
+            env[E_HULL_W:E_HULL_W + HULL_STRIPS] = w
         return env
 
     def profile(self) -> np.ndarray:
@@ -289,6 +304,10 @@ def parse_environment(doc: Any, where: str = '<memory>') -> Environment:
             raise ParameterError(f'{where}: {name} values must be >= 0')
         if name == 'current_oscillation' and parsed.get('period', 0.0) < 0:
             raise ParameterError(f'{where}: current_oscillation.period must be >= 0')
+        if name == 'hull_crossflow' and parsed.get('cd', 0.0) != 0.0 and not (
+                parsed.get('cd', 0.0) > 0 and parsed.get('length', 0.0) > 0
+                and parsed.get('diameter', 0.0) > 0):
+            raise ParameterError(f'{where}: hull_crossflow needs cd, length and diameter > 0')
         if name == 'plane_stall' and parsed.get('angle', 0.0) < 0:
             raise ParameterError(f'{where}: plane_stall.angle must be >= 0 (0: no stall)')
         effects[name] = parsed
@@ -309,10 +328,4 @@ def load_environment(path: str | pathlib.Path | None) -> Environment:
     if path is None:
         return Environment()
     path = pathlib.Path(path)
-    try:
-        doc = read_yaml(path)
-    except OSError as exc:
-        raise ParameterError(f'cannot read effects file {path}: {exc.strerror}') from None
-    except YamlError as exc:
-        raise ParameterError(str(exc)) from None
-    return parse_environment(doc, str(path))
+    return parse_environment(read_yaml_file(path, 'effects file', ParameterError), str(path))

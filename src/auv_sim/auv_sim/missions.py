@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from auv_contract import CHANNELS, YamlError, config_path, read_yaml
+from auv_contract import CHANNELS, config_path, read_yaml_file
 from auv_sim.environment import Environment
 from auv_sim.errors import ParameterError
 from auv_sim.params import VehicleParams
@@ -69,13 +69,7 @@ def load_mission(name_or_path: str | pathlib.Path) -> Mission:
     shipped = config_path('missions', f'{name_or_path}.yaml')
     if not path.exists() and shipped.exists():
         path = shipped
-    try:
-        doc = read_yaml(path)
-    except OSError as exc:
-        raise ParameterError(f'cannot read mission {name_or_path}: {exc.strerror}') from None
-    except YamlError as exc:
-        raise ParameterError(str(exc)) from None
-    return parse_mission(doc, str(path))
+    return parse_mission(read_yaml_file(path, 'mission', ParameterError), str(path))
 
 
 def start_simulator(params: VehicleParams, mission: Mission,

@@ -64,7 +64,11 @@ E_TGAIN = 17        # propeller thrust error: force = (1 + e) x thrust position 
 E_TZ = 18           # thrust line below the body origin (body FRD z) [m]: pitch moment z T
 E_STALL = 19        # plane lift saturation angle a [rad]: lift angle a tanh(bar / a) (0: none)
 E_BDRIFT = 20       # buoyancy change in time: B(t) = B + rate t [N/s] from t = 0
-ENV_SIZE = 21
+E_HULL_CD = 21      # cross-flow drag coefficient of a strip-theory hull (0: none) [-]
+E_HULL_XI = 22      # 22..22+HULL_STRIPS-1: its stations, forward of the body origin [m]
+HULL_STRIPS = 24
+E_HULL_W = E_HULL_XI + HULL_STRIPS  # their weights 2 r(xi) d xi [m^2]
+ENV_SIZE = E_HULL_W + HULL_STRIPS
 
 NX = 15
 STATE_NAMES = STATE_FIELDS + CHANNELS
@@ -234,7 +238,9 @@ def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
 
     Rows: hydrodynamic (the terms of :func:`hydro_basis` in ``nu_r`` times the vehicle file's
     coefficients, the environment's cross-flow drag added to ``Yvv``, ``Zww``, ``Mqq``,
-    ``Nrr``), Coriolis (rigid-body with
+    ``Nrr``; with ``env[E_HULL_CD]`` > 0 the strip-theory cross-flow drag of the hull of
+    :mod:`auv_sim.hull` on the stations in ``env``, coupled in sway and heave), Coriolis
+    (rigid-body with
     ``nu``, added-mass with ``nu_r``, plus ``M_A nu_c_dot`` of a varying current), restoring
     (weight and buoyancy, the buoyancy changed with depth by ``env[E_BCOMP]`` and in time by
     ``env[E_BDRIFT]``), actuators (BAR, helm, propeller; the thrust times ``1 + env[E_TGAIN]``,
@@ -290,6 +296,19 @@ def wrenches(t, x, P, env, prof, out):  # type: ignore[no-untyped-def]
                  + (P[I_MQQ] + env[E_MQQ]) * b_mqq)
     out[0, 5] = (P[I_CNUV] * b_cnuv + P[I_CNUR] * b_cnur + P[I_NVV] * b_nvv
                  + (P[I_NRR] + env[E_NRR]) * b_nrr)
+    if env[E_HULL_CD] > 0.0:
+        # a hull whose cross-flow drag is strip theory (auv_sim.hull): each strip at xi meets
+        # (v + xi r, w - xi q) and takes -1/2 rho c_dc 2 r |V| V d xi against it
+        kh = 0.5 * rho * env[E_HULL_CD]
+        for i in range(HULL_STRIPS):
+            xi = env[E_HULL_XI + i]
+            vl = vr + xi * r
+            wl = wr - xi * q
+            drag = kh * env[E_HULL_W + i] * np.sqrt(vl * vl + wl * wl)
+            out[0, 1] -= drag * vl
+            out[0, 2] -= drag * wl
+            out[0, 4] += xi * drag * wl
+            out[0, 5] -= xi * drag * vl
 
     # --- Coriolis and centripetal ---
     # rigid body: f = -m (w x v + w x (w x r_g)), m_o = -(w x I_o w) - m r_g x (w x v)

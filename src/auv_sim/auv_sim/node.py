@@ -3,21 +3,24 @@
 Run it as ``ros2 run auv_sim simulator [--ros-args -p name:=value ...]`` or ``auv sim
 [options]`` (each option mirrors a parameter; options win over ``--ros-args``).
 
-Parameters (see :class:`auv_sim.sim_settings.SimSettings`; validated at start, where a bad one
-ends the node with one line ``error: ...`` and exit status 1, and again on every change, where
-a bad one is refused with a reason): ``vehicle_file`` (default ``config/a18m.yaml``, found
-relative to the working directory, ``$AUV_ROOT`` or the source tree), ``effects_file`` (''
-none), ``publish_rate`` [Hz], ``dt`` [s] (0: the vehicle file's), ``real_time_factor`` (0: as
-fast as possible), ``use_sim_clock``, ``initial_trim``, ``initial_depth`` [m],
-``initial_speed`` [m/s], ``initial_pitch`` [rad], ``initial_heading`` [rad], ``lockstep``,
-``control_period`` [s], ``lockstep_timeout`` and ``lockstep_startup_timeout`` [wall s],
-``lockstep_channels`` (``bar``; ``bar,helm,thrust`` for a mission), ``start_subscribers``
-(``state``) and ``start_stream_subscribers`` (``odom``, ``hydrodynamic_forces``, ``/clock``):
-subscribers to wait for before t = 0, ``await_recorder`` (wait for a recorder's progress before
-t = 0), ``recorder_timeout`` [wall s], ``stop_time`` [s of simulated time; 0: run until
-stopped], ``report_file`` (JSON written at exit: messages published per topic, control
-instants that went on without their answer, whether the recorder pacing gave up). Only
-``publish_rate``, ``real_time_factor`` and ``lockstep_timeout`` may change while it runs.
+Parameters (see :class:`auv_sim.sim_settings.SimSettings`; each declared with a descriptor
+giving its description with its unit, its range and further limits,
+:data:`auv_sim.sim_settings.PARAMETERS`; validated at start, where a bad one ends the node with
+one line ``error: ...`` and exit status 1, and again on every change, where a bad one is
+refused with a reason and changes nothing, a good one applied once ROS has stored it):
+``vehicle_file`` (default ``config/a18m.yaml``, found relative to the working directory,
+``$AUV_ROOT`` or the source tree), ``effects_file`` ('' none), ``publish_rate`` [Hz], ``dt``
+[s] (0: the vehicle file's), ``real_time_factor`` (0: as fast as possible), ``use_sim_clock``,
+``initial_trim``, ``initial_depth`` [m], ``initial_speed`` [m/s], ``initial_pitch`` [rad],
+``initial_heading`` [rad], ``lockstep``, ``control_period`` [s], ``lockstep_timeout`` and
+``lockstep_startup_timeout`` [wall s], ``lockstep_channels`` (``bar``; ``bar,helm,thrust`` for
+a mission), ``start_subscribers`` (``state``) and ``start_stream_subscribers`` (``odom``,
+``hydrodynamic_forces``, ``/clock``): subscribers to wait for before t = 0, ``await_recorder``
+(wait for a recorder's progress before t = 0), ``recorder_timeout`` [wall s], ``stop_time`` [s
+of simulated time; 0: run until stopped], ``report_file`` (JSON written at exit: messages
+published per topic, control instants that went on without their answer, whether the recorder
+pacing gave up). Only ``publish_rate``, ``real_time_factor`` and ``lockstep_timeout`` may
+change while it runs.
 
 Topics (namespace ``/auv`` by default, remappable with ``-r __ns:=...``):
 
@@ -114,7 +117,7 @@ import rclpy.utilities
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Wrench
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.context import Context
 from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
@@ -129,11 +132,13 @@ from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
 from auv_sim.errors import AuvSimError, DivergenceError, GraphConflictError, ParameterError
 from auv_sim.frames import state_to_odometry
 from auv_sim.node_report import write_report
+from auv_sim.parameter_descriptor import descriptor
 from auv_sim.sim_settings import (
     BOOL_FIELDS,
     FLOAT_FIELDS,
     LOCKSTEP_TOLERANCE_NS,
     NS_PER_S,
+    PARAMETERS,
     RUNTIME_FIELDS,
     SimSettings,
     SimSetup,
@@ -173,40 +178,6 @@ PROGRESS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                           reliability=ReliabilityPolicy.RELIABLE,
                           durability=DurabilityPolicy.VOLATILE)
 
-_DESCRIPTIONS = {
-    'vehicle_file': 'vehicle parameter file (YAML)',
-    'effects_file': "environment/effects file (YAML); '' for calm water",
-    'publish_rate': 'state publish rate [Hz of simulated time]',
-    'dt': "RK4 step [s]; 0: the vehicle file's",
-    'real_time_factor': 'simulated seconds per wall second; 0: as fast as possible',
-    'use_sim_clock': 'publish /clock and stamp on simulated time',
-    'initial_trim': 'start trimmed (w, theta, BAR, thrust) at initial_speed and initial_depth',
-    'initial_depth': 'initial depth [m], NED z positive down',
-    'initial_speed': 'initial surge speed [m/s], body FRD',
-    'initial_pitch': 'initial pitch [rad], positive nose up (only with initial_trim false)',
-    'initial_heading': 'initial heading [rad], NED yaw',
-    'lockstep': 'wait at each control instant for the bar command stamped with it',
-    'control_period': 'lockstep control period [s of simulated time]',
-    'lockstep_timeout': 'wall seconds to wait for a control instant command',
-    'lockstep_startup_timeout': 'wall seconds to wait for the pilot to connect',
-    'lockstep_channels': 'lockstep: the command channels answered at each control instant '
-                         '(comma-separated: bar; bar,helm,thrust for a mission)',
-    'start_subscribers': 'before t = 0, wait (lockstep_startup_timeout) until /auv/state has '
-                         'this many subscribers, e.g. pilot and recorder (0: do not wait)',
-    'start_stream_subscribers': 'before t = 0, wait (lockstep_startup_timeout) until odom, '
-                                'hydrodynamic_forces and /clock each have this many '
-                                'subscribers, e.g. recorder and viewer (0: do not wait)',
-    'await_recorder': "before t = 0, wait (lockstep_startup_timeout) for a recorder's "
-                      'progress (real_time_factor 0: the recorder paces the run from t = 0)',
-    'recorder_timeout': 'wall seconds without recorder progress after which the simulator '
-                        'stops waiting for the recorder (said, and in report_file)',
-    'stop_time': 'simulated seconds after which the node publishes a last state and exits 0 '
-                 '(0: never)',
-    'report_file': "JSON file written at exit: messages published per topic, missed "
-                   "lockstep instants, recorder pacing given up ('' none)",
-}
-
-
 def stamp_from_ns(ns: int) -> Time:
     """builtin_interfaces/Time from integer nanoseconds (exact)."""
     return Time(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S)
@@ -231,15 +202,16 @@ class SimulatorNode(Node):
         super().__init__(NODE_NAME, namespace=DEFAULT_NAMESPACE, context=context,
                          parameter_overrides=[Parameter(k, value=v)
                                               for k, v in (overrides or {}).items()])
-        defaults = SimSettings()
-        for field in dataclasses.fields(SimSettings):
-            default = getattr(defaults, field.name)
-            # Doubles accept integers too (``-p real_time_factor:=0``); checked by type below.
-            descriptor = ParameterDescriptor(description=_DESCRIPTIONS[field.name],
-                                             dynamic_typing=field.name in FLOAT_FIELDS)
-            self.declare_parameter(field.name, default, descriptor)
+        # ranges after the check, so that a bad value at start gets the message naming it
+        for spec in PARAMETERS.values():
+            self.declare_parameter(spec.name, spec.default, descriptor(spec, ranged=False))
         self.settings = self._read_settings()
         self.setup: SimSetup = build_setup(self.settings)  # ParameterError ends the start
+        for spec in PARAMETERS.values():
+            if spec.range is not None:
+                self.set_descriptor(spec.name, descriptor(spec))
+        # a change validated by _on_set_parameters, applied by _post_set_parameters
+        self._candidate: tuple[SimSetup, dict[str, Any]] | None = None
         self.sim = self.setup.simulator()
         self._stop = threading.Event()
         self._lockstep_channels = lockstep_channels(self.settings)
@@ -263,6 +235,7 @@ class SimulatorNode(Node):
         self._sub_progress = self.create_subscription(
             Time, PROGRESS_TOPIC, self._on_progress, PROGRESS_QOS)
         self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.add_post_set_parameters_callback(self._post_set_parameters)
         s = self.settings
         self.get_logger().info(
             f'{self.setup.params.name} from {self.setup.params.path}: dt = {self.setup.dt} s, '
@@ -286,9 +259,24 @@ class SimulatorNode(Node):
         return settings
 
     def _on_set_parameters(self, params: list[Parameter[Any]]) -> SetParametersResult:
+        """Validate a change (nothing is applied here: see :meth:`_post_set_parameters`).
+
+        Parameters
+        ----------
+        params : list of rclpy.parameter.Parameter
+            Set at once; rclpy's own (``use_sim_time``) are let through untouched.
+
+        Returns
+        -------
+        SetParametersResult
+            Refused, with the reason, for a parameter applied at start only or a value
+            :func:`~auv_sim.sim_settings.check_settings` refuses (its range, a publish period
+            that is not a whole number of steps).
+        """
+        self._candidate = None
         changes: dict[str, Any] = {}
         for p in params:
-            if p.name not in _DESCRIPTIONS:
+            if p.name not in PARAMETERS:
                 continue  # rclpy's own (use_sim_time): stamps come from the step counter
             if p.value == getattr(self.settings, p.name):
                 continue
@@ -307,12 +295,28 @@ class SimulatorNode(Node):
             check_settings(new, vehicle_dt=self.setup.dt)
         except ParameterError as exc:
             return SetParametersResult(successful=False, reason=str(exc))
-        self.settings = new
-        self.setup = dataclasses.replace(
+        setup = dataclasses.replace(
             self.setup, settings=new,
             steps_per_publish=whole_steps(1.0 / new.publish_rate, self.setup.dt, 'publish'))
-        self.get_logger().info(f'parameters changed: {changes}')
+        self._candidate = (setup, changes)
         return SetParametersResult(successful=True)
+
+    def _post_set_parameters(self, params: list[Parameter[Any]]) -> None:
+        """Apply the change :meth:`_on_set_parameters` accepted: the settings and the publish
+        period in steps.
+
+        Parameters
+        ----------
+        params : list of rclpy.parameter.Parameter
+            The parameters set (the candidate holds them, checked).
+        """
+        del params
+        candidate, self._candidate = self._candidate, None
+        if candidate is None:
+            return
+        self.setup, changes = candidate
+        self.settings = self.setup.settings
+        self.get_logger().info(f'parameters changed: {changes}')
 
     # ----- commands -----
     def _command_callback(self, channel: str) -> Callable[[ActuatorSetpoint], None]:
@@ -664,7 +668,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     for field in dataclasses.fields(SimSettings):
         kind = bool if field.name in BOOL_FIELDS else float if field.name in FLOAT_FIELDS \
             else str
-        opt(field.name, kind, f'{_DESCRIPTIONS[field.name]} (default: '
+        opt(field.name, kind, f'{PARAMETERS[field.name].description} (default: '
                               f'{getattr(defaults, field.name)!r})')
     parser.add_argument('--ros-args', dest='ros_args', nargs=argparse.REMAINDER, default=None,
                         help='ROS arguments (-p name:=value, -r remaps, --log-level ...)')

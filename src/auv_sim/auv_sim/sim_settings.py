@@ -13,11 +13,14 @@ import dataclasses
 import math
 import os
 import pathlib
+from collections.abc import Mapping
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 
 from auv_contract import CHANNELS, config_dir
+from auv_contract.parameters import NON_NEGATIVE, POSITIVE, ParameterSpec, Range
 from auv_sim.environment import Environment, load_environment
 from auv_sim.errors import ParameterError, TrimError
 from auv_sim.params import VehicleParams, load_vehicle
@@ -79,6 +82,73 @@ STR_FIELDS = tuple(f.name for f in dataclasses.fields(SimSettings) if f.type == 
 RUNTIME_FIELDS = ('publish_rate', 'real_time_factor', 'lockstep_timeout')
 
 
+_PITCH = Range(-math.pi / 2, math.pi / 2, lower_open=True, upper_open=True)
+_D = SimSettings()
+_SPECS = (
+    ParameterSpec('vehicle_file', _D.vehicle_file, 'vehicle parameter file (YAML)',
+                  constraint='not empty'),
+    ParameterSpec('effects_file', _D.effects_file,
+                  "environment/effects file (YAML); '' for calm water"),
+    ParameterSpec('publish_rate', _D.publish_rate, 'state publish rate [Hz of simulated time]',
+                  'Hz', POSITIVE, constraint='1/publish_rate a whole number of steps'),
+    ParameterSpec('dt', _D.dt, "RK4 step [s]; 0: the vehicle file's", 's', NON_NEGATIVE,
+                  constraint='a whole number of nanoseconds'),
+    ParameterSpec('real_time_factor', _D.real_time_factor,
+                  'simulated seconds per wall second [s/s]; 0: as fast as possible', 's/s',
+                  NON_NEGATIVE, constraint='0 needs use_sim_clock'),
+    ParameterSpec('use_sim_clock', _D.use_sim_clock,
+                  'publish /clock and stamp on simulated time'),
+    ParameterSpec('initial_trim', _D.initial_trim,
+                  'start trimmed (w, theta, BAR, thrust) at initial_speed and initial_depth'),
+    ParameterSpec('initial_depth', _D.initial_depth, 'initial depth [m, NED z positive down]',
+                  'm', NON_NEGATIVE, constraint="within the vehicle file's envelope"),
+    ParameterSpec('initial_speed', _D.initial_speed, 'initial surge speed [m/s, body FRD]',
+                  'm/s', constraint='> 0 with initial_trim'),
+    ParameterSpec('initial_pitch', _D.initial_pitch, 'initial pitch [rad], positive nose up '
+                  '(only with initial_trim false)', 'rad', _PITCH,
+                  constraint='0 with initial_trim'),
+    ParameterSpec('initial_heading', _D.initial_heading, 'initial heading [rad, NED yaw]',
+                  'rad'),
+    ParameterSpec('lockstep', _D.lockstep,
+                  'wait at each control instant for the bar command stamped with it',
+                  constraint='needs use_sim_clock'),
+    ParameterSpec('control_period', _D.control_period,
+                  'lockstep control period [s of simulated time]', 's', POSITIVE,
+                  constraint='a whole number of steps dt'),
+    ParameterSpec('lockstep_timeout', _D.lockstep_timeout,
+                  'wait for a control instant command [wall s]', 's', POSITIVE),
+    ParameterSpec('lockstep_startup_timeout', _D.lockstep_startup_timeout,
+                  'wait for the pilot to connect [wall s]', 's', POSITIVE),
+    ParameterSpec('lockstep_channels', _D.lockstep_channels,
+                  'lockstep: the command channels answered at each control instant '
+                  '(comma-separated: bar; bar,helm,thrust for a mission)',
+                  constraint=f'channels among {", ".join(CHANNELS)}'),
+    ParameterSpec('start_subscribers', _D.start_subscribers,
+                  'before t = 0, wait (lockstep_startup_timeout) until /auv/state has this '
+                  'many subscribers, e.g. pilot and recorder (0: do not wait)',
+                  range=NON_NEGATIVE),
+    ParameterSpec('start_stream_subscribers', _D.start_stream_subscribers,
+                  'before t = 0, wait (lockstep_startup_timeout) until odom, '
+                  'hydrodynamic_forces and /clock each have this many subscribers, e.g. '
+                  'recorder and viewer (0: do not wait)', range=NON_NEGATIVE),
+    ParameterSpec('await_recorder', _D.await_recorder,
+                  "before t = 0, wait (lockstep_startup_timeout) for a recorder's progress "
+                  '(real_time_factor 0: the recorder paces the run from t = 0)'),
+    ParameterSpec('recorder_timeout', _D.recorder_timeout,
+                  'without recorder progress, the simulator stops waiting for the recorder '
+                  'after this (said, and in report_file) [wall s]', 's', POSITIVE),
+    ParameterSpec('stop_time', _D.stop_time, 'simulated time after which the node publishes '
+                  'a last state and exits 0 [s]; 0: never', 's', NON_NEGATIVE),
+    ParameterSpec('report_file', _D.report_file,
+                  'JSON file written at exit: messages published per topic, missed lockstep '
+                  "instants, recorder pacing given up ('' none)"),
+)
+#: Every parameter of the simulator node by name, in declaration order (the fields of
+#: :class:`SimSettings`; the ones not in :data:`RUNTIME_FIELDS` apply at start only); the
+#: ranges are the ones :func:`check_settings` enforces; every number must be finite.
+PARAMETERS: Mapping[str, ParameterSpec] = MappingProxyType({
+    s.name: dataclasses.replace(s, start_only=s.name not in RUNTIME_FIELDS) for s in _SPECS})
+
 def whole_steps(duration: float, dt: float, what: str) -> int:
     """``duration / dt`` as an integer >= 1, or ParameterError if it is not a whole number."""
     n = round(duration / dt)
@@ -114,21 +184,14 @@ def check_settings(s: SimSettings, vehicle_dt: float | None = None) -> None:
     for name in STR_FIELDS:
         if not isinstance(getattr(s, name), str):
             raise ParameterError(f'parameter {name} = {getattr(s, name)!r} must be a string')
-    positive = ('publish_rate', 'control_period', 'lockstep_timeout',
-                'lockstep_startup_timeout', 'recorder_timeout')
-    for name in positive:
-        if getattr(s, name) <= 0.0:
-            raise ParameterError(f'parameter {name} = {getattr(s, name)} must be > 0')
-    for name in ('dt', 'real_time_factor', 'initial_depth', 'stop_time', 'start_subscribers',
-                 'start_stream_subscribers'):
-        if getattr(s, name) < 0.0:
-            raise ParameterError(f'parameter {name} = {getattr(s, name)} must be >= 0')
+    for name, spec in PARAMETERS.items():
+        if spec.range is not None and getattr(s, name) not in spec.range:
+            unit = f' {spec.unit}' if spec.unit and spec.range.upper < math.inf else ''
+            raise ParameterError(f'parameter {name} = {getattr(s, name)}{unit} must be '
+                                 f'{spec.range.condition()}')
     lockstep_channels(s)
     if not s.vehicle_file:
         raise ParameterError('parameter vehicle_file must name a vehicle file')
-    if abs(s.initial_pitch) >= math.pi / 2:
-        raise ParameterError(f'parameter initial_pitch = {s.initial_pitch} rad must be within '
-                             f'(-pi/2, pi/2)')
     if s.initial_trim and s.initial_pitch != 0.0:
         raise ParameterError('parameter initial_pitch is set by the trim; give it only with '
                              'initial_trim:=false')

@@ -32,7 +32,7 @@ from auv_ident.identify.equations import (
     excitation_amplitude,
 )
 from auv_ident.identify.fit import compare_nelder_mead, fit_equation, identify
-from auv_ident.identify.records import ForceRecord, NoisePropagation, check_record
+from auv_ident.identify.records import ForceRecord, LoggedRun, NoisePropagation, check_record
 from auv_ident.identify.regression import (
     COND_MAX,
     LinearSystem,
@@ -52,8 +52,8 @@ from auv_ident.identify.results import (
 __all__ = [
     'AXES', 'COND_MAX', 'EQUATIONS', 'ERROR_METHODS', 'EXCITATION', 'NU_NAMES', 'SIGN_BOUNDS',
     'CoefficientEstimate', 'Equation', 'EquationFit', 'Excitation', 'ForceRecord',
-    'Identification', 'LinearSystem', 'NoisePropagation', 'build_system', 'check_identifiable',
-    'check_record', 'compare_nelder_mead', 'correlation_time', 'excitation_amplitude',
-    'fit_equation', 'flat_top_lag', 'identify', 'nelder_mead', 'regressor_columns',
-    'sensor_noise_meat', 'solve', 'summary',
+    'Identification', 'LinearSystem', 'LoggedRun', 'NoisePropagation', 'build_system',
+    'check_identifiable', 'check_record', 'compare_nelder_mead', 'correlation_time',
+    'excitation_amplitude', 'fit_equation', 'flat_top_lag', 'identify', 'nelder_mead',
+    'regressor_columns', 'sensor_noise_meat', 'solve', 'summary',
 ]

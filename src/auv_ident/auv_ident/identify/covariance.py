@@ -242,15 +242,16 @@ def _smoothed_design(system: LinearSystem, design: np.ndarray) -> np.ndarray | N
 
 
 def _hac_covariance(system: LinearSystem, As: np.ndarray, resid: np.ndarray,
-                    theta: np.ndarray, base: VehicleParams, xtx_inv: np.ndarray,
+                    theta: np.ndarray, base: VehicleParams, xtx: np.ndarray,
                     taus: Sequence[tuple[int, int | np.integer[Any], float]]
-                    ) -> tuple[np.ndarray, int, str, float]:
+                    ) -> tuple[np.ndarray, np.ndarray, int, str, float]:
     """The ``'hac'`` sandwich ``(D'A)^-1 S (D'A)^-T`` of the column-scaled design ``As``
     (see the module docstring): ``S`` from the sensor-noise propagation when every record has
     a noise model that accounts for the residual, else from the flat-top lag window.
 
-    Returns the covariance (scaled coefficients), the largest lag window used [samples] (0
-    for the propagation), a description and the observed / predicted residual variance.
+    Returns the bread ``D'A`` and the meat ``S`` (scaled coefficients), the largest lag
+    window used [samples] (0 for the propagation), a description and the observed /
+    predicted residual variance.
     """
     n, p = As.shape
     smooth = _smoothed_design(system, As)
@@ -260,8 +261,8 @@ def _hac_covariance(system: LinearSystem, As: np.ndarray, resid: np.ndarray,
     if propagated is not None and smooth is not None:
         meat, ratio = propagated
         if ratio <= NOISE_RATIO_MAX:
-            bread = np.linalg.inv(smooth.T @ (system.regressors / column_scale(system.A)))
-            return (bread @ meat @ bread.T, 0,
+            bread = smooth.T @ (system.regressors / column_scale(system.A))
+            return (bread, meat, 0,
                     f'sensor-noise propagation (residual variance {ratio:.2f} x predicted)',
                     ratio)
     meat = np.zeros((p, p))
@@ -280,14 +281,15 @@ def _hac_covariance(system: LinearSystem, As: np.ndarray, resid: np.ndarray,
     dof = max(n - p, 1)
     why = '' if math.isnan(ratio) else (
         f'; residual variance {ratio:.3g} x the sensor-noise prediction')
-    return (xtx_inv @ meat @ xtx_inv * (n / dof), lags,
-            f'flat-top lag window, {lags} lags{why}', ratio)
+    return (xtx, meat * (n / dof), lags, f'flat-top lag window, {lags} lags{why}', ratio)
 
 
 class Covariance(NamedTuple):
     """Covariance of one equation's coefficients and how it was estimated."""
 
     scaled: np.ndarray      # (p, p) covariance of the coefficients times their column norms
+    bread: np.ndarray       # (p, p) B = D'A of the scaled problem: scaled = B^-1 S B^-T
+    meat: np.ndarray        # (p, p) S = Var(D'e) of the scaled problem
     n_effective: float      # effective sample size (records' lengths over their residual
     #                         correlation times)
     dof: float              # degrees of freedom of Student's t for the intervals
@@ -306,7 +308,7 @@ def coefficient_covariance(system: LinearSystem, resid: np.ndarray, theta: np.nd
     n, p = A.shape
     scale = column_scale(A)
     As = A / scale
-    xtx_inv = np.linalg.inv(As.T @ As)
+    xtx = As.T @ As
     dof = max(n - p, 1)
     sigma2 = float(resid @ resid) / dof
     # correlation times per record (the records are independent of each other)
@@ -321,16 +323,20 @@ def coefficient_covariance(system: LinearSystem, resid: np.ndarray, theta: np.nd
     lags = 0
     method = errors
     noise_ratio = math.nan
+    bread = xtx
     if errors == 'iid':
-        cov_s = sigma2 * xtx_inv
+        meat = sigma2 * xtx
         n_eff = float(n)
     elif errors == 'ess':
-        cov_s = sigma2 * xtx_inv * (n / n_eff)
+        meat = sigma2 * xtx * (n / n_eff)
     elif errors == 'jackknife':
-        cov_s, blocks = _block_jackknife(As, system.regressors / scale, b)
+        cov_j, blocks = _block_jackknife(As, system.regressors / scale, b)
+        meat = xtx @ cov_j @ xtx
         tdof = blocks - 1.0
     else:
-        cov_s, lags, method, noise_ratio = _hac_covariance(system, As, resid, theta, base,
-                                                           xtx_inv, taus)
-    return Covariance(scaled=cov_s, n_effective=float(n_eff), dof=float(tdof), lags=lags,
-                      method=method, noise_ratio=noise_ratio)
+        bread, meat, lags, method, noise_ratio = _hac_covariance(system, As, resid, theta,
+                                                                 base, xtx, taus)
+    bread_inv = np.linalg.pinv(bread)
+    cov_s = bread_inv @ meat @ bread_inv.T
+    return Covariance(scaled=cov_s, bread=bread, meat=meat, n_effective=float(n_eff),
+                      dof=float(tdof), lags=lags, method=method, noise_ratio=noise_ratio)

@@ -70,6 +70,15 @@ EXCITATION: dict[str, Excitation] = {
     'CNuv': Excitation(1, 'sway velocity v', 1.0, 'm/s', 0.005, _MANOEUVRE_YAW),
     'CYur': Excitation(5, 'yaw rate r', _DEG, 'deg/s', math.radians(0.2), _MANOEUVRE_YAW),
     'CNur': Excitation(5, 'yaw rate r', _DEG, 'deg/s', math.radians(0.2), _MANOEUVRE_YAW),
+    # the quadratic cross-flow terms (fitted with a structure that has them)
+    'Zww': Excitation(2, 'heave velocity w', 1.0, 'm/s', 0.005, _MANOEUVRE_PITCH),
+    'Mqq': Excitation(4, 'pitch rate q', _DEG, 'deg/s', math.radians(0.2), _MANOEUVRE_PITCH),
+    'Yvv': Excitation(1, 'sway velocity v', 1.0, 'm/s', 0.005, _MANOEUVRE_YAW),
+    'Nrr': Excitation(5, 'yaw rate r', _DEG, 'deg/s', math.radians(0.2), _MANOEUVRE_YAW),
+    'Zqq': Excitation(4, 'pitch rate q', _DEG, 'deg/s', math.radians(0.2), _MANOEUVRE_PITCH),
+    'Mww': Excitation(2, 'heave velocity w', 1.0, 'm/s', 0.005, _MANOEUVRE_PITCH),
+    'Yrr': Excitation(5, 'yaw rate r', _DEG, 'deg/s', math.radians(0.2), _MANOEUVRE_YAW),
+    'Nvv': Excitation(1, 'sway velocity v', 1.0, 'm/s', 0.005, _MANOEUVRE_YAW),
 }
 
 #: Physical sign bounds (``--bounds``): drag and the damping derivatives cannot change sign.

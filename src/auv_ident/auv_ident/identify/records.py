@@ -19,14 +19,19 @@ class NoisePropagation:
     (:attr:`ForceRecord.kernel`); noise ``n`` on the state ``x`` changes it, to first order,
     by ``M (h * n_nu) - kappa * (J n)`` with ``J`` the Jacobian of ``tau_other``.
 
-    Attributes:
-        sigma: (12,) standard deviation of the white noise on each logged state channel
-            ``x, y, z [m], phi, theta, psi [rad], u, v, w [m/s], p, q, r [rad/s]``.
-        other_jacobian: (N, 6, 12) ``d tau_other / d x`` at every sample (body FRD wrench
-            [N, N m] per unit of each state channel), ``tau_other`` = Coriolis + restoring +
-            actuator wrench.
-        mass: (6, 6) mass matrix ``M`` (rigid body plus added mass) [kg, kg m, kg m^2].
-        derivative_kernel: (window,) convolution weights ``h`` of the derivative [1/s].
+    Attributes
+    ----------
+    sigma
+        (12,) standard deviation of the white noise on each logged state channel
+        ``x, y, z [m], phi, theta, psi [rad], u, v, w [m/s], p, q, r [rad/s]``.
+    other_jacobian
+        (N, 6, 12) ``d tau_other / d x`` at every sample (body FRD wrench
+        [N, N m] per unit of each state channel), ``tau_other`` = Coriolis + restoring +
+        actuator wrench.
+    mass
+        (6, 6) mass matrix ``M`` (rigid body plus added mass) [kg, kg m, kg m^2].
+    derivative_kernel
+        (window,) convolution weights ``h`` of the derivative [1/s].
     """
 
     sigma: np.ndarray
@@ -35,26 +40,74 @@ class NoisePropagation:
     derivative_kernel: np.ndarray
 
 
+#: Logged state channels (NED/FRD) in the order of ``/auv/state``.
+STATE_NAMES = ('x', 'y', 'z', 'phi', 'theta', 'psi', 'u', 'v', 'w', 'p', 'q', 'r')
+Series = tuple[np.ndarray, np.ndarray]
+
+
+@dataclasses.dataclass(frozen=True)
+class LoggedRun:
+    """What a free run of a model against one stretch of a log needs: the logged state,
+    the commands (and measured fin positions) that drive the actuators, and which state
+    channels were measured (the others were derived from them or assumed by an import, and
+    are not scored against).
+
+    Attributes
+    ----------
+    t
+        stamps (N,) [s].
+    state
+        (N, 12) ``x, y, z [m] NED, phi, theta, psi [rad], u, v, w [m/s], p, q, r
+        [rad/s]`` body FRD, as logged.
+    commands
+        ``bar``/``helm``/``thrust`` -> (stamps [s], set-points [rad, rad, N]).
+    measured
+        measured fin positions ``bar``/``helm`` -> (stamps [s], angles [rad]).
+    origins
+        state channel -> ``measured``, ``derived`` or ``assumed``.
+    """
+
+    t: np.ndarray
+    state: np.ndarray
+    commands: dict[str, Series]
+    measured: dict[str, Series] = dataclasses.field(default_factory=dict)
+    origins: dict[str, str] = dataclasses.field(default_factory=dict)
+
+    def is_measured(self, channel: str) -> bool:
+        """The channel was logged by a sensor (not derived, not assumed)."""
+        return self.origins.get(channel, 'measured') == 'measured'
+
+
 @dataclasses.dataclass(frozen=True)
 class ForceRecord:
     """One continuous, uniformly sampled stretch of a log, ready for the regressions.
 
-    Attributes:
-        name: where it comes from (bag name), for reports and provenance.
-        t: header stamps (N,) [s].
-        nu: body-FRD velocities (N, 6) ``u, v, w [m/s], p, q, r [rad/s]`` as logged.
-        tau: hydrodynamic wrench (N, 6) body FRD ``X, Y, Z [N], K, M, N [N m]``; NaN rows are
-            not used (the ends of a filtered record).
-        source: ``'forces'`` (the /auv/hydrodynamic_forces topic) or ``'motion'``
-            (reconstructed from the logged motion, see :mod:`auv_ident.motion`).
-        kernel: FIR weights (odd length, sum 1) already applied to ``tau``; the regressors are
-            filtered with the same weights so the filtered equation stays exact. None: no
-            filtering.
-        noise: how sensor noise propagates into ``tau`` (forces from motion), for the
-            standard errors; None: unknown.
-        saturated: (N, 3) whether the rebuilt BAR, helm and thrust sit at their limits
-            (forces from motion; for the identifiability diagnosis), or None.
-        actuators: per channel, where the actuator positions came from.
+    Attributes
+    ----------
+    name
+        where it comes from (bag name), for reports and provenance.
+    t
+        header stamps (N,) [s].
+    nu
+        body-FRD velocities (N, 6) ``u, v, w [m/s], p, q, r [rad/s]`` as logged.
+    tau
+        hydrodynamic wrench (N, 6) body FRD ``X, Y, Z [N], K, M, N [N m]``; NaN rows are
+        not used (the ends of a filtered record).
+    source
+        ``'forces'`` (the /auv/hydrodynamic_forces topic) or ``'motion'``
+        (reconstructed from the logged motion, see :mod:`auv_ident.motion`).
+    kernel
+        FIR weights (odd length, sum 1) already applied to ``tau``; the regressors are
+        filtered with the same weights so the filtered equation stays exact. None: no
+        filtering.
+    noise
+        how sensor noise propagates into ``tau`` (forces from motion), for the
+        standard errors; None: unknown.
+    saturated
+        (N, 3) whether the rebuilt BAR, helm and thrust sit at their limits
+        (forces from motion; for the identifiability diagnosis), or None.
+    actuators
+        per channel, where the actuator positions came from.
     """
 
     name: str
@@ -73,6 +126,9 @@ class ForceRecord:
     #: M [N m]; zero elsewhere), filtered like ``tau``, which excludes the plane's wrench
     #: (forces from motion); None: not available (the force topic)
     plane_unit: np.ndarray | None = None
+    #: the logged state and commands of the record, for free runs (validation, output
+    #: error); None: the log had no commands
+    log: LoggedRun | None = None
 
 
 def check_record(rec: ForceRecord) -> None:

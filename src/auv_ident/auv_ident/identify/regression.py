@@ -50,6 +50,9 @@ class LinearSystem:
     instrumented: bool = False       # A is the instrument projection (two-stage LS)
     rows: np.ndarray | None = None   # (n,) sample index of each row in its record
     records: tuple[ForceRecord, ...] = ()
+    #: the names the identifiability checks apply to (the others, such as the quadratic
+    #: cross-flow terms, are held by their priors where the data say little)
+    core: tuple[str, ...] = ()
 
     def sum_of_squares(self, theta: np.ndarray) -> float:
         """The report's objective ``J(theta) = sum (b - A theta)^2`` [N^2 or (N m)^2]."""
@@ -58,7 +61,10 @@ class LinearSystem:
 
 
 def build_system(records: Sequence[ForceRecord], equation: Equation, base: VehicleParams,
-                 fit_offset: bool = False, fit_plane: bool = False) -> LinearSystem:
+                 fit_offset: bool = False, fit_plane: bool = False, *,
+                 free: Sequence[str] = (), values: Mapping[str, float] | None = None,
+                 use: Sequence[np.ndarray | None] | None = None,
+                 cache: dict[tuple[int, str], np.ndarray] | None = None) -> LinearSystem:
     """Pool the records into ``b = A theta`` for ``equation``.
 
     The offset coefficient (CZ0, CM0) is a column when ``fit_offset``, else its base value
@@ -66,29 +72,40 @@ def build_system(records: Sequence[ForceRecord], equation: Equation, base: Vehic
     ``fit_plane`` the dive plane's coefficient (CZbar, CMbar) is a column too, the record's
     plane wrench per unit coefficient (:attr:`ForceRecord.plane_unit`), and the plane wrench
     the reconstruction subtracted with the base value is added back to the measured component
-    (forces from motion only).
+    (forces from motion only). ``free`` names more of the component's terms to fit (the
+    quadratic cross-flow drag); ``values`` overrides the base value of terms that stay fixed
+    (a structure without the quadratic terms: 0). ``use`` (per record, a boolean mask of its
+    samples or None for all) keeps the others out of the system (held-out data); ``cache``
+    keeps the filtered columns of every term between calls on the same records.
     """
     hydro = equation.coefficients if (equation.offset is None or not fit_offset) else (
         (equation.offset, *equation.coefficients))
+    terms = component_terms(equation)
+    for name in free:
+        if name not in terms:
+            raise IdentificationError(f'{name} is not a term of the {equation.name} equation')
+    hydro = (*hydro, *(n for n in free if n not in hydro))
     plane = equation.plane if fit_plane else None
     names = (*hydro, plane) if plane is not None else hydro
     if plane is not None and base.values[plane] == 0.0:
         raise IdentificationError(f'fitting {plane} needs a non-zero {plane} in the base '
                                   f'vehicle (its sign and rough size): the plane column comes '
                                   f'from it')
+    value_of = {**base.values, **(values or {})}
     fixed = {} if (equation.offset is None or fit_offset) else {
-        equation.offset: base.values[equation.offset]}
+        equation.offset: value_of[equation.offset]}
     # the model's other terms on this component are known (not fitted): moved to b like
-    # the offset, when the base vehicle has them
-    fixed.update({k: base.values[k] for k in component_terms(equation)
-                  if k not in names and k not in fixed and base.values[k] != 0.0})
+    # the offset, when the base vehicle (or ``values``) has them
+    fixed.update({k: value_of[k] for k in terms
+                  if k not in names and k not in fixed and value_of[k] != 0.0})
+    fixed = {k: v for k, v in fixed.items() if v != 0.0 or k == equation.offset}
     parts_a, parts_b, parts_m, parts_t, parts_i, parts_x = [], [], [], [], [], []
     parts_z: list[np.ndarray] = []
     parts_r: list[np.ndarray] = []
     for i, rec in enumerate(records):
         check_record(rec)
-        cols = unbiased_columns(equation, rec, base)
-        stacked = filtered(np.column_stack([cols[k] for k in (*hydro, *fixed)]), rec.kernel)
+        all_cols = _term_columns(i, rec, equation, base, cache)
+        stacked = np.column_stack([all_cols[:, terms.index(k)] for k in (*hydro, *fixed)])
         meas = rec.tau[:, equation.axis]
         if plane is not None:
             if rec.plane_unit is None:
@@ -100,6 +117,8 @@ def build_system(records: Sequence[ForceRecord], equation: Equation, base: Vehic
                                        stacked[:, len(hydro):]])
             meas = meas + base.values[plane] * column
         ok = np.isfinite(meas)
+        if use is not None and use[i] is not None:
+            ok &= np.asarray(use[i], bool)
         if rec.kernel is not None:
             # instruments: the filtered regressors one window before and after (noise-free
             # parts only: their noise windows do not overlap those of row t)
@@ -123,7 +142,7 @@ def build_system(records: Sequence[ForceRecord], equation: Equation, base: Vehic
         parts_t.append(rec.t[ok])
         parts_i.append(np.full(int(ok.sum()), i))
         parts_r.append(np.flatnonzero(ok))
-        parts_x.append(filtered(rec.nu, rec.kernel)[ok])
+        parts_x.append(_filtered_nu(i, rec, cache)[ok])
     if not parts_a:
         raise IdentificationError('no data: give at least one record')
     A = np.concatenate(parts_a)
@@ -140,7 +159,34 @@ def build_system(records: Sequence[ForceRecord], equation: Equation, base: Vehic
         b=np.concatenate(parts_b), measured=np.concatenate(parts_m), fixed=fixed,
         t=np.concatenate(parts_t), record_index=np.concatenate(parts_i),
         record_names=tuple(r.name for r in records), excitation=np.concatenate(parts_x),
-        instrumented=bool(parts_z), rows=np.concatenate(parts_r), records=tuple(records))
+        instrumented=bool(parts_z), rows=np.concatenate(parts_r), records=tuple(records),
+        core=tuple(n for n in names if n not in free))
+
+
+def _term_columns(i: int, rec: ForceRecord, equation: Equation, base: VehicleParams,
+                  cache: dict[tuple[int, str], np.ndarray] | None) -> np.ndarray:
+    """Filtered, noise-corrected columns (N, k) of every term of the equation's component
+    (:func:`component_terms` order) for record ``i``, from ``cache`` when there."""
+    key = (i, equation.name)
+    if cache is not None and key in cache:
+        return cache[key]
+    cols = unbiased_columns(equation, rec, base)
+    out = filtered(np.column_stack([cols[k] for k in component_terms(equation)]), rec.kernel)
+    if cache is not None:
+        cache[key] = out
+    return out
+
+
+def _filtered_nu(i: int, rec: ForceRecord, cache: dict[tuple[int, str], np.ndarray] | None
+                 ) -> np.ndarray:
+    """The record's velocities filtered like its regressors, from ``cache`` when there."""
+    key = (i, '_nu')
+    if cache is not None and key in cache:
+        return cache[key]
+    out = filtered(rec.nu, rec.kernel)
+    if cache is not None:
+        cache[key] = out
+    return out
 
 
 #: Share of the samples with an actuator at its limit above which it is named as a reason.
@@ -218,7 +264,8 @@ def check_identifiable(system: LinearSystem) -> None:
     window removes the excitation; an actuator at its limit for much of the time), and the
     manoeuvre or rate that would fix it.
     """
-    p = len(system.names)
+    core = system.core or system.names
+    p = len(core)
     sat = saturation_note(system)
     if len(system.b) < 10 * p:
         dt = _sample_period(system)
@@ -226,9 +273,9 @@ def check_identifiable(system: LinearSystem) -> None:
                 'filter edges)' if math.isfinite(dt) else '')
         raise NotIdentifiableError(
             f'{system.equation.name} equation: only {len(system.b)} usable samples for '
-            f'{p} coefficient(s) ({", ".join(system.names)}){rate}; record a longer '
+            f'{p} coefficient(s) ({", ".join(core)}){rate}; record a longer '
             f'manoeuvre{sat}')
-    for name in system.names:
+    for name in core:
         exc = EXCITATION[name]
         amp = excitation_amplitude(name, system.excitation[:, exc.variable])
         if amp < exc.threshold:
@@ -237,15 +284,15 @@ def check_identifiable(system: LinearSystem) -> None:
                 f'{name}: {exc.what} {kind} {amp * exc.scale:.3g} {exc.unit} in these data '
                 f'(99th percentile; needs {exc.threshold * exc.scale:.3g} {exc.unit})'
                 f'{_rate_note(system, name, amp)}{sat}; {exc.manoeuvre}')
-    cond, corr = conditioning(system.A)
+    cond, corr = conditioning(system.A[:, [system.names.index(n) for n in core]])
     if not math.isfinite(cond) or cond > COND_MAX:
         if p == 1:
             raise NotIdentifiableError(
-                f'{system.names[0]}: its regressor is zero in these data{sat}; '
-                f'{EXCITATION[system.names[0]].manoeuvre}')
+                f'{core[0]}: its regressor is zero in these data{sat}; '
+                f'{EXCITATION[core[0]].manoeuvre}')
         c = np.abs(np.nan_to_num(corr, nan=1.0)) - np.eye(p)
         i, j = np.unravel_index(int(np.argmax(c)), c.shape)
-        a, b = system.names[min(i, j)], system.names[max(i, j)]
+        a, b = core[min(i, j)], core[max(i, j)]
         raise NotIdentifiableError(
             f'{a} and {b} cannot be told apart in these data (regressor condition number '
             f'{cond:.3g} > {COND_MAX:.0f}, correlation {corr[i, j]:+.5f}){sat}; '
