@@ -31,7 +31,7 @@ def remus() -> VehicleParams:
 
 def _learned(design: VehicleParams, plant: VehicleParams, z0: float, z1: float, u0: float
              ) -> dict[str, float]:
-    pilot = DepthPilot.for_vehicle(design, PilotSettings())
+    pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=True))
     run_closed_loop(plant, [(0.0, z1)], 60.0, z0=z0, u0=u0, pilot=pilot)
     learner = pilot.controller.learner
     assert learner is not None
@@ -157,7 +157,7 @@ def test_a_buoyant_vehicle_with_its_thrust_held_is_not_flown_into_a_dive_it_cann
     changes are limited."""
     design = load_vehicle(A18M)
     real, environment = model_error_plant(design, 'buoyancy+1%')
-    pilot = DepthPilot.for_vehicle(design, PilotSettings())
+    pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=True))
     run = run_closed_loop(real, [(0.0, 30.0)], 200.0, z0=10.0, u0=1.5,
                           environment=environment, pilot=pilot)
     x = run.record.x
