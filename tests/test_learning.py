@@ -15,6 +15,7 @@ import pytest
 from conftest import A18M, ROOT
 
 from auv_depth_lqr.closed_loop import foreign_plant, model_error_plant, run_closed_loop
+from auv_depth_lqr.errors import DesignError
 from auv_depth_lqr.glide import Glide, glide_cap, steady_glide
 from auv_depth_lqr.learning import PARAMETERS, PlantEstimator
 from auv_depth_lqr.pilot import DepthPilot, PilotSettings
@@ -84,7 +85,7 @@ def test_the_plane_angle_over_a_sample_is_the_actuators(remus: VehicleParams) ->
             area += plane * dt
         mean = est.plane_over(command)
         assert mean == pytest.approx(area / 0.1, abs=math.radians(1e-3))
-        assert est._plane_angle == pytest.approx(plane, abs=math.radians(1e-3))
+        assert est.plane_angle == pytest.approx(plane, abs=math.radians(1e-3))
 
 
 @pytest.mark.parametrize('u0', [1.3, 1.5, 2.0])
@@ -139,7 +140,7 @@ def test_the_learned_force_is_the_models_plus_the_estimate(remus: VehicleParams)
     est = PlantEstimator(remus, 0.1)
     plane = VerticalPlane(remus)
     base = plane.wrench(plane.full_state(0.05, 0.0, 0.0, 0.1, 0.05, 1.5)).real
-    est._p = np.array([0.01, 0.0, 0.0, 0.005, 0.0, 0.0, 0.0])
+    est.assume([0.01, 0.0, 0.0, 0.005, 0.0, 0.0, 0.0])
     x, z, m = est.force(1.5, 0.05, 0.1, 0.05)
     weight = remus.m * remus.g
     assert x == pytest.approx(float(base[0]) - 0.01 * weight * math.sin(0.1), abs=1e-9)
@@ -165,3 +166,12 @@ def test_a_buoyant_vehicle_with_its_thrust_held_is_not_flown_into_a_dive_it_cann
     assert np.min(x[:, 2]) > 5.0
     limits = pilot.climb_limits()
     assert limits.limited and limits.held_dive < 0.05, limits
+
+
+@pytest.mark.parametrize('values', [[0.0] * 6, [0.0] * 6 + [math.nan]])
+def test_an_assumed_estimate_needs_one_finite_value_per_parameter(
+        remus: VehicleParams, values: list[float]) -> None:
+    est = PlantEstimator(remus, 0.1)
+    with pytest.raises(DesignError, match='7 finite values needed'):
+        est.assume(values)
+    assert est.estimate.values == (0.0,) * 7

@@ -210,7 +210,7 @@ class DepthController:
         """Estimated heave and pitch accelerations the model does not explain
         ``(d_w [m/s^2], d_q [rad/s^2])`` (see :meth:`step`); with a :attr:`learner`, those
         of its estimate at the design trim of the last measured speed."""
-        if self.learner is not None:
+        if self.learner is not None and self.learner.flying:
             if self._u_last is None:
                 return 0.0, 0.0
             return self.learner.offset_acceleration(self.design.at(self._u_last))
@@ -223,7 +223,7 @@ class DepthController:
         component, so the trim stays one of the model's). With a :attr:`learner`, the learned
         model (:meth:`~auv_depth_lqr.learning.PlantEstimator.correct`), its trim shift
         bounded the same way."""
-        if self.learner is not None:
+        if self.learner is not None and self.learner.flying:
             learned = self.learner.correct(op)
             shift = np.array([learned.w_e - op.w_e, 0.0, learned.theta_e - op.theta_e,
                               learned.bar_e - op.bar_e])
@@ -256,14 +256,11 @@ class DepthController:
         rest behind a 0.3 s plane delay it widens the hold's limit cycle (1.3 cm against
         0.8 cm); its estimate stays zero and its integrator removes offsets.
         With a :attr:`learner`, the sample goes to it instead (any vehicle)."""
-        if self.learner is not None:
-            if self._observed is not None and self._bar_prev is not None \
-                    and self._u_last is not None and self.governor.disturbance_estimate:
-                self.learner.update(self._observed, (w, q, theta), 0.5 * (u + self._u_last),
-                                    self._bar_prev, u - self._u_last)
-            self._observed = (w, q, theta)
-            self._u_last = u
-            return
+        if self.learner is not None and self._observed is not None \
+                and self._bar_prev is not None and self._u_last is not None \
+                and self.governor.disturbance_estimate:
+            self.learner.update(self._observed, (w, q, theta), 0.5 * (u + self._u_last),
+                                self._bar_prev, u - self._u_last)
         self._u_last = u
         if self._observed is not None and self._bar_prev is not None \
                 and self.governor.disturbance_estimate and not self.kinematic_stop:
@@ -314,7 +311,7 @@ class DepthController:
 
     def held_thrust_cap(self, travel: float, u: float) -> float:
         """The steadiest climb (``travel`` -1) or dive (+1) [m/s, >= 0] the learned model
-        holds with the present thrust held, its BAR within ``trim_bar_share * bar_max`` and
+        holds with the present thrust held, its BAR within ``glide_bar_share * bar_max`` and
         its pitch within ``margin * theta_max``, from the level trim at ``u`` [m/s]
         (:meth:`~auv_depth_lqr.learning.PlantEstimator.glide_cap`); ``inf`` when the pitch
         limit, not the plane, bounds it, without a learner or before the thrust is known."""
@@ -322,7 +319,7 @@ class DepthController:
             return math.inf
         settings, lim = self.governor, self.limits
         return self.learner.glide_cap(travel, settings.margin * lim.theta_max,
-                                      settings.trim_bar_share * lim.bar_max, u)
+                                      settings.glide_bar_share * lim.bar_max, u)
 
     def _glide_cap(self, z_cmd: float, z: float, u: float) -> float:
         """:meth:`held_thrust_cap` towards ``z_cmd`` [m] from the governed reference (``z``
@@ -374,6 +371,9 @@ class DepthController:
         ts, lim, settings = self.Ts, self.limits, self.governor
         nominal = self.design.at(u)
         self._observe(nominal, w, q, theta, u)
+        ref = self.reference.reference
+        if self.learner is not None and (ref is None or (ref.v == 0.0 and ref.z == z_cmd)):
+            self.learner.fly_latest()
         op = self.trimmed(nominal)
 
         self.reference.start(z)

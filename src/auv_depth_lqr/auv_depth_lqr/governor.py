@@ -152,13 +152,17 @@ class GovernorSettings:
     longer falls (the steady speed of the dive, reached only after several time constants,
     would plan it far too slowly)."""
 
+    glide_bar_share: float = 0.9
+    """Largest share of ``bar_max`` the plane may hold in the steadiest climb or dive with
+    the thrust held (:mod:`~auv_depth_lqr.glide`); the rest is the feedback's, which must
+    absorb the speed's changes [-]."""
     glide_period: float = 2.0
     """How often [s] the steadiest climb or dive with the thrust held (:mod:`~auv_depth_lqr.
     glide`, on the learned model and the thrust the vehicle flies with) is solved again
     during a depth change; it caps the reference's steady climb or dive."""
 
     def __post_init__(self) -> None:
-        for name in ('margin', 'bar_margin', 'brake_bar_share', 'pitch_guard',
+        for name in ('margin', 'bar_margin', 'brake_bar_share', 'pitch_guard', 'glide_bar_share',
                      'jerk_bar_share', 'bar_rate_margin', 'trim_bar_share',
                      'trim_pitch_share'):
             value = finite(f'GovernorSettings.{name}', getattr(self, name), positive=True)
@@ -302,6 +306,13 @@ class ReferenceGovernor:
         (phi_i, gam_i), (phi_j, gam_j) = self.stop_maps[i], self.stop_maps[j]
         phi = tuple((1.0 - w) * x + w * y for x, y in zip(phi_i, phi_j))
         gam = tuple((1.0 - w) * x + w * y for x, y in zip(gam_i, gam_j))
+        if op.learned and not self.kinematic_stop:
+            # the plane of a learned model moves the series k times as much per radian as
+            # the design's (k its learned effectiveness on the pitch acceleration): the map's
+            # input column is scaled by k (a weaker plane stops later)
+            nominal = float(self.design.at(u).P[1, 3])
+            k = float(op.P[1, 3]) / nominal if nominal != 0.0 else 1.0
+            gam = tuple(k * g for g in gam)
         brake = Brake(phi, gam, u_brake, u_release, max(du, 1e-9), landing, v_land)
         return v_cap, jerk, brake
 

@@ -49,6 +49,7 @@ error between an offset, the plane's effectiveness and the Munk term.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -172,6 +173,8 @@ class PlantEstimator:
     def reset(self) -> None:
         """Forget everything learned (back to the vehicle file)."""
         self._p: Matrix = np.zeros(N_PARAMS)
+        self._flown: Matrix = np.zeros(N_PARAMS)
+        self._flying = False
         self._cov: Matrix = np.diag(self._prior ** 2)
         self._samples = 0
         self._thrust: float | None = None
@@ -210,6 +213,27 @@ class PlantEstimator:
             end = mid
         self._plane_angle = end
         return area / ts
+
+    @property
+    def plane_angle(self) -> float | None:
+        """The plane's angle [rad] at the end of the last sample on the vehicle file's
+        actuator (:meth:`plane_over`), None while it is not known."""
+        return self._plane_angle
+
+    def assume(self, values: Sequence[float]) -> None:
+        """Take ``values`` (one per :data:`PARAMETERS`, in their units) as the present
+        estimate, its covariance kept (e.g. what an earlier mission learned).
+
+        Raises
+        ------
+        DesignError
+            Not one finite value per parameter.
+        """
+        p = np.asarray(values, dtype=float).reshape(-1)
+        if p.size != N_PARAMS or not np.all(np.isfinite(p)):
+            raise DesignError(f'plant estimator: {N_PARAMS} finite values needed, got '
+                              f'{list(values)!r}')
+        self._p = p
 
     @property
     def estimate(self) -> PlantEstimate:
@@ -325,6 +349,18 @@ class PlantEstimator:
         self._samples += 1
         return self.estimate
 
+    def fly_latest(self) -> None:
+        """Fly the latest estimate from now on (:meth:`correct`, :meth:`plane_gain`,
+        :meth:`force`, :meth:`offset_acceleration` use the estimate of the last call)."""
+        self._flown = self._p.copy()
+        self._flying = self._flying or self._samples > 0
+
+    @property
+    def flying(self) -> bool:
+        """Whether a learned model is flown: one was taken at rest by :meth:`fly_latest`
+        after at least one sample was learned."""
+        return self._flying
+
     def plane_gain(self, op: OperatingPoint) -> float:
         """The plane's estimated effectiveness on the pitch acceleration at ``op``, relative
         to the model's, within ``gain_range`` [-]."""
@@ -338,7 +374,7 @@ class PlantEstimator:
         """The heave and pitch accelerations per radian of BAR of the learned model at
         ``op`` [m/s^2/rad, rad/s^2/rad]."""
         z_bar, m_bar = self.m_wq @ op.P[:, 3]
-        p = self._p
+        p = self._flown
         out: Matrix = op.P[:, 3] + self.m_wq_inv @ np.array([p[1] * z_bar, p[4] * m_bar])
         return out
 
@@ -348,7 +384,7 @@ class PlantEstimator:
         disturbance map ``D`` and gain ``K`` (over the plane's learned effectiveness when
         that is below 1, :meth:`plane_gain`). ``op`` itself if the learned model has no
         steady climb (an estimate far off: the design model is kept)."""
-        p, u = self._p, op.u0
+        p, u = self._flown, op.u0
         if not np.any(p):
             return op
         qs, ln, wt = self.qs, self.length, self.weight
@@ -381,7 +417,7 @@ class PlantEstimator:
         """The heave and pitch accelerations [m/s^2, rad/s^2] the learned corrections give
         at the design trim of ``op``: what the design model leaves unexplained while the
         vehicle holds that trim."""
-        p, u = self._p, op.u0
+        p, u = self._flown, op.u0
         z_bar, m_bar = self.m_wq @ op.P[:, 3]
         qs, ln = self.qs, self.length
         wrench = np.array([

@@ -164,9 +164,9 @@ class PilotSettings:
     plane-authority measure (:class:`~auv_depth_lqr.authority.AuthorityMonitor`; ``None``:
     derived from the vehicle by :meth:`DepthPilot.for_vehicle`; a pilot built directly takes
     :data:`AUTHORITY_WINDOW`). ``learn``: estimate what the vehicle file gets wrong while
-    flying (:mod:`auv_depth_lqr.learning`) and fly the learned model; off by default, as on
-    the foreign plants of ``bench/bench_foreign_plants.py`` it does not yet settle faster than
-    the file's model with its disturbance estimate (``docs/pilot-design.md``).
+    flying (:mod:`auv_depth_lqr.learning`) and, once the vehicle has been at rest on a
+    command, fly the learned model (``docs/pilot-design.md``); off, the vehicle file's model
+    with its disturbance estimate.
     """
 
     rate_hz: float = 10.0
@@ -184,7 +184,7 @@ class PilotSettings:
     pitch_offset_time: float | None = None
     pitch_offset_max: float = math.radians(3.0)
     authority_window: float | None = None
-    learn: bool = False
+    learn: bool = True
 
     def __post_init__(self) -> None:
         for name in ('rate_hz', 'theta_max', 'state_timeout'):
