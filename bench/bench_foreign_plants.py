@@ -14,7 +14,7 @@ side by side the same pilot with learning (``PilotSettings(learn=True)``) and wi
 default). Then ``sequence``: with learning, ten alternating 20 <-> 10 m changes in one
 flight from the cold start, the first against the tenth (the first as good as the tenth). Then
 ``held_thrust``:
-the vehicle files themselves (the default pilot) with the thrust held at the trim value (no
+the vehicle files themselves (with and without learning) with the thrust held at the trim value (no
 speed loop), with 1 % more buoyancy than weight and with 30 % less fin lift, peak pitch over
 the limit (goal <= 1 deg).
 
@@ -135,12 +135,14 @@ def held_thrust(vehicles: tuple[str, ...]) -> dict[str, Any]:
             real, environment = (design, None) if error is None else \
                 model_error_plant(design, error)
             for z0, z1 in CHANGES:
-                pilot = DepthPilot.for_vehicle(design, PilotSettings())
-                run = run_closed_loop(real, [(0.0, z1)], 200.0, z0=z0, u0=U0,
-                                      environment=environment, pilot=pilot)
                 key = f'{name}{"" if error is None else " " + error} {z0:g}->{z1:g}m'
-                out[key] = _metrics(run, z1)
-                out[key]['limited'] = pilot.climb_limits().limited
+                out[key] = {}
+                for label, learn in (('learning', True), ('without_learning', False)):
+                    pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=learn))
+                    run = run_closed_loop(real, [(0.0, z1)], 200.0, z0=z0, u0=U0,
+                                          environment=environment, pilot=pilot)
+                    out[key][label] = _metrics(run, z1)
+                    out[key][label]['limited'] = pilot.climb_limits().limited
                 print(key, json.dumps(out[key]), flush=True)
     return out
 
@@ -157,17 +159,18 @@ def main() -> None:
     ratios = [case[label]['settling_over_bound']
               for rows in figures['plants'].values()
               for key, case in rows.items() if key != 'plant'
-              for label in ('without_learning',)]
+              for label in ('learning',)]
     over = [case[label]['over_limit_deg'] for rows in figures['plants'].values()
             for key, case in rows.items() if key != 'plant'
             for label in ('learning', 'without_learning')]
-    over += [case['over_limit_deg'] for case in figures['held_thrust'].values()]
+    over += [case[label]['over_limit_deg'] for case in figures['held_thrust'].values()
+             for label in ('learning', 'without_learning')]
     figures['worst_settling_over_bound'] = (max(r for r in ratios if r is not None)
                                             if all(r is not None for r in ratios) else None)
-    learned = [case['learning']['settling_over_bound']
+    learned = [case['without_learning']['settling_over_bound']
                for rows in figures['plants'].values()
                for key, case in rows.items() if key != 'plant']
-    figures['worst_settling_over_bound_learning'] = (
+    figures['worst_settling_over_bound_without_learning'] = (
         max(r for r in learned if r is not None) if all(r is not None for r in learned)
         else None)
     figures['worst_over_limit_deg'] = max(over)
