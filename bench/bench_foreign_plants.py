@@ -7,16 +7,15 @@ needs 9 deg more plane than the file's. The pilot is built on the vehicle file; 
 starts in its own level trim at 1.5 m/s with its thrust held at its trim value (no speed
 loop) and the command is given at once (cold start: nothing learned yet).
 
-Reported per plant and depth change (20 -> 10, 10 -> 30, 5 -> 40 m): settling to +-0.1 m
-over the plant's own time-optimal bound (:func:`auv_depth_lqr.bound.settling_bound` on the
-plant's parameters; goal <= 1.3), peak pitch over the 25 deg limit (goal <= 1 deg), overshoot;
-side by side the same pilot with learning (``PilotSettings(learn=True)``) and without (the
-default). Then ``sequence``: with learning, ten alternating 20 <-> 10 m changes in one
-flight from the cold start, the first against the tenth (the first as good as the tenth). Then
-``held_thrust``:
-the vehicle files themselves (with and without learning) with the thrust held at the trim value (no
-speed loop), with 1 % more buoyancy than weight and with 30 % less fin lift, peak pitch over
-the limit (goal <= 1 deg).
+Reported per plant and depth change (20 -> 10, 10 -> 30, 5 -> 40 m): settling to +-0.1 m over
+the plant's own time-optimal bound (:func:`auv_depth_lqr.bound.settling_bound` on the plant's
+parameters; goal <= 1.3), peak pitch over the 25 deg limit (goal <= 1 deg), overshoot; side by
+side the same pilot with learning (the default) and without (``PilotSettings(learn=False)``).
+Then ``sequence``: with learning, ten alternating 20 <-> 10 m changes in one flight from the
+cold start, the first against the tenth (the first as good as the tenth). Then ``held_thrust``:
+the vehicle files themselves (with and without learning) with the thrust held at the trim value
+(no speed loop), with 1 % more buoyancy than weight and with 30 % less fin lift, peak pitch
+over the limit (goal <= 1 deg).
 
 Run: ``python bench/bench_foreign_plants.py`` writes ``bench/results/foreign_plants.json``
 (about 10 min on one core); ``--quick`` flies the REMUS 100 only.
