@@ -220,6 +220,8 @@ class GraphConfig:
     namespace: str = ''  # the nodes' namespace ('' = /auv); with sim_clock also its own clock
     pilot_state: str = 'vehicle_state'  # the pilot's state input: vehicle_state or odometry
     foxglove: int | None = None  # serve the live topics on a Foxglove WebSocket on this port
+    pilot_vehicle: str = ''  # the pilot's vehicle file when it is not the simulated one's
+    pilot_learn: bool = True  # the pilot learns its plant while flying (parameter learn)
 
     @property
     def in_lockstep(self) -> bool:
@@ -333,7 +335,8 @@ def graph_nodes(cfg: GraphConfig, log_dir: pathlib.Path) -> list[NodeProcess]:
         nodes.append(NodeProcess('mission', argv, log('mission')))
     elif cfg.pilot:
         nodes.append(NodeProcess('pilot', [py, '-m', 'auv_depth_lqr.node', *ros_params(
-            vehicle_file=cfg.vehicle, lockstep=cfg.lockstep, rate=cfg.pilot_rate,
+            vehicle_file=cfg.pilot_vehicle or cfg.vehicle, lockstep=cfg.lockstep,
+            rate=cfg.pilot_rate, learn=cfg.pilot_learn,
             weights=cfg.weights, water_speed=float(cfg.water_speed),
             realtime_priority=int(cfg.realtime_priority), use_sim_time=cfg.sim_clock,
             state_source=cfg.pilot_state, start_subscribers=bar_subscribers(cfg),
@@ -589,6 +592,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the pilot's state input: the simulator's state (VehicleState, "
                              'NED/FRD) or its odom (nav_msgs/Odometry, ENU/FLU), as from a '
                              "vehicle's navigation solution")
+    parser.add_argument('--no-learn', action='store_true',
+                        help='the pilot flies its vehicle file as it is (with its disturbance '
+                             'estimate) instead of learning what the file gets wrong while '
+                             'flying (docs/pilot-design.md)')
 
     from auv_bringup.foxglove_node import DEFAULT_PORT
 
@@ -650,7 +657,7 @@ def run(args: argparse.Namespace) -> int:
                           sim_clock=not args.wall_clock, depth_command=args.depth,
                           water_speed=args.water_speed,
                           realtime_priority=args.realtime_priority, namespace=args.namespace,
-                          pilot_state=args.pilot_state)
+                          pilot_state=args.pilot_state, pilot_learn=not args.no_learn)
     if args.foxglove is not None:
         if args.namespace:
             raise LaunchError('--foxglove serves the /auv topics; it does not follow --namespace '

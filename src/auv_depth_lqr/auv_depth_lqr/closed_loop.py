@@ -59,6 +59,38 @@ def model_error_plant(design: VehicleParams, error: str) -> tuple[VehicleParams,
     return design.replace(**{k: design.values[k] * float(scale) for k in names}), Environment()
 
 
+def foreign_plant(design: VehicleParams, u0: float, trim_shift: float = math.radians(9.0),
+                  plane_force: float = 0.5, plane_moment: float = 0.6) -> VehicleParams:
+    """A vehicle that is not the pilot's model the way a third party's simulator is not.
+
+    From the pilot's vehicle file ``design``: neutrally buoyant (``B = W``), the plane's
+    force and moment times ``plane_force`` and ``plane_moment``, no moment in ``u w`` (the
+    hull's ``CMuw`` set to cancel the Munk moment the model computes from its added masses),
+    and a zero-incidence pitch moment ``CM0`` that puts its level trim at ``u0`` [m/s]
+    ``trim_shift`` [rad] of plane away from the file's (on the REMUS 100, whose file is
+    7 N buoyant, the neutral buoyancy alone moves it by 9.1 deg and ``CM0`` stays near 0).
+    Raises TrimError if either has no level trim at ``u0``.
+    """
+    plant = design.replace(B=design.m * design.g, CZbar=plane_force * design.CZbar,
+                           CMbar=plane_moment * design.CMbar, CMuw=0.0, CM0=0.0)
+    plane = VerticalPlane(plant)
+    # the model's d M / d w at u = 1 m/s, w = 0 with CMuw = 0 is the Munk moment per unit
+    # u w [N m s^2/m^2] (complex step; the quadratic cross-flow terms have no slope there)
+    h = 1e-30
+    munk = plane.wrench(plane.full_state(1j * h, 0.0, 0.0, 0.0, 0.0, 1.0)).imag[4] / h
+    plant = plant.replace(CMuw=-float(munk) / (0.5 * plant.rho * plant.S_ref * plant.L_ref))
+    target = VerticalPlane(design).trim(u0).bar + trim_shift
+    # CM0 by Newton's method on the trim BAR (the trim is smooth in CM0)
+    cm0, step = 0.0, 1e-4
+    for _ in range(8):
+        bar = VerticalPlane(plant.replace(CM0=cm0)).trim(u0).bar
+        if abs(bar - target) < 1e-7:
+            break
+        slope = (VerticalPlane(plant.replace(CM0=cm0 + step)).trim(u0).bar - bar) / step
+        cm0 += (target - bar) / slope
+    return plant.replace(CM0=cm0)
+
+
 @dataclasses.dataclass
 class ClosedLoopRun:
     """A closed-loop run: the simulator record (every ``sample_period``), the pilot's BAR

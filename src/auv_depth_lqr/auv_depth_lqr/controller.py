@@ -56,6 +56,7 @@ import numpy as np
 
 from auv_depth_lqr.errors import ControllerError, DesignError
 from auv_depth_lqr.governor import GovernorSettings, Reference, ReferenceGovernor
+from auv_depth_lqr.learning import PlantEstimator
 from auv_depth_lqr.limits import Limits
 from auv_depth_lqr.schedule import GainSchedule, Matrix, OperatingPoint, feedforward
 from auv_depth_lqr.surge import SurgeTrend
@@ -119,6 +120,11 @@ class DepthController:
         Sample period [s]; must equal ``design.Ts``.
     governor : GovernorSettings, optional
         Reference-governor settings.
+    learner : PlantEstimator, optional
+        Learns what the design model gets wrong while flying (:mod:`auv_depth_lqr.learning`);
+        every model-derived quantity (trim, feed-forward, the reference's climb and stop,
+        the gain) then rests on the learned model. Without it (a controller built from a
+        linear model only) the disturbance estimate of :meth:`trimmed` acts instead.
 
     Raises
     ------
@@ -133,8 +139,12 @@ class DepthController:
         limits: Limits | None = None,
         Ts: float | None = None,
         governor: GovernorSettings | None = None,
+        learner: PlantEstimator | None = None,
     ) -> None:
         self.design = design
+        self.learner = learner
+        """The plant estimate (:class:`~auv_depth_lqr.learning.PlantEstimator`), or None.
+        It is not forgotten on :meth:`reset`: what was learned of the vehicle stays true."""
         self.limits = limits if limits is not None else Limits()
         self.governor = governor if governor is not None else GovernorSettings()
         ts = design.Ts if Ts is None else finite('Ts', Ts, positive=True)
@@ -175,6 +185,9 @@ class DepthController:
         self._xi = 0.0
         self._disturbance = np.zeros(2)
         self._observed: tuple[float, float, float] | None = None
+        self._u_last: float | None = None
+        self._caps: tuple[float, float, float] | None = None
+        self._glide: tuple[float, float, float, float] | None = None
         self._z_prev: float | None = None
         self._z_rate = 0.0
         self._still = 0.0
@@ -184,6 +197,8 @@ class DepthController:
         self.surge.reset()
         self.reference.reset()
         self._bar_prev = None if bar_previous is None else finite('bar_previous', bar_previous)
+        if self.learner is not None:
+            self.learner.forget_plane()
 
     @property
     def integrator(self) -> float:
@@ -193,15 +208,29 @@ class DepthController:
     @property
     def disturbance(self) -> tuple[float, float]:
         """Estimated heave and pitch accelerations the model does not explain
-        ``(d_w [m/s^2], d_q [rad/s^2])`` (see :meth:`step`)."""
+        ``(d_w [m/s^2], d_q [rad/s^2])`` (see :meth:`step`); with a :attr:`learner`, those
+        of its estimate at the design trim of the last measured speed."""
+        if self.learner is not None and self.learner.flying:
+            if self._u_last is None:
+                return 0.0, 0.0
+            return self.learner.offset_acceleration(self.design.at(self._u_last))
         return float(self._disturbance[0]), float(self._disturbance[1])
 
     def trimmed(self, op: OperatingPoint) -> OperatingPoint:
         """``op`` with its level trim ``(w_e, theta_e, BAR_e)`` moved to hold the estimated
         disturbance (``OperatingPoint.D``), as far as ``trim_bar_share * bar_max`` and
         ``trim_pitch_share * theta_max`` allow (the shift is scaled down, not clipped per
-        component, so the trim stays one of the model's)."""
-        shift = op.D @ self._disturbance
+        component, so the trim stays one of the model's). With a :attr:`learner`, the learned
+        model (:meth:`~auv_depth_lqr.learning.PlantEstimator.correct`), its trim shift
+        bounded the same way."""
+        if self.learner is not None and self.learner.flying:
+            learned = self.learner.correct(op)
+            shift = np.array([learned.w_e - op.w_e, 0.0, learned.theta_e - op.theta_e,
+                              learned.bar_e - op.bar_e])
+            base = learned._replace(w_e=op.w_e, theta_e=op.theta_e, bar_e=op.bar_e)
+        else:
+            shift = op.D @ self._disturbance
+            base = op
         scale = 1.0
         for centre, delta, bound in (
                 (op.bar_e, float(shift[3]), self.governor.trim_bar_share * self.limits.bar_max),
@@ -211,10 +240,12 @@ class DepthController:
                 reach = math.copysign(bound, delta) - centre
                 scale = min(scale, max(reach / delta, 0.0))
         shift = scale * shift
-        return op._replace(w_e=op.w_e + float(shift[0]), theta_e=op.theta_e + float(shift[2]),
-                           bar_e=op.bar_e + float(shift[3]))
+        return base._replace(w_e=op.w_e + float(shift[0]),
+                             theta_e=op.theta_e + float(shift[2]),
+                             bar_e=op.bar_e + float(shift[3]))
 
-    def _observe(self, op: OperatingPoint, w: float, q: float, theta: float) -> None:
+    def _observe(self, op: OperatingPoint, w: float, q: float, theta: float, u: float
+                 ) -> None:
         """Update the disturbance estimate from the heave and pitch accelerations over the
         last sample against the model's (trapezoidal mean of the state, the BAR commanded
         over the sample), low-passed with ``disturbance_time`` (``disturbance_estimate`` on).
@@ -223,7 +254,14 @@ class DepthController:
         error (the unstable modes, the quadratic cross-flow drag) is taken for an offset and
         moves the trim (10 -> 30 m: 27.4 deg peak pitch, against 24.4 deg without), and at
         rest behind a 0.3 s plane delay it widens the hold's limit cycle (1.3 cm against
-        0.8 cm); its estimate stays zero and its integrator removes offsets."""
+        0.8 cm); its estimate stays zero and its integrator removes offsets.
+        With a :attr:`learner`, the sample goes to it instead (any vehicle)."""
+        if self.learner is not None and self._observed is not None \
+                and self._bar_prev is not None and self._u_last is not None \
+                and self.governor.disturbance_estimate:
+            self.learner.update(self._observed, (w, q, theta), 0.5 * (u + self._u_last),
+                                self._bar_prev, u - self._u_last)
+        self._u_last = u
         if self._observed is not None and self._bar_prev is not None \
                 and self.governor.disturbance_estimate and not self.kinematic_stop:
             w0, q0, theta0 = self._observed
@@ -243,6 +281,21 @@ class DepthController:
         return self._stop_speed
 
     @property
+    def state_speed(self) -> float | None:
+        """Surge speed [m/s] of the last state stepped on, None before."""
+        return self._u_last
+
+    @property
+    def vertical_speed_caps(self) -> tuple[float, float, float] | None:
+        """``(v_lo, v_hi, v_kin)`` [m/s, NED down] of the last sample: the steadiest climb
+        (``v_lo`` < 0) and dive (``v_hi`` > 0) the reference may fly on the (learned) model at
+        the speed the vehicle is heading for, within ``margin`` of the pitch and plane limits
+        (:meth:`GainSchedule.vertical_speed_bounds`), and the kinematic cap
+        ``margin u sin(theta_max)`` they would be without the plane's limit; None before the
+        first :meth:`step`."""
+        return self._caps
+
+    @property
     def governed_reference(self) -> tuple[float, float] | None:
         """Governed depth and vertical speed ``(z_r [m], v_r [m/s])`` seen by the LQR."""
         ref = self.reference.reference
@@ -255,6 +308,35 @@ class DepthController:
         """Reference ``(w, q, theta)`` [m/s, rad/s, rad] and BAR [rad] of a vertical motion
         (:func:`auv_depth_lqr.schedule.feedforward`)."""
         return feedforward(op, u, v, a, j, snap)
+
+    def held_thrust_cap(self, travel: float, u: float) -> float:
+        """The steadiest climb (``travel`` -1) or dive (+1) [m/s, >= 0] the learned model
+        holds with the present thrust held, its BAR within ``glide_bar_share * bar_max`` and
+        its pitch within ``margin * theta_max``, from the level trim at ``u`` [m/s]
+        (:meth:`~auv_depth_lqr.learning.PlantEstimator.glide_cap`); ``inf`` when the pitch
+        limit, not the plane, bounds it, without a learner or before the thrust is known."""
+        if self.learner is None:
+            return math.inf
+        settings, lim = self.governor, self.limits
+        return self.learner.glide_cap(travel, settings.margin * lim.theta_max,
+                                      settings.glide_bar_share * lim.bar_max, u)
+
+    def _glide_cap(self, z_cmd: float, z: float, u: float) -> float:
+        """:meth:`held_thrust_cap` towards ``z_cmd`` [m] from the governed reference (``z``
+        [m] before it starts), solved on a new command and every ``glide_period`` seconds
+        (``inf`` at rest on the command)."""
+        ref = self.reference.reference
+        if self.learner is None or (ref is not None and ref.v == 0.0 and ref.z == z_cmd):
+            self._glide = None
+            return math.inf
+        travel = 1.0 if z_cmd >= (z if ref is None else ref.z) else -1.0
+        last = self._glide
+        if last is not None and last[0] == z_cmd and last[1] == travel and last[2] > 0.0:
+            self._glide = (z_cmd, travel, last[2] - self.Ts, last[3])
+            return last[3]
+        cap = self.held_thrust_cap(travel, u)
+        self._glide = (z_cmd, travel, self.governor.glide_period - self.Ts, cap)
+        return cap
 
     def step(self, state: DepthState, z_ref: float) -> float:
         """BAR command [rad] for this sample.
@@ -288,7 +370,10 @@ class DepthController:
 
         ts, lim, settings = self.Ts, self.limits, self.governor
         nominal = self.design.at(u)
-        self._observe(nominal, w, q, theta)
+        self._observe(nominal, w, q, theta, u)
+        ref = self.reference.reference
+        if self.learner is not None and (ref is None or (ref.v == 0.0 and ref.z == z_cmd)):
+            self.learner.fly_latest()
         op = self.trimmed(nominal)
 
         self.reference.start(z)
@@ -304,7 +389,12 @@ class DepthController:
         u_heading = min(u, min(self._headings))
         self._stop_speed = u_heading
         stop = None if u_heading >= u else (self.trimmed(self.design.at(u_heading)), u_heading)
-        z_r, v_r, a_r, j_r, s_r = self.reference.advance(op, u, z_cmd, stop)
+        glide = self._glide_cap(z_cmd, z, u)
+        z_r, v_r, a_r, j_r, s_r = self.reference.advance(op, u, z_cmd, stop, glide)
+        slowest = op if stop is None else stop[0]
+        self._caps = (*GainSchedule.vertical_speed_bounds(slowest, u_heading, lim,
+                                                          settings.margin),
+                      settings.margin * u_heading * math.sin(lim.theta_max))
         # Depth rate [m/s, down] from the measured depth, low-passed over stall_time: a vehicle
         # whose depth no longer moves is held off by a steady disturbance (a vertical current,
         # a buoyancy the model does not know), not by the transient of a manoeuvre.

@@ -7,6 +7,7 @@ settings, :class:`ReferenceGovernor` the planner (re-planned every sample, stop 
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -151,8 +152,17 @@ class GovernorSettings:
     longer falls (the steady speed of the dive, reached only after several time constants,
     would plan it far too slowly)."""
 
+    glide_bar_share: float = 0.9
+    """Largest share of ``bar_max`` the plane may hold in the steadiest climb or dive with
+    the thrust held (:mod:`~auv_depth_lqr.glide`); the rest is the feedback's, which must
+    absorb the speed's changes [-]."""
+    glide_period: float = 2.0
+    """How often [s] the steadiest climb or dive with the thrust held (:mod:`~auv_depth_lqr.
+    glide`, on the learned model and the thrust the vehicle flies with) is solved again
+    during a depth change; it caps the reference's steady climb or dive."""
+
     def __post_init__(self) -> None:
-        for name in ('margin', 'bar_margin', 'brake_bar_share', 'pitch_guard',
+        for name in ('margin', 'bar_margin', 'brake_bar_share', 'pitch_guard', 'glide_bar_share',
                      'jerk_bar_share', 'bar_rate_margin', 'trim_bar_share',
                      'trim_pitch_share'):
             value = finite(f'GovernorSettings.{name}', getattr(self, name), positive=True)
@@ -170,7 +180,7 @@ class GovernorSettings:
                      'integrate_within',
                      'integrate_below_speed', 'max_lag', 'stall_time', 'stall_speed',
                      'surge_trend_time', 'surge_horizon',
-                     'disturbance_time'):
+                     'disturbance_time', 'glide_period'):
             finite(f'GovernorSettings.{name}', getattr(self, name), positive=True)
 
 
@@ -212,6 +222,8 @@ class ReferenceGovernor:
             kinematic_map(self.stop_tau, ts) if self.kinematic_stop
             else series_map([float(x) for x in design.F[k, :, 3]], ts)
             for k in range(design.speeds.size)]
+        self._plane_only = dataclasses.replace(limits, theta_max=math.radians(89.0))
+        """The limits without the pitch limit's (for the plane's bound alone)."""
         self.reset()
 
     def reset(self) -> None:
@@ -287,19 +299,32 @@ class ReferenceGovernor:
             u_land = -v_land / landing
             u_release = u_land + settings.release_bar_share * (u_other - u_land)
             du = jerk * self.ts
+        # The stop's one-sample map is the design's, interpolated between grid speeds (the
+        # map of a learned model's own series picks its stable truncation afresh at every
+        # sample, and planned the A18M with twice its plane moment into 0.2 m of overshoot)
         _, i, j, w = self.design.weights(u)
         (phi_i, gam_i), (phi_j, gam_j) = self.stop_maps[i], self.stop_maps[j]
-        brake = Brake(tuple((1.0 - w) * x + w * y for x, y in zip(phi_i, phi_j)),
-                       tuple((1.0 - w) * x + w * y for x, y in zip(gam_i, gam_j)),
-                       u_brake, u_release, max(du, 1e-9), landing, v_land)
+        phi = tuple((1.0 - w) * x + w * y for x, y in zip(phi_i, phi_j))
+        gam = tuple((1.0 - w) * x + w * y for x, y in zip(gam_i, gam_j))
+        if op.learned and not self.kinematic_stop:
+            # the plane of a learned model moves the series k times as much per radian as
+            # the design's (k its learned effectiveness on the pitch acceleration): the map's
+            # input column is scaled by k (a weaker plane stops later)
+            nominal = float(self.design.at(u).P[1, 3])
+            k = float(op.P[1, 3]) / nominal if nominal != 0.0 else 1.0
+            gam = tuple(k * g for g in gam)
+        brake = Brake(phi, gam, u_brake, u_release, max(du, 1e-9), landing, v_land)
         return v_cap, jerk, brake
 
 
     def advance(self, op: OperatingPoint, u: float, z_cmd: float,
-                stop: tuple[OperatingPoint, float] | None = None) -> Reference:
+                stop: tuple[OperatingPoint, float] | None = None,
+                v_limit: float = math.inf) -> Reference:
         """The governed reference one sample on (:class:`Reference`); not stored (see
         :meth:`accept`). ``stop``, if given, is the operating point and surge speed [m/s] the
         stop is planned at (the speed the vehicle is heading for); else ``op`` and ``u``.
+        ``v_limit`` [m/s, >= 0] caps the steady climb or dive further (the steadiest one the
+        plane holds with the thrust held, :mod:`auv_depth_lqr.glide`).
 
         A time-optimal point-to-point motion, re-planned at every sample (so it follows a
         new command, a new speed or a reference held back by the vehicle). The snap ``s_r``
@@ -328,7 +353,15 @@ class ReferenceGovernor:
             return Reference(z_cmd, 0.0, 0.0, 0.0, 0.0)
         v_cap, jerk, brake = self.limits_toward(op, u, travel, self._landing[1])
         if stop is not None:
-            brake = self.limits_toward(stop[0], stop[1], travel, self._landing[1])[2]
+            # the climb or dive is capped, and the stop planned, at the speed the vehicle is
+            # heading for: with its thrust held it slows down in a dive (a buoyant one) or a
+            # climb, and its plane's authority with it
+            _, _, brake = self.limits_toward(stop[0], stop[1], travel, self._landing[1])
+            # the plane's bound only: the pitch limit's follows the measured speed
+            plane_lo, plane_hi = GainSchedule.vertical_speed_bounds(
+                stop[0], stop[1], self._plane_only, settings.margin)
+            v_cap = min(v_cap, plane_hi if travel > 0.0 else -plane_lo)
+        v_cap = min(v_cap, v_limit)
         landing, v_land = brake.landing, brake.v_land
         if 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E:
             # Final approach: the exponential e(t) = E exp(-t / landing).

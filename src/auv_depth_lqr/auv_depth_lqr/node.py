@@ -30,7 +30,9 @@ each topic also with ``-r state:=/nav/state`` etc.):
   default 10 Hz) from a timer, whether or not new state arrived, and ``/diagnostics``
   (diagnostic_msgs/DiagnosticArray, absolute as the ROS convention has it) every
   ``diagnostics_period`` seconds and at once when the pilot's mode or its plane authority
-  changes: two statuses, ``<node>: depth control`` (mode, command, envelope) and ``<node>:
+  changes: two statuses, ``<node>: depth control`` (mode, command, envelope, what the pilot
+  has learned of its plant and the climb and dive it can fly:
+  :meth:`auv_depth_lqr.pilot.DepthPilot.learning_diagnostics`) and ``<node>:
   plane authority`` (how much of the plane holding depth takes, WARN when little is left:
   :mod:`auv_depth_lqr.authority`).
 
@@ -629,6 +631,7 @@ class DepthPilotNode(Node):
             'pitch_limit_deg': f'{math.degrees(pilot.controller.limits.theta_max):g}',
             'depth_rate_residual_mps': ('none' if verdict is None or verdict.residual is None
                                         else f'{verdict.residual:+.3f}'),
+            **pilot.learning_diagnostics(),
         }
         if self.last_answer is not None:
             values.update({f'last_command_{k}': v

@@ -34,11 +34,13 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
+from typing import NamedTuple
 
 from auv_depth_lqr.attitude import PitchOffset, PitchOffsetEstimator
 from auv_depth_lqr.authority import Authority, AuthorityMonitor
 from auv_depth_lqr.controller import DepthController, PlaneState
 from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
+from auv_depth_lqr.learning import PARAMETERS, PlantEstimator
 from auv_depth_lqr.limits import Limits
 from auv_depth_lqr.recovery import (
     RECOVERY,
@@ -87,6 +89,53 @@ misplans the stop between grid points (A18M, 40 -> 10 m at 1.83 m/s: RMS pitch r
 settling 0.20 deg/s, against 0.03 deg/s on this grid). The design takes ~2 ms per speed."""
 
 
+LIMITED_SHARE = 0.9
+"""A climb or dive whose steady vertical speed the plane allows is below this share of the
+kinematic one (the pitch limit's) is limited by the plane at the present speed [-]."""
+
+HELD_THRUST_PERIOD = 10.0
+"""How long [s of state time] the steadiest climb and dive with the thrust held
+(:meth:`DepthPilot.climb_limits`) are kept before they are solved again [s]."""
+
+
+class ClimbLimits(NamedTuple):
+    """The steadiest climb and dive the pilot can fly within its limits at the present
+    speed (its learned model), and whether the plane, not the pitch limit, sets them."""
+
+    climb: float
+    """Largest steady climb rate [m/s, up positive] (nan before the first command)."""
+    dive: float
+    """Largest steady dive rate [m/s, down positive]."""
+    kinematic: float
+    """What the pitch limit alone allows, ``margin u sin(theta_max)`` [m/s]."""
+    limited: bool
+    """Whether a climb or dive is held below ``LIMITED_SHARE`` of ``kinematic`` by the
+    plane (a weak or trimmed-out plane, a speed too low): depth changes take longer than
+    the pitch limit would allow."""
+    held_climb: float = math.nan
+    """Steadiest climb [m/s, up positive] with the present thrust held, the speed settled
+    where the thrust balances the drag and the weight less the buoyancy along the axis, the
+    plane within its trim share (:mod:`auv_depth_lqr.glide`); ``inf``: the pitch limit,
+    not the plane, bounds it; nan: not known (no learner, thrust not measured yet)."""
+    held_dive: float = math.nan
+    """The same for a dive [m/s, down positive]."""
+
+    def message(self) -> str:
+        """One line for an operator."""
+        if not math.isfinite(self.kinematic):
+            return 'not known yet'
+        text = (f'climb at most {self.climb:.2f} m/s, dive at most {self.dive:.2f} m/s '
+                f'(pitch limit alone: {self.kinematic:.2f} m/s)')
+        if self.limited:
+            text += ': the plane cannot hold the pitch limit at this speed, depth changes are ' \
+                    'flown slower, within the limits'
+        held = [f'{name} at most {value:.2f} m/s' for name, value in
+                (('climb', self.held_climb), ('dive', self.held_dive)) if math.isfinite(value)]
+        if held:
+            text += '; with the thrust held, once the speed has settled: ' + ', '.join(held)
+        return text
+
+
 @dataclasses.dataclass(frozen=True)
 class PilotSettings:
     """Design and run-time settings of the depth pilot (SI units, radians).
@@ -114,7 +163,10 @@ class PilotSettings:
     degrees; a larger fit is not applied). ``authority_window`` [s]: window of the
     plane-authority measure (:class:`~auv_depth_lqr.authority.AuthorityMonitor`; ``None``:
     derived from the vehicle by :meth:`DepthPilot.for_vehicle`; a pilot built directly takes
-    :data:`AUTHORITY_WINDOW`).
+    :data:`AUTHORITY_WINDOW`). ``learn``: estimate what the vehicle file gets wrong while
+    flying (:mod:`auv_depth_lqr.learning`) and, once the vehicle has been at rest on a
+    command, fly the learned model (``docs/pilot-design.md``); off, the vehicle file's model
+    with its disturbance estimate.
     """
 
     rate_hz: float = 10.0
@@ -132,6 +184,7 @@ class PilotSettings:
     pitch_offset_time: float | None = None
     pitch_offset_max: float = math.radians(3.0)
     authority_window: float | None = None
+    learn: bool = True
 
     def __post_init__(self) -> None:
         for name in ('rate_hz', 'theta_max', 'state_timeout'):
@@ -228,7 +281,8 @@ def build_controller(params: VehicleParams, settings: PilotSettings) -> DepthCon
     limits = Limits(bar_max=bar_max, bar_rate_max=bar_rate, theta_max=settings.theta_max)
     governor = dataclasses.replace(tuning.governor,
                                    surge_length=surge_length(params, speeds))
-    return DepthController(schedule, limits, settings.Ts, governor)
+    learner = PlantEstimator(params, settings.Ts) if settings.learn else None
+    return DepthController(schedule, limits, settings.Ts, governor, learner)
 
 
 class DepthPilot:
@@ -265,6 +319,8 @@ class DepthPilot:
                                                   settings.state_timeout)
         self._theta_measured = 0.0
         self._t_measured = 0.0
+        self._held: tuple[float, float, float] | None = None
+        """``(t [s], climb, dive [m/s])`` of the last held-thrust limits solved."""
         """Measurement time [s] of the latest state (its stamp)."""
         self._t_offset: float | None = None
         """Measurement time [s] of the last state the pitch-offset estimate took."""
@@ -282,6 +338,57 @@ class DepthPilot:
         """How much of the plane holding depth took over the last window
         (:class:`~auv_depth_lqr.authority.Authority`), from the commands of normal control."""
         return self.authority_monitor.authority
+
+    def climb_limits(self) -> ClimbLimits:
+        """The steadiest climb and dive at the present speed on the learned model
+        (:class:`ClimbLimits`; from the last control step), and with the present thrust
+        held (solved at most every ``HELD_THRUST_PERIOD`` seconds of state time)."""
+        caps = self.controller.vertical_speed_caps
+        if caps is None:
+            return ClimbLimits(math.nan, math.nan, math.nan, False)
+        v_lo, v_hi, v_kin = caps
+        held_climb, held_dive = self._held_thrust_caps()
+        limited = min(-v_lo, v_hi, held_climb, held_dive) < LIMITED_SHARE * v_kin
+        return ClimbLimits(-v_lo, v_hi, v_kin, bool(limited), held_climb, held_dive)
+
+    def _held_thrust_caps(self) -> tuple[float, float]:
+        """``(climb, dive)`` [m/s] of :attr:`ClimbLimits.held_climb`, ``held_dive``."""
+        learner, u = self.controller.learner, self.controller.state_speed
+        t = self._t_state
+        if learner is None or learner.thrust is None or u is None or t is None:
+            return math.nan, math.nan
+        if self._held is None or not 0.0 <= t - self._held[0] < HELD_THRUST_PERIOD:
+            self._held = (t, self.controller.held_thrust_cap(-1.0, u),
+                          self.controller.held_thrust_cap(1.0, u))
+        return self._held[1], self._held[2]
+
+    def learning_diagnostics(self) -> dict[str, str]:
+        """What the pilot has learned of its plant and what it can fly, as diagnostic
+        key/values (``learned_*`` the estimate's parameters and standard deviations
+        (:mod:`auv_depth_lqr.learning`), ``climb_limit_*``, ``depth_change_limited``)."""
+        out: dict[str, str] = {}
+        learner = self.controller.learner
+        if learner is None:
+            out['learning'] = 'off'
+        else:
+            est = learner.estimate
+            out['learning'] = f'{est.samples} samples'
+            for name, value, sigma in zip(PARAMETERS, est.values, est.sigma):
+                out[f'learned_{name}'] = f'{value:+.4f} +- {sigma:.4f}'
+            if self.controller.state_speed is not None:
+                op = self.controller.design.at(self.controller.state_speed)
+                learned = self.controller.trimmed(op)
+                out['learned_trim_bar_deg'] = f'{math.degrees(learned.bar_e):+.2f}'
+                out['model_trim_bar_deg'] = f'{math.degrees(op.bar_e):+.2f}'
+                out['learned_plane_gain'] = f'{learner.plane_gain(op):.3f}'
+        limits = self.climb_limits()
+        out['climb_limit_mps'] = f'{limits.climb:.3f}'
+        out['dive_limit_mps'] = f'{limits.dive:.3f}'
+        out['held_thrust_climb_limit_mps'] = f'{limits.held_climb:.3f}'
+        out['held_thrust_dive_limit_mps'] = f'{limits.held_dive:.3f}'
+        out['depth_change_limited'] = 'true' if limits.limited else 'false'
+        out['depth_change_limits'] = limits.message()
+        return out
 
     @property
     def state(self) -> PlaneState | None:

@@ -87,6 +87,10 @@ class OperatingPoint(NamedTuple):
     """Steady trim shift (4, 2) per unit constant disturbance: a disturbance ``d`` of the
     heave and pitch accelerations [m/s^2, rad/s^2] moves the level trim ``(w, q, theta,
     BAR)`` by ``D d`` (``P (shift) + d = 0`` with the depth rate kept zero)."""
+    learned: bool = False
+    """Whether the model was corrected by what the pilot learned of its plant
+    (:meth:`auv_depth_lqr.learning.PlantEstimator.correct`): its series is then not the
+    design's interpolated between grid speeds."""
 
 
 def steady_matrix(A: Matrix, B: Matrix, u0: float) -> Matrix:

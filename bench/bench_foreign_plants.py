@@ -1,0 +1,191 @@
+"""The depth pilot on plants that are not its model, from a cold start, thrust held.
+
+Plants (:func:`auv_depth_lqr.closed_loop.foreign_plant`): from each vehicle file (REMUS 100,
+A18M, NPS AUV II) a vehicle whose plane gives half the force and 60 % of the moment, which has
+no moment in ``u w`` (no Munk moment), is neutrally buoyant and whose level trim at 1.5 m/s
+needs 9 deg more plane than the file's. The pilot is built on the vehicle file; the plant
+starts in its own level trim at 1.5 m/s with its thrust held at its trim value (no speed
+loop) and the command is given at once (cold start: nothing learned yet).
+
+Reported per plant and depth change (20 -> 10, 10 -> 30, 5 -> 40 m): settling to +-0.1 m over
+the plant's own time-optimal bound (:func:`auv_depth_lqr.bound.settling_bound` on the plant's
+parameters; goal <= 1.3), peak pitch over the 25 deg limit (goal <= 1 deg), overshoot; side by
+side the same pilot with learning (the default) and without (``PilotSettings(learn=False)``).
+Then ``sequence``: with learning, ten alternating 20 <-> 10 m changes in one flight from the
+cold start, the first against the tenth (the first as good as the tenth). Then ``held_thrust``:
+the vehicle files themselves (with and without learning) with the thrust held at the trim value
+(no speed loop), with 1 % more buoyancy than weight and with 30 % less fin lift, peak pitch
+over the limit (goal <= 1 deg).
+
+Run: ``python bench/bench_foreign_plants.py`` writes ``bench/results/foreign_plants.json``
+(about 10 min on one core); ``--quick`` flies the REMUS 100 only.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import pathlib
+import time
+from typing import Any
+
+import numpy as np
+from timing import save_figures
+
+from auv_depth_lqr.bound import settling_bound
+from auv_depth_lqr.closed_loop import foreign_plant, model_error_plant, run_closed_loop
+from auv_depth_lqr.metrics import step_metrics
+from auv_depth_lqr.pilot import DepthPilot, PilotSettings
+from auv_sim.params import VehicleParams, load_vehicle
+
+CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
+THETA_MAX = math.radians(25.0)
+U0 = 1.5                                                 # m/s
+CHANGES = ((20.0, 10.0), (10.0, 30.0), (5.0, 40.0))     # m
+VEHICLES = ('remus100', 'a18m', 'npsauv2')
+RATIO_GOAL = 1.3
+PITCH_MARGIN_DEG = 1.0
+SEQUENCE = (20.0, 10.0)                                  # m, alternated
+SEQUENCE_LEG = 90.0                                      # s per change
+
+
+def _metrics(run: Any, z1: float, t0: float = 0.0, t1: float = math.inf) -> dict[str, float]:
+    rec = run.record
+    keep = (rec.t >= t0 - 1e-9) & (rec.t <= t1 + 1e-9)
+    m = step_metrics(rec.t[keep], rec.x[keep, 2], rec.x[keep, 4], rec.x[keep, 10],
+                     rec.cmd[keep, 0], z1, t_command=t0, u0=U0, theta_max=THETA_MAX)
+    return {'settling_time_s': round(m.settling_time, 2) if math.isfinite(m.settling_time)
+            else None,
+            'peak_pitch_deg': round(math.degrees(m.peak_pitch), 2),
+            'over_limit_deg': round(max(math.degrees(m.peak_pitch - THETA_MAX), 0.0), 2),
+            'overshoot_m': round(m.overshoot, 3),
+            'min_surge_mps': round(float(np.min(rec.x[keep, 6])), 3)}
+
+
+def fly(design: VehicleParams, plant: VehicleParams, z0: float, z1: float, learn: bool,
+        duration: float = 200.0) -> tuple[dict[str, Any], DepthPilot]:
+    """One cold-start change on ``plant`` by the pilot of ``design``, thrust held."""
+    pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=learn))
+    run = run_closed_loop(plant, [(0.0, z1)], duration, z0=z0, u0=U0, pilot=pilot)
+    return _metrics(run, z1), pilot
+
+
+def plants(vehicles: tuple[str, ...]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for name in vehicles:
+        design = load_vehicle(CONFIG / f'{name}.yaml')
+        plant = foreign_plant(design, U0)
+        rows: dict[str, Any] = {'plant': {'CZbar': plant.CZbar, 'CMbar': plant.CMbar,
+                                          'CMuw': plant.CMuw, 'CM0': plant.CM0,
+                                          'B_minus_W_N': plant.B - plant.m * plant.g}}
+        for z0, z1 in CHANGES:
+            t0 = time.perf_counter()
+            bound = settling_bound(plant, z0, z1, U0, THETA_MAX).settling_time
+            t_bound = time.perf_counter() - t0
+            case: dict[str, Any] = {'time_optimal_bound_s': bound,
+                                    'bound_seconds': round(t_bound, 1)}
+            for label, learn in (('learning', True), ('without_learning', False)):
+                figures, pilot = fly(design, plant, z0, z1, learn)
+                settle = figures['settling_time_s']
+                figures['settling_over_bound'] = (round(settle / bound, 3)
+                                                  if settle is not None else None)
+                if learn:
+                    est = pilot.controller.learner
+                    assert est is not None
+                    figures['learned'] = dict(zip(
+                        ('buoyancy', 'plane_force', 'hull_lift', 'moment', 'plane_moment',
+                         'munk', 'pitch_damping'),
+                        (round(v, 4) for v in est.estimate.values)))
+                case[label] = figures
+            rows[f'{z0:g}->{z1:g}m'] = case
+            print(name, z0, z1, json.dumps(case), flush=True)
+        out[name] = rows
+    return out
+
+
+def sequence(vehicles: tuple[str, ...]) -> dict[str, Any]:
+    """Ten alternating changes in one cold-start flight: the first against the tenth."""
+    out: dict[str, Any] = {}
+    for name in vehicles:
+        design = load_vehicle(CONFIG / f'{name}.yaml')
+        plant = foreign_plant(design, U0)
+        pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=True))
+        commands = [(k * SEQUENCE_LEG, SEQUENCE[(k + 1) % 2]) for k in range(10)]
+        run = run_closed_loop(plant, commands, 10 * SEQUENCE_LEG, z0=SEQUENCE[0], u0=U0,
+                              pilot=pilot)
+        legs = [_metrics(run, z, t, t + SEQUENCE_LEG) for t, z in commands]
+        first, tenth = legs[0]['settling_time_s'], legs[-1]['settling_time_s']
+        out[name] = {'settling_time_s': [leg['settling_time_s'] for leg in legs],
+                     'peak_pitch_deg': [leg['peak_pitch_deg'] for leg in legs],
+                     'first_over_tenth': (round(first / tenth, 3)
+                                          if first is not None and tenth is not None
+                                          else None)}
+        print(name, 'sequence', json.dumps(out[name]), flush=True)
+    return out
+
+
+def held_thrust(vehicles: tuple[str, ...]) -> dict[str, Any]:
+    """The vehicle files themselves, thrust held: peak pitch over the limit."""
+    out: dict[str, Any] = {}
+    for name in vehicles:
+        design = load_vehicle(CONFIG / f'{name}.yaml')
+        for error in (None, 'buoyancy+1%', 'fins*0.7'):
+            real, environment = (design, None) if error is None else \
+                model_error_plant(design, error)
+            for z0, z1 in CHANGES:
+                key = f'{name}{"" if error is None else " " + error} {z0:g}->{z1:g}m'
+                out[key] = {}
+                for label, learn in (('learning', True), ('without_learning', False)):
+                    pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=learn))
+                    run = run_closed_loop(real, [(0.0, z1)], 200.0, z0=z0, u0=U0,
+                                          environment=environment, pilot=pilot)
+                    out[key][label] = _metrics(run, z1)
+                    out[key][label]['limited'] = pilot.climb_limits().limited
+                print(key, json.dumps(out[key]), flush=True)
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--quick', action='store_true', help='the REMUS 100 only')
+    args = parser.parse_args()
+    vehicles = ('remus100',) if args.quick else VEHICLES
+    t0 = time.perf_counter()
+    load = os.getloadavg()[0]
+    figures: dict[str, Any] = {'plants': plants(vehicles), 'sequence': sequence(vehicles),
+                               'held_thrust': held_thrust(vehicles)}
+    ratios = [case[label]['settling_over_bound']
+              for rows in figures['plants'].values()
+              for key, case in rows.items() if key != 'plant'
+              for label in ('learning',)]
+    over = [case[label]['over_limit_deg'] for rows in figures['plants'].values()
+            for key, case in rows.items() if key != 'plant'
+            for label in ('learning', 'without_learning')]
+    over += [case[label]['over_limit_deg'] for case in figures['held_thrust'].values()
+             for label in ('learning', 'without_learning')]
+    figures['worst_settling_over_bound'] = (max(r for r in ratios if r is not None)
+                                            if all(r is not None for r in ratios) else None)
+    learned = [case['without_learning']['settling_over_bound']
+               for rows in figures['plants'].values()
+               for key, case in rows.items() if key != 'plant']
+    figures['worst_settling_over_bound_without_learning'] = (
+        max(r for r in learned if r is not None) if all(r is not None for r in learned)
+        else None)
+    figures['worst_over_limit_deg'] = max(over)
+    figures['all_pass'] = bool(figures['worst_settling_over_bound'] is not None
+                               and figures['worst_settling_over_bound'] <= RATIO_GOAL
+                               and figures['worst_over_limit_deg'] <= PITCH_MARGIN_DEG)
+    figures['goals'] = {'settling_over_bound': RATIO_GOAL, 'over_limit_deg': PITCH_MARGIN_DEG}
+    figures['machine'] = {'load_average_1min_at_start': round(load, 2),
+                          'wall_time_s': round(time.perf_counter() - t0, 1),
+                          'cpus': os.cpu_count()}
+    if not args.quick:
+        print(save_figures('foreign_plants', figures))
+    else:
+        print(json.dumps({k: figures[k] for k in ('worst_settling_over_bound',
+                                                  'worst_over_limit_deg', 'all_pass')}))
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,442 @@
+"""Learning the plant while flying: what the pilot's model gets wrong, estimated every sample.
+
+Frames and units (Fossen): world NED, depth ``z`` positive down [m]; body FRD; pitch
+``theta`` nose up [rad]; surge ``u``, heave ``w`` [m/s], pitch rate ``q`` [rad/s]; BAR [rad];
+heave force ``Z`` [N] and pitch moment ``M`` [N m] about the body origin.
+
+The pilot's model is the vehicle file's nonlinear vertical plane
+(:class:`auv_sim.trim.VerticalPlane`: ``M_wq (w_dot, q_dot) = (Z, M)`` at the measured surge).
+Over each control sample the measured change of ``(w, q)`` gives the wrench the vehicle
+really felt, ``M_wq (dw, dq) / Ts``; less the model's wrench at the sample's mean state and the
+BAR commanded over it, it is what the model does not explain. :class:`PlantEstimator`
+explains it by seven parameters, a linear regression on the model's own terms::
+
+    dZ = p1 W cos(theta) + p2 Z_bar(u) BAR + p3 qs u w
+    dM = p4 W L          + p5 M_bar(u) BAR + p6 qs L u w + p7 qs L^2 u q
+
+``W`` the weight [N], ``L`` the reference length [m], ``qs = 1/2 rho S_ref`` [kg/m];
+``Z_bar``, ``M_bar`` the model's plane force and moment per radian at the measured speed
+[N/rad, N m/rad]. So ``p1``, ``p4`` are a buoyancy or a trim offset (``p1 W`` a vertical
+force, as a buoyancy is: along the body's axis it is ``-p1 W sin(theta)``, which slows a
+buoyant vehicle's dive with its thrust held; a level trim needing
+another plane angle, a plane bias, a pitch moment the hull has and the file does not), in
+shares of ``W`` and ``W L``; ``p2``, ``p5`` the plane's effectiveness less one (a plane half
+as strong: -0.5); ``p3``, ``p6``, ``p7`` errors of the hull's lift, Munk and damping
+coefficients ``CZuw``, ``CMuw``, ``CMuq`` (a Munk moment the vehicle does not have). The
+regression is a Kalman filter on random-walk parameters: it learns in every phase of flight
+(a climb excites the plane terms, a hold the offsets), from a prior about the vehicle file
+(:class:`LearningSettings`), never forgets faster than ``drift_time`` and keeps what it
+cannot see (a direction the data does not excite keeps its estimate; its uncertainty grows).
+Because the residual is taken against the nonlinear model, neither the unstable modes nor
+the quadratic cross-flow drag of a steep climb are mistaken for a plant error, and an
+open-loop-unstable vehicle (the REMUS 100) learns like any other.
+
+:meth:`PlantEstimator.correct` turns the estimate into the pilot's linear model at a speed:
+the heave and pitch rows of the design model plus the estimated corrections, its level trim
+re-solved (the plane angle and pitch the vehicle really holds depth at), its feed-forward
+series (the plane a climb really takes) and its LQR gain scaled by the plane's estimated
+effectiveness ``k`` when that is below 1 (the LQR of a plane ``k`` times as strong with the
+input weight ``k^2`` times as large is the design gain over ``k``; a stronger plane keeps the
+design gain, within the LQR's gain margin). Everything the pilot plans, the reference's climb
+rate, its plane budget and its stop, then rests on the plane the plant has.
+
+Limits: the estimate is a regression on the model's own terms. A plant error of another form
+(a plane delay, a lag) is explained by them as well as they can (behind a 0.3 s plane delay
+the REMUS 100 learns a hull lift seven times its own), so on such a plant the learned model
+is not the plant; in a steady climb the data hold one operating point and cannot split the
+error between an offset, the plane's effectiveness and the Munk term.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from auv_depth_lqr.errors import DesignError
+from auv_depth_lqr.glide import Glide, glide_cap
+from auv_depth_lqr.schedule import Matrix, OperatingPoint, disturbance_map, feedforward_series
+from auv_sim.errors import TrimError
+from auv_sim.params import VehicleParams, mass_matrix
+from auv_sim.trim import VerticalPlane
+
+__all__ = ['N_PARAMS', 'PARAMETERS', 'LearningSettings', 'PlantEstimate', 'PlantEstimator']
+
+PARAMETERS = ('buoyancy', 'plane_force', 'hull_lift', 'moment', 'plane_moment', 'munk',
+              'pitch_damping')
+"""Names of the estimated parameters ``p1..p7`` (module docstring), as on ``/diagnostics``."""
+N_PARAMS = len(PARAMETERS)
+_H = 1e-30
+"""Complex step [-]."""
+
+
+@dataclass(frozen=True)
+class LearningSettings:
+    """Prior and noise of the plant estimate (dimensionless unless stated).
+
+    The prior standard deviations say how far the vehicle may be from its file before the
+    data says so; they also set how the estimate splits a residual among terms that the
+    data cannot tell apart (at rest a buoyancy and a plane offset look alike).
+    """
+
+    buoyancy: float = 0.05
+    """Prior of ``p1``: a heave force offset of 5 % of the weight (a vehicle ballasted with
+    ~1 % of its weight is typical) [-]."""
+    moment: float = 0.01
+    """Prior of ``p4``: a pitch moment offset of 1 % of ``W L`` (on the REMUS 100 a 9 deg
+    plane offset is 0.5 %) [-]."""
+    plane: float = 0.5
+    """Prior of ``p2``, ``p5``: the plane's force and moment within about +-50 % of the
+    file's [-]."""
+    hull: float = 0.5
+    """Prior of ``p3``, ``p6``, ``p7``, as a share of the coefficient's size on the model
+    (for ``p6`` the hull's ``CMuw`` plus the Munk moment the model computes) [-]."""
+    noise: float = 0.01
+    """Standard deviation of the unexplained wrench per sample, in shares of ``W`` (heave)
+    and ``W L`` (pitch) [-]: the sample-to-sample error of finite differences, sensor
+    noise, unmodelled fast dynamics."""
+    drift_time: float = 60.0
+    """Time [s] over which a parameter may drift by one prior standard deviation: the
+    random walk of the Kalman filter (a vehicle changes its ballast or speed, the estimate
+    follows)."""
+    gain_range: tuple[float, float] = (0.25, 4.0)
+    """Range of the plane effectiveness ``1 + p`` used to scale the LQR gain [-]."""
+    thrust_time: float = 2.0
+    """Time constant [s] of the low-pass of the thrust the vehicle flies with (the surge
+    force the model's drag and the measured surge acceleration need,
+    :attr:`PlantEstimator.thrust`)."""
+
+
+class PlantEstimate(NamedTuple):
+    """The estimate at one sample (module docstring)."""
+
+    values: tuple[float, ...]
+    """``p1..p7`` [-] (:data:`PARAMETERS`)."""
+    sigma: tuple[float, ...]
+    """Their standard deviations [-]."""
+    samples: int
+    """Samples learned from since the pilot started."""
+
+
+class PlantEstimator:
+    """Online estimate of what the vehicle file gets wrong (module docstring).
+
+    Parameters
+    ----------
+    params : VehicleParams
+        The pilot's vehicle file.
+    ts : float
+        Control sample period [s].
+    settings : LearningSettings, optional
+        Prior and noise.
+    """
+
+    def __init__(self, params: VehicleParams, ts: float,
+                 settings: LearningSettings | None = None) -> None:
+        if not (math.isfinite(ts) and ts > 0.0):
+            raise DesignError(f'plant estimator: ts = {ts!r} s must be finite and > 0')
+        self.settings = settings if settings is not None else LearningSettings()
+        self.plane = VerticalPlane(params)
+        self.ts = float(ts)
+        m = mass_matrix(params)
+        self.m_wq: Matrix = np.asarray(m[np.ix_([2, 4], [2, 4])], dtype=np.float64)
+        self.m_wq_inv: Matrix = np.asarray(np.linalg.inv(self.m_wq), dtype=np.float64)
+        self.m_u: Matrix = np.asarray(m[0, [0, 2, 4]], dtype=np.float64)
+        """The surge row of the mass matrix over ``(u_dot, w_dot, q_dot)`` [kg, kg, kg m]."""
+        self.m_wq_u: Matrix = np.asarray(m[[2, 4], 0], dtype=np.float64)
+        """The heave and pitch rows' surge column of the mass matrix [kg, kg m]: a surge
+        acceleration ``u_dot`` takes ``m_wq_u u_dot`` of the wrench (``m z_g`` in pitch)."""
+        self.bar_tau = max(float(params.bar_tau), 0.0)
+        self.bar_rate = float(params.bar_rate)
+        self.plane_settling = 2.0 * float(params.bar_max) / self.bar_rate + 5.0 * self.bar_tau
+        """Time [s] the plane takes from anywhere to where it is commanded (across its travel at
+        its rate, then five lags): until then after a start its angle is not known and
+        nothing is learned."""
+        self.weight = float(params.m * params.g)
+        self.length = float(params.L_ref)
+        self.qs = 0.5 * float(params.rho) * float(params.S_ref)
+        # The model's u w moment per unit u w [N m s^2/m^2]: the hull's CMuw and the Munk
+        # moment of the added masses, read off the model's own wrench.
+        munk = self._wrench(1.0, 1.0, 0.0, 0.0, 0.0)[0][1] - self._wrench(1.0, 0.0, 0.0, 0.0,
+                                                                          0.0)[0][1]
+        s = self.settings
+        cmuw = max(abs(munk) / (self.qs * self.length), 1e-3)
+        self._prior = np.array([s.buoyancy, s.plane, s.hull * max(abs(params.CZuw), 1e-3),
+                                s.moment, s.plane, s.hull * cmuw,
+                                s.hull * max(abs(params.CMuq), 1e-3)])
+        self._noise = np.array([s.noise * self.weight, s.noise * self.weight * self.length])
+        self._drift = self._prior ** 2 * self.ts / s.drift_time
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget everything learned (back to the vehicle file)."""
+        self._p: Matrix = np.zeros(N_PARAMS)
+        self._flown: Matrix = np.zeros(N_PARAMS)
+        self._flying = False
+        self._cov: Matrix = np.diag(self._prior ** 2)
+        self._samples = 0
+        self._thrust: float | None = None
+        self.forget_plane()
+
+    def forget_plane(self) -> None:
+        """The plane's angle is not known (a start, a gap in the commands): the actuator
+        model starts again from the next command, and nothing is learned for
+        :attr:`plane_settling` seconds."""
+        self._plane_angle: float | None = None
+        self._unsure = self.plane_settling
+
+    def plane_over(self, bar: float) -> float:
+        """The mean plane angle [rad] over a sample commanded ``bar`` [rad], on the vehicle
+        file's actuator (``BAR_dot = clip((bar - BAR) / bar_tau, +-bar_rate)``, solved
+        exactly: at the rate limit while ``|bar - BAR| > bar_rate bar_tau``, then the lag);
+        the plane is then where it ends the sample."""
+        start = bar if self._plane_angle is None else self._plane_angle
+        ts, tau, rate = self.ts, self.bar_tau, self.bar_rate
+        gap = bar - start
+        sign = 1.0 if gap >= 0.0 else -1.0
+        # rate-limited phase: |gap| shrinks at `rate` down to rate * tau (all of it if tau = 0)
+        t1 = min(max(abs(gap) - rate * tau, 0.0) / rate, ts) if rate > 0.0 else 0.0
+        mid = start + sign * rate * t1
+        area = 0.5 * (start + mid) * t1
+        t2 = ts - t1
+        if t2 > 0.0:
+            if tau > 0.0:
+                decay = math.exp(-t2 / tau)
+                end = bar + (mid - bar) * decay
+                area += bar * t2 + (mid - bar) * tau * (1.0 - decay)
+            else:
+                end = bar
+                area += bar * t2
+        else:
+            end = mid
+        self._plane_angle = end
+        return area / ts
+
+    @property
+    def plane_angle(self) -> float | None:
+        """The plane's angle [rad] at the end of the last sample on the vehicle file's
+        actuator (:meth:`plane_over`), None while it is not known."""
+        return self._plane_angle
+
+    def assume(self, values: Sequence[float]) -> None:
+        """Take ``values`` (one per :data:`PARAMETERS`, in their units) as the present
+        estimate, its covariance kept (e.g. what an earlier mission learned).
+
+        Raises
+        ------
+        DesignError
+            Not one finite value per parameter.
+        """
+        p = np.asarray(values, dtype=float).reshape(-1)
+        if p.size != N_PARAMS or not np.all(np.isfinite(p)):
+            raise DesignError(f'plant estimator: {N_PARAMS} finite values needed, got '
+                              f'{list(values)!r}')
+        self._p = p
+
+    @property
+    def estimate(self) -> PlantEstimate:
+        """The present estimate (:class:`PlantEstimate`)."""
+        return PlantEstimate(tuple(float(x) for x in self._p),
+                             tuple(float(math.sqrt(max(x, 0.0))) for x in np.diag(self._cov)),
+                             self._samples)
+
+    def _wrench(self, u: float, w: float, q: float, theta: float, bar: float
+                ) -> tuple[tuple[float, float], tuple[float, float], float]:
+        """The model's heave force and pitch moment ``(Z [N], M [N m])`` at a state, their
+        derivatives by the BAR ``(Z_bar [N/rad], M_bar [N m/rad])`` (complex step) and its
+        surge force without the thrust ``X`` [N]."""
+        x = self.plane.full_state(w, q, 0.0, theta, bar + 1j * _H, u)
+        f = self.plane.wrench(x)
+        return ((float(f[2].real), float(f[4].real)),
+                (float(f[2].imag) / _H, float(f[4].imag) / _H), float(f[0].real))
+
+    @property
+    def thrust(self) -> float | None:
+        """The thrust the vehicle flies with [N], low-passed over ``thrust_time``: the
+        surge force that the measured surge, heave and pitch accelerations need beyond the
+        model's (``m_u nu_dot - X``); None before it is known."""
+        return self._thrust
+
+    def force(self, u: float, w: float, theta: float, bar: float
+              ) -> tuple[float, float, float]:
+        """The learned model's surge and heave force and pitch moment ``(X [N], Z [N],
+        M [N m])`` without the thrust in a steady straight motion (``q = 0``) at surge ``u``,
+        heave ``w`` [m/s], pitch ``theta`` and BAR ``bar`` [rad] (a
+        :data:`auv_depth_lqr.glide.Force`)."""
+        (z_m, m_m), (z_bar, m_bar), x_m = self._wrench(u, w, 0.0, theta, bar)
+        dz, dm = self.regressors(u, w, 0.0, bar, z_bar, m_bar, theta) @ self._p
+        x_m -= self._p[0] * self.weight * math.sin(theta)
+        return x_m, z_m + float(dz), m_m + float(dm)
+
+    def glide_cap(self, travel: float, theta_limit: float, bar_limit: float, u: float
+                  ) -> float:
+        """The fastest steady climb (``travel`` -1) or dive (+1) [m/s, >= 0] of the learned
+        model with the present :attr:`thrust` held whose BAR stays within ``bar_limit``
+        [rad], ``inf`` if the one at ``theta_limit`` [rad] does or the thrust is not known
+        (:func:`auv_depth_lqr.glide.glide_cap`, from the level trim at ``u`` [m/s])."""
+        if self._thrust is None or not u > 0.0:
+            return math.inf
+        try:
+            trim = self.plane.trim(u)
+        except TrimError:
+            return math.inf
+        return glide_cap(self.force, self._thrust, travel, theta_limit, bar_limit,
+                         Glide(trim.u0, trim.w, 0.0, trim.bar))
+
+    def regressors(self, u: float, w: float, q: float, bar: float, z_bar: float,
+                   m_bar: float, theta: float = 0.0) -> Matrix:
+        """The regression's rows (2, 7) at a state: heave force and pitch moment [N, N m]
+        per unit parameter (the heave offset ``p1 W`` acts along the vertical, as a
+        buoyancy does: ``p1 W cos(theta)`` on the body's heave axis)."""
+        qs, ln, wt = self.qs, self.length, self.weight
+        H = np.zeros((2, N_PARAMS))
+        H[0, :3] = (wt * math.cos(theta), z_bar * bar, qs * u * w)
+        H[1, 3:] = (wt * ln, m_bar * bar, qs * ln * u * w, qs * ln * ln * u * q)
+        return H
+
+    def update(self, start: tuple[float, float, float], end: tuple[float, float, float],
+               u: float, bar: float, du: float = 0.0) -> PlantEstimate:
+        """Learn from one sample.
+
+        Parameters
+        ----------
+        start, end : tuple of float
+            ``(w [m/s], q [rad/s], theta [rad])`` measured at the start and the end of the
+            sample.
+        u : float
+            Surge speed over the sample [m/s].
+        bar : float
+            BAR commanded over the sample [rad]; the plane's own angle over it is that of
+            the vehicle file's actuator (:meth:`plane_over`).
+        du : float, optional
+            Change of the surge speed over the sample [m/s] (its share of the wrench through
+            the mass matrix's surge column, :attr:`m_wq_u`).
+
+        Returns
+        -------
+        PlantEstimate
+            The estimate after it (unchanged for a non-finite sample, ``u <= 0``, or while
+            the plane's angle is not known yet: :meth:`forget_plane`).
+        """
+        values = (*start, *end, u, bar, du)
+        if not all(math.isfinite(v) for v in values) or u <= 0.0:
+            return self.estimate
+        bar = self.plane_over(bar)
+        if self._unsure > 0.0:
+            self._unsure -= self.ts
+            return self.estimate
+        w, q, theta = (0.5 * (a + b) for a, b in zip(start, end))
+        (z_m, m_m), (z_bar, m_bar), x_m = self._wrench(u, w, q, theta, bar)
+        dw, dq = (end[0] - start[0]) / self.ts, (end[1] - start[1]) / self.ts
+        felt = self.m_wq @ np.array([dw, dq]) + self.m_wq_u * du / self.ts
+        # the thrust: the surge force the accelerations need beyond the model's, the learned
+        # heave offset's share along the axis included (a buoyancy slows a dive)
+        x_m -= self._p[0] * self.weight * math.sin(theta)
+        thrust = float(self.m_u @ np.array([du / self.ts, dw, dq])) - x_m
+        alpha = self.ts / (self.settings.thrust_time + self.ts)
+        self._thrust = thrust if self._thrust is None else \
+            self._thrust + alpha * (thrust - self._thrust)
+        y = felt - np.array([z_m, m_m])
+        H = self.regressors(u, w, q, bar, z_bar, m_bar, theta)
+        cov = self._cov + np.diag(self._drift)
+        S = H @ cov @ H.T + np.diag(self._noise ** 2)
+        gain = np.linalg.solve(S, H @ cov).T
+        self._p = self._p + gain @ (y - H @ self._p)
+        cov = cov - gain @ H @ cov
+        self._cov = 0.5 * (cov + cov.T)
+        self._samples += 1
+        return self.estimate
+
+    def fly_latest(self) -> None:
+        """Fly the latest estimate from now on (:meth:`correct`, :meth:`plane_gain`,
+        :meth:`force`, :meth:`offset_acceleration` use the estimate of the last call)."""
+        self._flown = self._p.copy()
+        self._flying = self._flying or self._samples > 0
+
+    @property
+    def flying(self) -> bool:
+        """Whether a learned model is flown: one was taken at rest by :meth:`fly_latest`
+        after at least one sample was learned."""
+        return self._flying
+
+    def plane_gain(self, op: OperatingPoint) -> float:
+        """The plane's estimated effectiveness on the pitch acceleration at ``op``, relative
+        to the model's, within ``gain_range`` [-]."""
+        corrected = self._plane_rows(op)
+        nominal = float(op.P[1, 3])
+        ratio = float(corrected[1]) / nominal if nominal != 0.0 else 1.0
+        lo, hi = self.settings.gain_range
+        return min(max(ratio, lo), hi)
+
+    def _plane_rows(self, op: OperatingPoint) -> Matrix:
+        """The heave and pitch accelerations per radian of BAR of the learned model at
+        ``op`` [m/s^2/rad, rad/s^2/rad]."""
+        z_bar, m_bar = self.m_wq @ op.P[:, 3]
+        p = self._flown
+        out: Matrix = op.P[:, 3] + self.m_wq_inv @ np.array([p[1] * z_bar, p[4] * m_bar])
+        return out
+
+    def correct(self, op: OperatingPoint) -> OperatingPoint:
+        """The pilot's linear model at ``op`` with the estimate applied (module docstring):
+        heave and pitch rows ``P``, level trim ``(w_e, theta_e, BAR_e)``, series ``F``,
+        disturbance map ``D`` and gain ``K`` (over the plane's learned effectiveness when
+        that is below 1, :meth:`plane_gain`). ``op`` itself if the learned model has no
+        steady climb (an estimate far off: the design model is kept)."""
+        p, u = self._flown, op.u0
+        if not np.any(p):
+            return op
+        qs, ln, wt = self.qs, self.length, self.weight
+        z_bar, m_bar = self.m_wq @ op.P[:, 3]
+        # Wrench corrections: their derivatives over (w, q, theta, BAR) and their value at
+        # the design trim.
+        dwrench = np.array([[p[2] * qs * u, 0.0, 0.0, p[1] * z_bar],
+                            [p[5] * qs * ln * u, p[6] * qs * ln * ln * u, 0.0, p[4] * m_bar]])
+        offset = np.array([p[0] * wt, p[3] * wt * ln]) + dwrench @ np.array(
+            [op.w_e, 0.0, op.theta_e, op.bar_e])
+        P = op.P + self.m_wq_inv @ dwrench
+        A, B = _plane_matrices(P, op)
+        try:
+            _, D = disturbance_map(A, B, u)
+            F = feedforward_series(A, B, u)
+        except (DesignError, np.linalg.LinAlgError):
+            return op
+        shift = D @ (self.m_wq_inv @ offset)
+        # The LQR's gain margin is [1/2, inf): the design gain keeps a stronger plane stable,
+        # not a much weaker one, so the gain is raised for a weaker plane and never lowered
+        # (an unmodelled plane delay is learned as a stronger plane, and a lowered gain
+        # widens the hold's limit cycle behind it)
+        gain = min(self.plane_gain(op), 1.0)
+        return op._replace(w_e=op.w_e + float(shift[0]), theta_e=op.theta_e + float(shift[2]),
+                           bar_e=op.bar_e + float(shift[3]), F=F, P=P, D=D, K=op.K / gain,
+                           dw_dv=float(F[0, 0]), dtheta_dv=float(F[0, 2]),
+                           dbar_dv=float(F[0, 3]), learned=True)
+
+    def offset_acceleration(self, op: OperatingPoint) -> tuple[float, float]:
+        """The heave and pitch accelerations [m/s^2, rad/s^2] the learned corrections give
+        at the design trim of ``op``: what the design model leaves unexplained while the
+        vehicle holds that trim."""
+        p, u = self._flown, op.u0
+        z_bar, m_bar = self.m_wq @ op.P[:, 3]
+        qs, ln = self.qs, self.length
+        wrench = np.array([
+            p[0] * self.weight + p[1] * z_bar * op.bar_e + p[2] * qs * u * op.w_e,
+            p[3] * self.weight * ln + p[4] * m_bar * op.bar_e + p[5] * qs * ln * u * op.w_e])
+        acc = self.m_wq_inv @ wrench
+        return float(acc[0]), float(acc[1])
+
+
+def _plane_matrices(P: Matrix, op: OperatingPoint) -> tuple[Matrix, Matrix]:
+    """``(A, B)`` (5 x 5, 5 x 1) of the vertical plane over ``(w, q, z, theta, xi)`` from its
+    heave and pitch rows ``P`` (2 x 4 over ``(w, q, theta, BAR)``) and the exact depth
+    kinematics ``z_dot = -u sin(theta) + w cos(theta)`` linearised at ``op``'s trim."""
+    A = np.zeros((5, 5))
+    B = np.zeros((5, 1))
+    A[:2, 0], A[:2, 1], A[:2, 3] = P[:, 0], P[:, 1], P[:, 2]
+    B[:2, 0] = P[:, 3]
+    c, s = math.cos(op.theta_e), math.sin(op.theta_e)
+    A[2, 0], A[2, 3] = c, -op.u0 * c - op.w_e * s
+    A[3, 1] = 1.0
+    A[4, 2] = 1.0
+    return A, B
