@@ -9,7 +9,7 @@ started on config/remus100.yaml in lockstep with learning on, and told 10 m from
 
 Oracles, independent of the pilot: the plant's own trim (auv_sim.trim on the plant's
 parameters) for what the pilot must learn to hold; the time-optimal bound of the plant's own
-model (22.6-25.8 s for this change, bench/results/foreign_plants.json) against which 60 s is
+model (25.6 s for this change, auv_depth_lqr.bound.settling_bound) against which 60 s is
 more than twice; the pitch limit 25 deg plus the 1 deg margin.
 """
 from __future__ import annotations
