@@ -95,7 +95,7 @@ def judge(report: dict[str, Any], truth: dict[str, dict[str, float]]) -> str | N
 
 
 def diagnose_case(case: str) -> Any:
-    """The diagnosis (:class:`auv_gap.diagnose.Diagnosis`) of the panel log of ``case``
+    """The diagnosis (:class:`auv_gap.verdict.Diagnosis`) of the panel log of ``case``
     (the A18M, noise seed :data:`SEED`)."""
     from auv_gap import synth
     from auv_gap.diagnose import diagnose

@@ -18,7 +18,8 @@ import pytest
 from conftest import A18M
 
 from auv_gap import synth
-from auv_gap.diagnose import Diagnosis, diagnose
+from auv_gap.diagnose import diagnose
+from auv_gap.verdict import Diagnosis
 from auv_sim.params import VehicleParams, load_vehicle
 
 #: case -> (changes to the vehicle file as factors, the simulator's environment document)

@@ -18,8 +18,9 @@ import pytest
 from conftest import A18M, load_bench
 
 from auv_gap import synth
-from auv_gap.diagnose import Diagnosis, diagnose
+from auv_gap.diagnose import diagnose
 from auv_gap.report import REPORT_KEYS, write_report
+from auv_gap.verdict import Diagnosis
 from auv_sim.params import load_vehicle
 
 PANEL = load_bench('gap_panel')

@@ -15,10 +15,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from auv_gap.catalogue import CATALOGUE, Envelope, manoeuvre
+from auv_gap.catalogue import CATALOGUE
 from auv_gap.errors import GapError
 from auv_gap.fit import cluster_covariance
 from auv_gap.logs import from_arrays, log_period
+from auv_gap.manoeuvres import Envelope, manoeuvre
 from auv_gap.problem import Problem, data_window, window_starts
 from auv_gap.ranges import default_ranges, load_ranges
 from auv_gap.static import surface_finding

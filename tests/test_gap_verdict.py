@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from auv_gap.diagnose import decide_verdict, window_t_stat
+from auv_gap.verdict import decide_verdict, window_t_stat
 
 BEST_WINDOWS = np.array([1.0, 1.0, 1.0, 1.0])
 

@@ -11,12 +11,13 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from auv_gap.catalogue import CATALOGUE, Effect, Parameter, Perturbation, register
-    from auv_gap.diagnose import Diagnosis, diagnose
+    from auv_gap.diagnose import diagnose
     from auv_gap.logs import GapLog, from_arrays, load_bag
     from auv_gap.report import write_report
+    from auv_gap.verdict import Diagnosis
 
 _HOME = {'CATALOGUE': 'catalogue', 'Effect': 'catalogue', 'Parameter': 'catalogue',
-         'Perturbation': 'catalogue', 'register': 'catalogue', 'Diagnosis': 'diagnose',
+         'Perturbation': 'catalogue', 'register': 'catalogue', 'Diagnosis': 'verdict',
          'diagnose': 'diagnose', 'GapLog': 'logs', 'from_arrays': 'logs', 'load_bag': 'logs',
          'write_report': 'report'}
 

@@ -16,14 +16,14 @@ Steps (see :func:`diagnose`; each a function that returns its data):
 4. Combinations, greedily: the best plausible set plus each other effect, refitted jointly,
    kept while the held-out score improves, every parameter stays plausible and the added
    effect identifies something (an interval that excludes its "absent" value).
-5. Verdict (:func:`judge`, :func:`decide_verdict`): typical and possible ranges (an atypical
-   fit that predicts the held-out windows significantly better is a finding, at most
-   ``partly_explained``: :func:`_atypical`), the held-out share of the gap explained, the
-   residual tests of :mod:`auv_gap.residuals`, and the candidates the held-out windows
-   cannot tell from the best (within ``AMBIGUOUS_RATIO`` of its held-out cost and of its
-   explained share, and not worse by ``AMBIGUOUS_T`` standard errors over the windows).
-   When the best leaves structure in its residuals, a larger plausible set that leaves
-   none, within ``RESCUE`` of its score, replaces it.
+5. Verdict (:func:`judge`, :func:`auv_gap.verdict.decide_verdict`): typical and possible
+   ranges (an atypical fit that predicts the held-out windows significantly better is a
+   finding, at most ``partly_explained``: :func:`_atypical`), the held-out share of the gap
+   explained, the residual tests of :mod:`auv_gap.residuals`, and the candidates the held-out
+   windows cannot tell from the best (within ``AMBIGUOUS_RATIO`` of its held-out cost and of
+   its explained share, and not worse by ``AMBIGUOUS_T`` standard errors over the windows).
+   When the best leaves structure in its residuals, a larger plausible set that leaves none,
+   within ``RESCUE`` of its score, replaces it.
 
 Score: ``ln(J_nominal / J_candidate) - PARAM_PRICE * k`` with ``J`` the held-out free-run
 cost (mean over samples of the squared channel errors over their scales) and ``k`` the number
@@ -46,7 +46,6 @@ from auv_contract import STATE_FIELDS
 from auv_gap import analysis, residuals
 from auv_gap.catalogue import (
     CATALOGUE,
-    Envelope,
     Perturbation,
     get_effect,
     separating_manoeuvre,
@@ -58,79 +57,39 @@ from auv_gap.logs import (
     measurement_weighting,
     other_hold,
 )
+from auv_gap.manoeuvres import Envelope
 from auv_gap.problem import CH_INDEX, CH_NAMES, EQUATIONS, Problem
 from auv_gap.ranges import Ranges
 from auv_gap.static import Finding, coast_findings, surface_finding
-from auv_gap.wording import describe
+from auv_gap.verdict import (
+    AMBIGUOUS_RATIO,
+    AMBIGUOUS_T,
+    PARTLY,
+    Candidate,
+    Diagnosis,
+    Judgement,
+    candidate_details,
+    candidate_entry,
+    compose_statement,
+    decide_verdict,
+    entry_params,
+    held_out_entry,
+    implausible_entries,
+    nested,
+    plausibility,
+    window_t_stat,
+    with_quiet,
+)
 from auv_sim.params import VehicleParams
 
 GAP_FACTOR = analysis.GAP_FACTOR
 PARAM_PRICE = 0.05
-EXPLAINED = 0.9          # explained share of the held-out gap for "explained"
-PARTLY = 0.3             # ... for "partly_explained"
-AMBIGUOUS_RATIO = 1.25   # held-out cost within this factor of the best ...
-AMBIGUOUS_T = 2.0        # ... and not worse by this many standard errors over the windows
 TIE = 0.02               # scores closer than this are a tie: the simpler candidate wins
 RESCUE = 0.1             # a larger set with white residuals may score this much less
 GAIN_LEVEL = 0.01        # one-sided level of the held-out predictive-gain test (a rival)
 MC_RUNS = 4
 
 Progress = Callable[[str], None]
-
-
-@dataclasses.dataclass
-class Candidate:
-    """A fitted effect set and its held-out scores."""
-
-    fit: FitResult
-    cost: float                 # held-out free-run cost J
-    window_cost: np.ndarray     # J per held-out window
-    rms: dict[str, float]       # held-out free-run RMS per state of CH_NAMES
-    score: float = -math.inf
-    explained: float = 0.0
-    #: identified parameters beyond their typical range -> that range
-    beyond: dict[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
-    #: ... of them, those beyond what physics allows -> that range
-    impossible: dict[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
-    empty: list[str] = dataclasses.field(default_factory=list)
-    #: per held-out window: the loss of each sample (squared scaled errors over the states)
-    loss: list[np.ndarray] = dataclasses.field(default_factory=list)
-
-    @property
-    def plausible(self) -> bool:
-        """Every identified parameter lies inside its typical range."""
-        return not self.beyond
-
-    @property
-    def possible(self) -> bool:
-        """Every identified parameter lies inside the range physics allows."""
-        return not self.impossible
-
-    @property
-    def identifies(self) -> bool:
-        """Every effect of the set identifies something: at least one of its parameters is
-        identified with a 95 % interval that excludes its "absent" value."""
-        return not self.empty
-
-    @property
-    def label(self) -> str:
-        """Effect name, or names joined with '+'."""
-        return self.fit.effects.label
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        """Effect names."""
-        return self.fit.effects.names
-
-
-@dataclasses.dataclass
-class Diagnosis:
-    """The outcome: ``report`` (the report.json contract), ``details`` (everything else the
-    readable report shows) and arrays for plots in ``plots``."""
-
-    report: dict[str, Any]
-    details: dict[str, Any]
-    plots: dict[str, Any]
 
 
 class _Scorer:
@@ -192,7 +151,7 @@ class _Scorer:
             gap = self.nominal_cost - self.floor_cost
             cand.explained = float(np.clip((self.nominal_cost - cost) / gap, 0.0, 1.0)) \
                 if gap > 0 else 0.0
-            cand.beyond, cand.impossible, cand.empty = _plausibility(f)
+            cand.beyond, cand.impossible, cand.empty = plausibility(f)
             res.append(cand)
         return res
 
@@ -462,29 +421,14 @@ def _rank(candidates: list[Candidate], best: Candidate) -> None:
                                    -c.score, c.fit.n_active, len(c.names)))
 
 
-@dataclasses.dataclass
-class Judgement:
-    """Stage 4: the answer and how sure it is."""
-
-    verdict: str
-    best: Candidate | None          # the candidate named (None: no_gap, unexplained)
-    atypical: bool                  # named although beyond its typical range
-    ambiguous: list[str]
-    suggestion: str | None
-    white: bool
-    findings: list[residuals.Finding]
-    left: list[str]
-    #: the candidates behind ``ambiguous`` (for the statement)
-    rivals: list[Candidate] = dataclasses.field(default_factory=list)
-
-
 def judge(pr: Problem, search: Search, nominal: NominalRuns, site: GapSite,
           weighting: Weighting, envelope: Envelope, say: Progress,
           steadied: Sequence[str] = ()) -> Judgement:
     """Stage 4: residual tests of the best (a larger plausible set with white residuals may
     replace it), a better fit beyond physics as structure left, a better fit beyond the
     typical range as the finding (verdict at most ``partly_explained`` or ``ambiguous``,
-    with the manoeuvre that would confirm it), and the verdict (:func:`decide_verdict`).
+    with the manoeuvre that would confirm it), and the verdict
+    (:func:`auv_gap.verdict.decide_verdict`).
     ``steadied``: the effect whose equation-error fit kept the runs of a diverging nominal
     model with the logs (:func:`_steadied_by`); beyond its typical range, it is the finding
     (the divergence was its) when it explains at least ``PARTLY`` of the gap."""
@@ -524,8 +468,8 @@ def judge(pr: Problem, search: Search, nominal: NominalRuns, site: GapSite,
         # rivals: typical or atypical (not impossible) answers the held-out windows cannot
         # tell from it
         rivals = [c for c in candidates if c is not odd and c.possible and c.identifies
-                  and not (_nested(set(c.names), set(odd.names))
-                           or _nested(set(odd.names), set(c.names)))
+                  and not (nested(set(c.names), set(odd.names))
+                           or nested(set(odd.names), set(c.names)))
                   and c.cost <= AMBIGUOUS_RATIO * odd.cost
                   and c.explained >= odd.explained / AMBIGUOUS_RATIO
                   and window_t_stat(c.window_cost - odd.window_cost) < AMBIGUOUS_T]
@@ -585,7 +529,7 @@ def _steadied_by(pr: Problem, names: Sequence[str], say: Progress
     say(f'the nominal model diverges: equation-error fits of {len(names)} effects')
     fits = {n: eqf.fit(pr.effect_set([n])) for n in names}
     usable = [n for n in names if fits[n].n_active > 0
-              and not _plausibility(fits[n])[1] and not _plausibility(fits[n])[2]]
+              and not plausibility(fits[n])[1] and not plausibility(fits[n])[2]]
     if not usable:
         return fits, []
     wanted = min(usable, key=lambda n: eqf.cost(fits[n].effects, fits[n].values,
@@ -681,16 +625,9 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | 
     search = search_candidates(pr, nominal, names, top, max_effects, say, fitted, steadied)
     judgement = judge(pr, search, nominal, site, weighting, envelope, say,
                       steadied if fitted is not None else ())
-    judgement = _with_quiet(judgement, quiet)
-    implausible = [{'effect': c.label, 'explained': c.explained,
-                    'kind': 'impossible' if not c.possible else 'atypical',
-                    'beyond': ({k: [v, *c.impossible[k]] for k, v in _entry_params(c).items()
-                                if k in c.impossible} if not c.possible else
-                               {k: [v, *c.beyond[k]] for k, v in _entry_params(c).items()
-                                if k in c.beyond})}
-                   for c in search.candidates if not c.plausible and c.explained >= PARTLY
-                   and c is not judgement.best]
-    statement = _statement(judgement, implausible, envelope)
+    judgement = with_quiet(judgement, quiet)
+    implausible = implausible_entries(search.candidates, judgement.best)
+    statement = compose_statement(judgement, implausible, envelope)
     return _assemble(pr, nominal, site, search, judgement, weighting, quiet, statement,
                      envelope, implausible)
 
@@ -714,47 +651,14 @@ def _quiet_findings(pr: Problem, site: GapSite) -> list[Finding]:
     return out + ([surface] if surface is not None else [])
 
 
-def _with_quiet(j: Judgement, quiet: Sequence[Finding]) -> Judgement:
-    """A significant buoyancy or centre-of-gravity offset from the coasts that the answer
-    does not hold (or holds with the other sign) keeps it from ``explained``."""
-    if j.best is None:
-        return j
-    names = j.best.names
-    values = _entry_params(j.best)
-    missing = []
-    for f in quiet:
-        if not f.significant or f.effect not in ('buoyancy_offset', 'cg_offset'):
-            continue
-        key = f.param if len(names) == 1 else f'{f.effect}.{f.param}'
-        if f.effect not in names or np.sign(values.get(key, 0.0)) != np.sign(f.value):
-            missing.append(f'the coasts show {f.text}, which the answer does not hold')
-    if not missing:
-        return j
-    verdict = 'partly_explained' if j.verdict == 'explained' else j.verdict
-    return dataclasses.replace(j, verdict=verdict, left=[*missing, *j.left])
-
-
 def _assemble(pr: Problem, nominal: NominalRuns, site: GapSite, search: Search | None,
               j: Judgement, weighting: Weighting, quiet: Sequence[Finding], statement: str,
               envelope: Envelope, implausible: Sequence[Mapping[str, Any]] = ()
               ) -> Diagnosis:
     """Stage 5: the report (the contract's keys and more), the details and the plots."""
-    z_i, th_i = CH_NAMES.index('z'), CH_NAMES.index('theta')
     nominal_cand = search.nominal if search is not None else None
     after = j.best if j.best is not None else nominal_cand
-    if nominal_cand is not None and after is not None:
-        held = {
-            'rms_before': {'z': nominal_cand.rms['z'], 'theta': nominal_cand.rms['theta']},
-            'rms_after': {'z': after.rms['z'], 'theta': after.rms['theta']},
-            'shrink': after.explained,
-            'shrink_depth': _shrink(nominal_cand.rms['z'], after.rms['z'],
-                                    float(nominal.floor[z_i])),
-            'floor': {'z': float(nominal.floor[z_i]), 'theta': float(nominal.floor[th_i])},
-        }
-    else:
-        before = {'z': float(nominal.rms[z_i]), 'theta': float(nominal.rms[th_i])}
-        held = {'rms_before': before, 'rms_after': before, 'shrink': 0.0, 'shrink_depth': 0.0,
-                'floor': {'z': float(nominal.floor[z_i]), 'theta': float(nominal.floor[th_i])}}
+    held = held_out_entry(nominal_cand, after, nominal.rms, nominal.floor)
     candidates = search.candidates if search is not None else []
     quiet_text = '; '.join(f.text for f in quiet if f.significant)
     if quiet_text:
@@ -762,7 +666,7 @@ def _assemble(pr: Problem, nominal: NominalRuns, site: GapSite, search: Search |
     report = {
         'verdict': j.verdict,
         'gap': site.gap,
-        'candidates': [_candidate_entry(c) for c in candidates],
+        'candidates': [candidate_entry(c) for c in candidates],
         'best': j.best.label if j.best is not None else None,
         'ambiguous_with': j.ambiguous,
         'suggested_manoeuvre': j.suggestion,
@@ -797,7 +701,7 @@ def _assemble(pr: Problem, nominal: NominalRuns, site: GapSite, search: Search |
         'held_out_cost': ({'nominal': search.nominal_cost, 'floor': search.floor_cost,
                            'best': after.cost if after is not None else math.nan}
                           if search is not None else {}),
-        'candidates': [_candidate_details(c) for c in candidates],
+        'candidates': [candidate_details(c) for c in candidates],
         'integration_step_s': pr.dt,
         'window_s': pr.window,
         'window_why': pr.window_why,
@@ -820,59 +724,6 @@ def _held_at(cmd: tuple[np.ndarray, np.ndarray], t: np.ndarray) -> np.ndarray:
     return va[np.clip(i, 0, va.size - 1)]
 
 
-def decide_verdict(gap_channels: list[str], best: Candidate | None,
-                   candidates: list[Candidate], white: bool,
-                   other: Callable[[Candidate], np.ndarray | None] = lambda _c: None,
-                   envelope: Envelope | None = None) -> tuple[str, list[str], str | None]:
-    """``(verdict, ambiguous_with, suggested_manoeuvre)``.
-
-    ``explained`` needs all of: a plausible best that identifies every effect it names, an
-    explained share of at least ``EXPLAINED`` and white, independent residuals; a plausible
-    best short of one of the last two is ``partly_explained``; implausible fits never count.
-    A contender is ambiguous with the best when the held-out windows cannot tell them apart
-    with the commands as reconstructed, or, for commands logged only at the rows, with them
-    reconstructed the other way (``other``: cost per held-out window, or None). Contenders
-    make the verdict ``ambiguous`` only when the best would be ``explained``: rivals of an
-    answer that falls short leave it ``partly_explained``, with the rivals listed. The
-    separating manoeuvre is stated in the terms of the vehicle's ``envelope``.
-    """
-    if not gap_channels:
-        return 'no_gap', [], None
-    if best is None or best.score <= 0 or best.explained < PARTLY:
-        return 'unexplained', [], None
-    verdict = 'explained' if best.explained >= EXPLAINED and white else 'partly_explained'
-    mine = set(best.names)
-    ambiguous: list[str] = []
-    for c in candidates:
-        s = set(c.names)
-        # a contender is close in held-out cost and in the share of the gap above the floor
-        # it explains (the cost alone is dominated by the floor when the gap sits in one
-        # channel, e.g. depth only)
-        if not (c.plausible and c.identifies) or _nested(s, mine) or _nested(mine, s) \
-                or c.cost > AMBIGUOUS_RATIO * best.cost \
-                or c.explained < best.explained / AMBIGUOUS_RATIO:
-            continue
-        t = window_t_stat(c.window_cost - best.window_cost)
-        if t >= AMBIGUOUS_T:
-            alt_best, alt_c = other(best), other(c)
-            if alt_best is not None and alt_c is not None:
-                t = min(t, window_t_stat(alt_c - alt_best))
-        if t < AMBIGUOUS_T:
-            for n in c.names:
-                if n not in mine and n not in ambiguous:
-                    ambiguous.append(n)
-    if ambiguous:
-        return ('ambiguous' if verdict == 'explained' else verdict), ambiguous, \
-            separating_manoeuvre(best.names[0], ambiguous[0], envelope)
-    return verdict, [], None
-
-
-def window_t_stat(d: np.ndarray) -> float:
-    """t statistic of the mean of the per-window cost differences ``d`` (inf for one)."""
-    se = float(np.std(d, ddof=1) / np.sqrt(d.size)) if d.size > 1 else math.inf
-    return float(np.mean(d) / se) if se > 0 else math.inf
-
-
 def _better_implausible(scorer: _Scorer, best: Candidate, candidates: Sequence[Candidate]
                         ) -> str | None:
     """The text naming a candidate beyond what physics allows that predicts the held-out
@@ -886,7 +737,7 @@ def _better_implausible(scorer: _Scorer, best: Candidate, candidates: Sequence[C
             continue
         t, p = scorer.gain(best, c)
         if p < GAIN_LEVEL:
-            ks = ', '.join(f'{k} = {v:.4g}' for k, v in _entry_params(c).items()
+            ks = ', '.join(f'{k} = {v:.4g}' for k, v in entry_params(c).items()
                            if k in c.impossible)
             return (f'a fit beyond the plausible range, {c.label} ({ks}), predicts the '
                     f'held-out data better (Diebold-Mariano t = {t:.1f}): structure of its '
@@ -894,47 +745,11 @@ def _better_implausible(scorer: _Scorer, best: Candidate, candidates: Sequence[C
     return None
 
 
-def _nested(a: set[str], b: set[str]) -> bool:
-    """Every effect of ``a`` is in ``b`` or a special case of one in ``b``."""
-    return all(n in b or set(get_effect(n).within) & b for n in a)
-
-
 def _simplest(cands: Sequence[Candidate]) -> Candidate:
     """The best-scoring candidate, a tie (within ``TIE``) going to fewer parameters."""
     top = max(c.score for c in cands)
     tied = [c for c in cands if c.score >= top - TIE]
     return min(tied, key=lambda c: (c.fit.n_active, -c.score))
-
-
-def _shrink(before: float, after: float, floor: float) -> float:
-    """Share of the RMS above the noise floor that a candidate removes, in [0, 1]."""
-    room = before - floor
-    return float(np.clip((before - after) / room, 0.0, 1.0)) if room > 0 else 0.0
-
-
-def _plausibility(f: FitResult) -> tuple[dict[str, tuple[float, float]],
-                                         dict[str, tuple[float, float]], list[str]]:
-    """Identified parameters at or beyond their typical range (key -> range), those of them
-    beyond what physics allows (key -> that range), and the effects of the set that identify
-    nothing (no identified parameter whose 95 % interval, the fit's own before widening,
-    excludes its "absent" value)."""
-    single = len(f.effects.names) == 1
-    beyond: dict[str, tuple[float, float]] = {}
-    impossible: dict[str, tuple[float, float]] = {}
-    found: dict[str, bool] = {n: False for n in f.effects.names}
-    sig = f.significant if f.significant is not None else (f.lo95 > f.absent_values) | (
-        f.hi95 < f.absent_values)
-    for (e, p), v, a, s in zip(f.effects.params, f.values, f.active, sig):
-        if not a:
-            continue
-        key = p.name if single else f'{e}.{p.name}'
-        if not p.is_plausible(float(v)):
-            beyond[key] = p.plausible_range
-        if not p.is_possible(float(v)):
-            impossible[key] = p.possible_range
-        if s:
-            found[e] = True
-    return beyond, impossible, [n for n, ok in found.items() if not ok]
 
 
 def _residual_tests(pr: Problem, eqf: EquationFit, frf: FreeRunFit, cand: Candidate,
@@ -975,97 +790,3 @@ def _residual_tests(pr: Problem, eqf: EquationFit, frf: FreeRunFit, cand: Candid
     win = max(2, min(r.size for r in wrows) // 2)
     free = residuals.Group(fr_res, fr_sig, out_dt * every, white=False, acf_lags=win)
     return residuals.residual_tests([one_step, free])
-
-
-def _entry_params(c: Candidate) -> dict[str, float]:
-    return {_param_key(c, e, p.name): float(v) for (e, p), v in zip(c.fit.effects.params,
-                                                                     c.fit.values)}
-
-
-def _statement(j: Judgement, implausible: Sequence[Mapping[str, Any]],
-               envelope: Envelope) -> str:
-    """One paragraph for the user: what the diagnosis found, in words and units (an
-    atypical value named with its typical range, what to check and how to confirm it; the
-    rivals the held-out data cannot tell from the best, ``ambiguous``)."""
-    parts = []
-    best = j.best
-    if j.verdict == 'no_gap':
-        parts.append('The model matches the logs to within the noise floor.')
-    elif best is None:
-        parts.append('No plausible effect of the catalogue explains the gap.')
-    elif j.atypical:
-        parts.append(f'{j.verdict.replace("_", " ").capitalize()}, by a value beyond the '
-                     f'typical range: {describe(best.fit)} ({best.explained:.0%} of the '
-                     'held-out gap above the noise floor).')
-        parts += _beyond_typical(best)
-        if j.ambiguous:
-            texts = []
-            for c in j.rivals[:3]:
-                extra = ' '.join(_beyond_typical(c)).rstrip('.')
-                texts.append(f'{c.label} ({c.explained:.0%} of the gap'
-                             + (f'; {extra}' if extra else '') + ')')
-            parts.append('The held-out data cannot tell it from '
-                         + ('; '.join(texts) if texts else ', '.join(j.ambiguous))
-                         + ' (values in the candidates).')
-            parts.append(f'To tell them apart, fly {j.suggestion}.')
-        else:
-            parts.append(f'To confirm it, fly {get_effect(best.names[0]).advice(envelope)}.')
-    else:
-        parts.append(f'{j.verdict.replace("_", " ").capitalize()}: '
-                     + describe(best.fit) + f' ({best.explained:.0%} of the held-out gap '
-                     'above the noise floor).')
-        if j.ambiguous:
-            parts.append('The held-out data cannot tell it from '
-                         + ', '.join(j.ambiguous) + '.')
-    for item in implausible[:3]:
-        tier = 'typical' if item['kind'] == 'atypical' else 'possible'
-        ks = ', '.join(f'{k} = {v[0]:.4g} ({tier} {v[1]:.4g} to {v[2]:.4g})'
-                       for k, v in item['beyond'].items())
-        what = ('only beyond the typical range' if item['kind'] == 'atypical'
-                else 'only beyond what physics allows')
-        tail = (': a finding only if the better answers fail' if item['kind'] == 'atypical'
-                else ': not a physical explanation')
-        parts.append(f'{item["effect"]} would explain {item["explained"]:.0%} but {what}, with '
-                     f'{ks}{tail}.')
-    if j.left and best is not None:
-        parts.append('Left over in the held-out residuals: ' + '; '.join(j.left[:4]) + '.')
-    return ' '.join(parts)
-
-
-def _beyond_typical(c: Candidate) -> list[str]:
-    """One sentence per identified parameter of ``c`` beyond its typical range: the value,
-    the range and what to check."""
-    out = []
-    for (e, p), v, a in zip(c.fit.effects.params, c.fit.values, c.fit.active):
-        if a and not p.is_plausible(float(v)):
-            lo, hi = p.plausible_range
-            unit = '' if p.unit == '-' else f' {p.unit}'
-            out.append(f'{e}.{p.name} = {v:.4g}{unit} is beyond the typical range '
-                       f'({lo:.4g} to {hi:.4g}{unit}): check '
-                       f'{p.check or "how the vehicle is rigged"}.')
-    return out
-
-
-def _param_key(c: Candidate, effect: str, name: str) -> str:
-    return name if len(c.names) == 1 else f'{effect}.{name}'
-
-
-def _candidate_entry(c: Candidate) -> dict[str, Any]:
-    f = c.fit
-    params = {_param_key(c, e, p.name): float(v)
-              for (e, p), v in zip(f.effects.params, f.values)}
-    ci = {_param_key(c, e, p.name): [float(lo), float(hi)]
-          for (e, p), lo, hi in zip(f.effects.params, f.lo95, f.hi95)}
-    return {'effect': c.label, 'params': params, 'ci95': ci, 'score': float(c.score),
-            'explained': float(c.explained), 'plausible': c.plausible,
-            'beyond_plausible': {k: list(v) for k, v in c.beyond.items()},
-            'identifies': c.identifies}
-
-
-def _candidate_details(c: Candidate) -> dict[str, Any]:
-    f = c.fit
-    return {'effect': c.label, 'stage': f.stage,
-            'units': {_param_key(c, e, p.name): p.unit for e, p in f.effects.params},
-            'identified': {_param_key(c, e, p.name): bool(a)
-                           for (e, p), a in zip(f.effects.params, f.active)},
-            'held_out_cost': c.cost, 'held_out_rms': c.rms, 'n_params': f.n_active}

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 from auv_gap.errors import GapError
 
 if TYPE_CHECKING:
-    from auv_gap.diagnose import Diagnosis
+    from auv_gap.verdict import Diagnosis
 
 Progress = Callable[[str], None]
 

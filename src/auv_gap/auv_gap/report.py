@@ -10,9 +10,9 @@ from typing import Any
 import numpy as np
 
 from auv_gap.catalogue import CATALOGUE
-from auv_gap.diagnose import Diagnosis
 from auv_gap.errors import GapError
 from auv_gap.problem import EQ_UNITS, EQUATIONS
+from auv_gap.verdict import Diagnosis
 
 REPORT_KEYS = ('verdict', 'gap', 'candidates', 'best', 'ambiguous_with',
                'suggested_manoeuvre', 'held_out', 'statement', 'residual_tests', 'implausible',
