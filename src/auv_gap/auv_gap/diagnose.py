@@ -21,7 +21,8 @@ Steps (see :func:`diagnose`; each a function that returns its data):
    ``partly_explained``: :func:`_atypical`), the held-out share of the gap explained, the
    residual tests of :mod:`auv_gap.residuals`, and the candidates the held-out windows
    cannot tell from the best (within ``AMBIGUOUS_RATIO`` of its held-out cost and of its
-   explained share, and not worse by ``AMBIGUOUS_T`` standard errors over the windows).
+   explained share, and not worse by ``AMBIGUOUS_T`` standard errors over the windows;
+   typical or beyond the typical range, never beyond what physics allows).
    When the best leaves structure in its residuals, a larger plausible set that leaves
    none, within ``RESCUE`` of its score, replaces it.
 
@@ -545,10 +546,11 @@ def judge(pr: Problem, search: Search, nominal: NominalRuns, site: GapSite,
         if rival is not None:
             white = False
             left = [rival, *left]
-    verdict, ambiguous, suggestion = decide_verdict(gap_channels, tested, candidates, white,
-                                                    search.scorer.window_cost_other, envelope)
+    verdict, ambiguous, suggestion, rivals = verdict_and_rivals(
+        gap_channels, tested, candidates, white, search.scorer.window_cost_other, envelope)
     named = best if verdict not in ('no_gap', 'unexplained') else None
-    return Judgement(verdict, named, False, ambiguous, suggestion, white, findings, left)
+    return Judgement(verdict, named, False, ambiguous, suggestion, white, findings, left,
+                     rivals)
 
 
 def _atypical(scorer: _Scorer, best: Candidate, candidates: Sequence[Candidate]
@@ -689,7 +691,8 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | 
                                {k: [v, *c.beyond[k]] for k, v in _entry_params(c).items()
                                 if k in c.beyond})}
                    for c in search.candidates if not c.plausible and c.explained >= PARTLY
-                   and c is not judgement.best]
+                   and c is not judgement.best
+                   and all(c is not r for r in judgement.rivals)]
     statement = _statement(judgement, implausible, envelope)
     return _assemble(pr, nominal, site, search, judgement, weighting, quiet, statement,
                      envelope, implausible)
@@ -824,31 +827,50 @@ def decide_verdict(gap_channels: list[str], best: Candidate | None,
                    candidates: list[Candidate], white: bool,
                    other: Callable[[Candidate], np.ndarray | None] = lambda _c: None,
                    envelope: Envelope | None = None) -> tuple[str, list[str], str | None]:
-    """``(verdict, ambiguous_with, suggested_manoeuvre)``.
+    """``(verdict, ambiguous_with, suggested_manoeuvre)``: :func:`verdict_and_rivals`
+    without the rival candidates."""
+    verdict, ambiguous, manoeuvre, _ = verdict_and_rivals(gap_channels, best, candidates,
+                                                          white, other, envelope)
+    return verdict, ambiguous, manoeuvre
+
+
+def verdict_and_rivals(gap_channels: list[str], best: Candidate | None,
+                       candidates: list[Candidate], white: bool,
+                       other: Callable[[Candidate], np.ndarray | None] = lambda _c: None,
+                       envelope: Envelope | None = None
+                       ) -> tuple[str, list[str], str | None, list[Candidate]]:
+    """``(verdict, ambiguous_with, suggested_manoeuvre, rivals)``.
 
     ``explained`` needs all of: a plausible best that identifies every effect it names, an
     explained share of at least ``EXPLAINED`` and white, independent residuals; a plausible
     best short of one of the last two is ``partly_explained``; implausible fits never count.
-    A contender is ambiguous with the best when the held-out windows cannot tell them apart
-    with the commands as reconstructed, or, for commands logged only at the rows, with them
-    reconstructed the other way (``other``: cost per held-out window, or None). Contenders
-    make the verdict ``ambiguous`` only when the best would be ``explained``: rivals of an
-    answer that falls short leave it ``partly_explained``, with the rivals listed. The
-    separating manoeuvre is stated in the terms of the vehicle's ``envelope``.
+    A contender (``rivals``) is ambiguous with the best when the held-out windows cannot tell
+    them apart with the commands as reconstructed, or, for commands logged only at the rows,
+    with them reconstructed the other way (``other``: cost per held-out window, or None). A
+    contender beyond its typical range but within what physics allows counts as well (a
+    10 deg fin zero error that predicts the held-out windows as well as a typical plane
+    effectiveness: the data cannot choose, only the typical ranges would, and an atypical
+    value is a finding to check, not an answer to rule out); one beyond what physics allows
+    never does. Contenders make the verdict ``ambiguous`` only when the best would be
+    ``explained``: rivals of an answer that falls short leave it ``partly_explained``, with
+    the rivals listed. The separating manoeuvre (the one that best tells the best from the
+    rival closest to it in held-out cost) is stated in the terms of the vehicle's
+    ``envelope``.
     """
     if not gap_channels:
-        return 'no_gap', [], None
+        return 'no_gap', [], None, []
     if best is None or best.score <= 0 or best.explained < PARTLY:
-        return 'unexplained', [], None
+        return 'unexplained', [], None, []
     verdict = 'explained' if best.explained >= EXPLAINED and white else 'partly_explained'
     mine = set(best.names)
     ambiguous: list[str] = []
+    rivals: list[Candidate] = []
     for c in candidates:
         s = set(c.names)
         # a contender is close in held-out cost and in the share of the gap above the floor
         # it explains (the cost alone is dominated by the floor when the gap sits in one
         # channel, e.g. depth only)
-        if not (c.plausible and c.identifies) or _nested(s, mine) or _nested(mine, s) \
+        if not (c.possible and c.identifies) or _nested(s, mine) or _nested(mine, s) \
                 or c.cost > AMBIGUOUS_RATIO * best.cost \
                 or c.explained < best.explained / AMBIGUOUS_RATIO:
             continue
@@ -858,13 +880,17 @@ def decide_verdict(gap_channels: list[str], best: Candidate | None,
             if alt_best is not None and alt_c is not None:
                 t = min(t, window_t_stat(alt_c - alt_best))
         if t < AMBIGUOUS_T:
-            for n in c.names:
-                if n not in mine and n not in ambiguous:
-                    ambiguous.append(n)
+            new = [n for n in c.names if n not in mine and n not in ambiguous]
+            ambiguous += new
+            if new:
+                rivals.append(c)
     if ambiguous:
+        # the manoeuvre that tells the best from the rival closest to it on held-out data
+        closest = min(rivals, key=lambda c: c.cost)
+        other_name = next(n for n in closest.names if n not in mine)
         return ('ambiguous' if verdict == 'explained' else verdict), ambiguous, \
-            separating_manoeuvre(best.names[0], ambiguous[0], envelope)
-    return verdict, [], None
+            separating_manoeuvre(best.names[0], other_name, envelope), rivals
+    return verdict, [], None, []
 
 
 def window_t_stat(d: np.ndarray) -> float:
@@ -1015,8 +1041,14 @@ def _statement(j: Judgement, implausible: Sequence[Mapping[str, Any]],
                      + describe(best.fit) + f' ({best.explained:.0%} of the held-out gap '
                      'above the noise floor).')
         if j.ambiguous:
-            parts.append('The held-out data cannot tell it from '
-                         + ', '.join(j.ambiguous) + '.')
+            atypical = [c for c in j.rivals if not c.plausible]
+            texts = [f'{c.label} ({c.explained:.0%} of the gap; '
+                     + ' '.join(_beyond_typical(c)).rstrip('.') + ')' for c in atypical]
+            named = {n for c in atypical for n in c.names}
+            texts += [n for n in j.ambiguous if n not in named]
+            parts.append('The held-out data cannot tell it from ' + ', '.join(texts) + '.')
+            if atypical and j.suggestion:
+                parts.append(f'To tell them apart, fly {j.suggestion}.')
     for item in implausible[:3]:
         tier = 'typical' if item['kind'] == 'atypical' else 'possible'
         ks = ', '.join(f'{k} = {v[0]:.4g} ({tier} {v[1]:.4g} to {v[2]:.4g})'
