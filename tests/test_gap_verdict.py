@@ -2,10 +2,11 @@
 share, the residual tests and rivals the held-out windows cannot tell apart combine.
 
 A candidate here carries only what the rule reads: its effect names, plausibility (typical
-range) and possibility (what physics allows), whether it identifies something, the held-out cost (total and per window) and the explained share of the
-gap above the floor. The numbers are chosen by hand so that the t statistic of the per-window
-cost differences is known: differences (0.1, 0.3, 0.2, 0.2) have mean 0.2 and standard error
-0.0408, t = 4.9 (told apart); (0.3, -0.1, 0.2, -0.2) have mean 0.05, t = 0.44 (not told apart).
+range) and possibility (what physics allows), whether it identifies something, the held-out
+cost (total and per window) and the explained share of the gap above the floor. The numbers
+are chosen by hand so that the t statistic of the per-window cost differences is known:
+differences (0.1, 0.3, 0.2, 0.2) have mean 0.2 and standard error 0.0408, t = 4.9 (told
+apart); (0.3, -0.1, 0.2, -0.2) have mean 0.05, t = 0.44 (not told apart).
 """
 from __future__ import annotations
 
