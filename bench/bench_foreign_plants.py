@@ -10,7 +10,7 @@ loop) and the command is given at once (cold start: nothing learned yet).
 Reported per plant and depth change (20 -> 10, 10 -> 30, 5 -> 40 m): settling to +-0.1 m over
 the plant's own time-optimal bound (:func:`auv_depth_lqr.bound.settling_bound` on the plant's
 parameters; goal <= 1.3), peak pitch over the 25 deg limit (goal <= 1 deg), overshoot; side by
-side the same pilot with learning (the default) and without (``PilotSettings(learn=False)``).
+side the same pilot with learning (``PilotSettings(learn=True)``) and without (the default).
 Then ``sequence``: with learning, ten alternating 20 <-> 10 m changes in one flight from the
 cold start, the first against the tenth (the first as good as the tenth). Then ``held_thrust``:
 the vehicle files themselves (with and without learning) with the thrust held at the trim value

@@ -4,12 +4,12 @@ The simulator node flies a vehicle built from the REMUS 100 file the way a third
 simulator differs from it (:func:`auv_depth_lqr.closed_loop.foreign_plant`: plane force x0.5,
 moment x0.6, no Munk moment, neutrally buoyant, so its level trim needs 9.1 deg less nose-down
 plane than the file's), thrust held at its trim value, no speed loop; the pilot node is
-started on config/remus100.yaml in lockstep (learning, the default), and told 10 m from
+started on config/remus100.yaml in lockstep with learning on, and told 10 m from
 20 m at once (cold start).
 
 Oracles, independent of the pilot: the plant's own trim (auv_sim.trim on the plant's
 parameters) for what the pilot must learn to hold; the time-optimal bound of the plant's own
-model (22.6-25.8 s for this change, bench/results/foreign_plants.json) against which 60 s is
+model (25.6 s for this change, auv_depth_lqr.bound.settling_bound) against which 60 s is
 more than twice; the pitch limit 25 deg plus the 1 deg margin.
 """
 from __future__ import annotations
@@ -42,7 +42,7 @@ def test_cold_start_on_a_foreign_plant_through_the_graph(tmp_path: pathlib.Path,
     cfg = GraphConfig(vehicle=str(plant_file), pilot_vehicle=str(REMUS), lockstep=True,
                       real_time_factor=0.0, initial_depth=20.0, initial_speed=1.5,
                       stop_time=80.0, record=str(bag), log_dir=str(tmp_path / 'logs'),
-                      depth_command=10.0)
+                      depth_command=10.0, pilot_learn=True)
     codes = run_graph(cfg, duration=300.0, env=ros_env)
     assert codes['simulator'] == 0, codes
     arrays = read_arrays(bag, ['/auv/state', '/auv/bar_command'])

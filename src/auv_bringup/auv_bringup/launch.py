@@ -221,7 +221,7 @@ class GraphConfig:
     pilot_state: str = 'vehicle_state'  # the pilot's state input: vehicle_state or odometry
     foxglove: int | None = None  # serve the live topics on a Foxglove WebSocket on this port
     pilot_vehicle: str = ''  # the pilot's vehicle file when it is not the simulated one's
-    pilot_learn: bool = True  # the pilot learns its plant while flying (parameter learn)
+    pilot_learn: bool = False  # the pilot learns its plant while flying (parameter learn)
 
     @property
     def in_lockstep(self) -> bool:
@@ -592,10 +592,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the pilot's state input: the simulator's state (VehicleState, "
                              'NED/FRD) or its odom (nav_msgs/Odometry, ENU/FLU), as from a '
                              "vehicle's navigation solution")
-    parser.add_argument('--no-learn', action='store_true',
-                        help='the pilot flies its vehicle file as it is (with its disturbance '
-                             'estimate) instead of learning what the file gets wrong while '
-                             'flying (docs/pilot-design.md)')
+    parser.add_argument('--learn', action='store_true',
+                        help='the pilot learns what its vehicle file gets wrong while flying '
+                             '(trim, plane effectiveness, buoyancy) and flies the learned '
+                             'model after its first rest (docs/pilot-design.md)')
 
     from auv_bringup.foxglove_node import DEFAULT_PORT
 
@@ -657,7 +657,7 @@ def run(args: argparse.Namespace) -> int:
                           sim_clock=not args.wall_clock, depth_command=args.depth,
                           water_speed=args.water_speed,
                           realtime_priority=args.realtime_priority, namespace=args.namespace,
-                          pilot_state=args.pilot_state, pilot_learn=not args.no_learn)
+                          pilot_state=args.pilot_state, pilot_learn=args.learn)
     if args.foxglove is not None:
         if args.namespace:
             raise LaunchError('--foxglove serves the /auv topics; it does not follow --namespace '

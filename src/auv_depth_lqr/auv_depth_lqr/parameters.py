@@ -123,7 +123,7 @@ _SPECS = (
     ParameterSpec('lockstep', False, 'answer each state at a control instant instead of a '
                   'timer (docs/lockstep.md)'),
     ParameterSpec('recovery', True, 'envelope fallback to the recovery law'),
-    ParameterSpec('learn', True, 'learn what the vehicle file gets wrong while flying and fly '
+    ParameterSpec('learn', False, 'learn what the vehicle file gets wrong while flying and fly '
                   'the learned model (docs/pilot-design.md)', start_only=True),
     ParameterSpec('realtime_priority', 0, 'SCHED_FIFO priority of the node\'s threads; '
                   '0 = normal scheduling', '', Range(0, 99), start_only=True),

@@ -165,8 +165,8 @@ class PilotSettings:
     derived from the vehicle by :meth:`DepthPilot.for_vehicle`; a pilot built directly takes
     :data:`AUTHORITY_WINDOW`). ``learn``: estimate what the vehicle file gets wrong while
     flying (:mod:`auv_depth_lqr.learning`) and, once the vehicle has been at rest on a
-    command, fly the learned model (``docs/pilot-design.md``); off, the vehicle file's model
-    with its disturbance estimate.
+    command, fly the learned model (``docs/pilot-design.md``); off (the default), the vehicle
+    file's model with its disturbance estimate.
     """
 
     rate_hz: float = 10.0
@@ -184,7 +184,7 @@ class PilotSettings:
     pitch_offset_time: float | None = None
     pitch_offset_max: float = math.radians(3.0)
     authority_window: float | None = None
-    learn: bool = True
+    learn: bool = False
 
     def __post_init__(self) -> None:
         for name in ('rate_hz', 'theta_max', 'state_timeout'):
