@@ -103,7 +103,8 @@ def panel(cases: list[str], rates: list[float]) -> dict[str, Any]:
     from auv_gap.diagnose import diagnose
     from auv_gap.logs import from_contract_arrays
     from auv_logs import synth as realsynth
-    from auv_logs.importer import contract_arrays, import_log
+    from auv_logs.contract_bag import contract_arrays
+    from auv_logs.importer import import_log
     from auv_logs.mapping import load_map
 
     vehicle = load_vehicle_file()

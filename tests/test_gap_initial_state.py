@@ -27,7 +27,8 @@ def text_log(tmp_path_factory: pytest.TempPathFactory) -> tuple:  # type: ignore
     from auv_gap import synth
     from auv_gap.logs import from_contract_arrays
     from auv_logs import synth as realsynth
-    from auv_logs.importer import contract_arrays, import_log
+    from auv_logs.contract_bag import contract_arrays
+    from auv_logs.importer import import_log
     from auv_logs.mapping import load_map
     from auv_sim.params import load_vehicle
 

@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 
 from auv_logs import synth
+from auv_logs.contract_bag import write_contract_bag
 from auv_logs.errors import LogReadError, MapError, RealLogError
-from auv_logs.importer import import_log, write_contract_bag
+from auv_logs.importer import import_log
 from auv_logs.mapping import load_map
 from auv_sim.simulator import Record
 

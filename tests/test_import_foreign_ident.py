@@ -23,7 +23,8 @@ from auv_gap.logs import (
     measurement_weighting,
     sampled_commands,
 )
-from auv_logs.importer import contract_arrays, import_log
+from auv_logs.contract_bag import contract_arrays
+from auv_logs.importer import import_log
 from auv_logs.mapping import load_map
 
 T0 = 1.7e9

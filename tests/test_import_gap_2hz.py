@@ -99,7 +99,8 @@ def test_2hz_text_log_with_a_buoyancy_offset(tmp_path: pathlib.Path) -> None:
     from auv_gap.logs import from_contract_arrays
     from auv_gap.report import write_report
     from auv_logs import synth as realsynth
-    from auv_logs.importer import contract_arrays, import_log
+    from auv_logs.contract_bag import contract_arrays
+    from auv_logs.importer import import_log
     from auv_logs.mapping import load_map
     from auv_sim.params import load_vehicle
 

@@ -20,7 +20,8 @@ import numpy as np
 
 from auv_gap.logs import from_contract_arrays, measured_fins_vehicle
 from auv_ident import cli
-from auv_logs.importer import contract_arrays, import_log
+from auv_logs.contract_bag import contract_arrays
+from auv_logs.importer import import_log
 from auv_logs.mapping import load_map
 from auv_logs.simlog import SensorNoise
 from auv_sim.missions import load_mission, run_mission

@@ -28,7 +28,8 @@ from auv_gap import cli as gap_cli
 from auv_ident import cli
 from auv_logs import cli as import_cli
 from auv_logs import synth
-from auv_logs.importer import ContractLog, contract_arrays, import_log, read_provenance
+from auv_logs.contract_bag import contract_arrays, read_provenance
+from auv_logs.importer import ContractLog, import_log
 from auv_logs.mapping import load_map
 from auv_logs.simlog import SensorNoise, write_record
 from auv_sim.missions import load_mission, run_mission

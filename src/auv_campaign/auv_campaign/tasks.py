@@ -216,7 +216,8 @@ def gap_logs(bag: str, map_path: str | None) -> tuple[list[Any], list[dict[str, 
 
     if not map_path:
         return list(load_bag(bag)), []
-    from auv_logs.importer import contract_arrays, import_log
+    from auv_logs.contract_bag import contract_arrays
+    from auv_logs.importer import import_log
     from auv_logs.mapping import load_map
 
     imported = import_log(load_map(map_path), bag)

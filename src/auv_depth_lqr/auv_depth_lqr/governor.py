@@ -338,6 +338,12 @@ class ReferenceGovernor:
         one whose stop ends on the target (regula falsi from the last sample's root; the rate
         limit gives way before the target does): the reference brakes as late as the plane
         allows and never overshoots.
+
+        A motion no longer than the landing (``v_land * landing``) is flown from rest as the
+        landing's exponential: its speed, acceleration, jerk and snap are then proportional
+        to its length, where a time-optimal plan puts its jerk and snap at their limits
+        whatever the length (a 1 cm change moved the A18M's plane 15 deg, and a depth reading
+        1 mm off the command put the small AUV's plane at its stop).
         """
         settings, lim, ts = self.settings, self.limits, self.ts
         assert self._z_r is not None, 'start() the governor first'
@@ -363,8 +369,11 @@ class ReferenceGovernor:
             v_cap = min(v_cap, plane_hi if travel > 0.0 else -plane_lo)
         v_cap = min(v_cap, v_limit)
         landing, v_land = brake.landing, brake.v_land
-        if 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E:
-            # Final approach: the exponential e(t) = E exp(-t / landing).
+        landing_at = 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E
+        from_rest = V == 0.0 and A == 0.0 and J == 0.0 and v_land * landing >= E
+        if landing_at or from_rest:
+            # Final approach (or a motion no longer than it, from rest): the exponential
+            # e(t) = E exp(-t / landing).
             e1 = E * math.exp(-ts / landing)
             v1 = e1 / landing
             return Reference(z_cmd - travel * e1, travel * v1, -travel * v1 / landing,

@@ -134,7 +134,8 @@ def run_gap(opts: GapOptions, progress: Progress | None = None) -> GapRun:
     for i, b in enumerate(opts.logs):
         say(f'reading {b}')
         if opts.map is not None:
-            from auv_logs.importer import SKIPPABLE, contract_arrays, import_log
+            from auv_logs.contract_bag import contract_arrays
+            from auv_logs.importer import SKIPPABLE, import_log
             from auv_logs.mapping import load_map
             from auv_logs.plausibility import envelope_of
 

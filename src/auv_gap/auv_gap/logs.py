@@ -208,7 +208,7 @@ def load_bag(path: str | os.PathLike[str]) -> list[GapLog]:
         arrays = read_arrays(path, topics)
     except BagError as exc:
         raise GapError(str(exc)) from None
-    from auv_logs.importer import read_provenance
+    from auv_logs.contract_bag import read_provenance
 
     prov = read_provenance(path) if os.path.isdir(path) else None
     return from_contract_arrays(os.fspath(path), arrays,
@@ -218,7 +218,7 @@ def load_bag(path: str | os.PathLike[str]) -> list[GapLog]:
 def from_contract_arrays(name: str, arrays: Mapping[str, np.ndarray],
                          imports: Sequence[Mapping[str, Any]] = ()) -> list[GapLog]:
     """Log pieces from a contract bag's topic arrays (as :func:`auv_bag.read_arrays`
-    or :func:`auv_logs.importer.contract_arrays` give them); ``imports``: the import
+    or :func:`auv_logs.contract_bag.contract_arrays` give them); ``imports``: the import
     reports of the logs the arrays come from (their derived and assumed signals)."""
     st = arrays[STATE_TOPIC]
     state = np.column_stack([st[f] for f in STATE_FIELDS])

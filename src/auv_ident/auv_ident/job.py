@@ -293,7 +293,7 @@ def unsupported_equations(imports: Sequence[dict[str, Any]], requested: Sequence
 def bag_imports(bags: Sequence[str]) -> list[dict[str, Any]]:
     """The import reports in the provenance of bags ``auv import`` wrote (none for others):
     the same knowledge of derived and assumed signals as ``--map`` gives."""
-    from auv_logs.importer import read_provenance
+    from auv_logs.contract_bag import read_provenance
 
     out: list[dict[str, Any]] = []
     for bag in bags:
@@ -309,7 +309,8 @@ def load_records_from_map(map_path: str, logs: Sequence[str], base: VehicleParam
     """Import the original logs through a map (:mod:`auv_logs`) into the contract's
     arrays and build force records from motion exactly as from the imported bag; returns the
     records and each log's import report."""
-    from auv_logs.importer import contract_arrays, import_logs
+    from auv_logs.contract_bag import contract_arrays
+    from auv_logs.importer import import_logs
 
     _, imported = import_logs(map_path, logs)
     records: list[ForceRecord] = []

@@ -177,7 +177,8 @@ def _make_node(overrides: dict[str, Any]) -> Any:
 
         def preload(self, map_path: str, logs: Sequence[str]) -> None:
             """Read original logs through a map into the buffers (contract arrays)."""
-            from auv_logs.importer import contract_arrays, import_logs
+            from auv_logs.contract_bag import contract_arrays
+            from auv_logs.importer import import_logs
 
             _, imported = import_logs(map_path, logs)
             for lg in imported:

@@ -41,7 +41,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Import; 0 on success, 1 with ``error: ...`` on stderr on bad input."""
-    from auv_logs.importer import import_logs, write_contract_bag
+    from auv_logs.contract_bag import write_contract_bag
+    from auv_logs.importer import import_logs
     from auv_logs.plausibility import envelope_of
     from auv_sim.errors import ParameterError
     from auv_sim.params import load_vehicle
