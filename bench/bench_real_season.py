@@ -31,7 +31,9 @@ Counted (goals in brackets):
   loaded one the wall clock is many times the CPU over the workers).
 
 Run: ``. .venv/bin/auv-env && python bench/bench_real_season.py [--logs 26] [--skip-panel]``
-(writes ``bench/results/real_season.json``).
+(writes ``bench/results/real_season.json``). While working on one case:
+``--case a18m_fin_zero [--case ...] --skip-season`` runs only those panel cases (and no
+season) and prints their rows without writing the results file.
 """
 from __future__ import annotations
 
@@ -179,22 +181,47 @@ def _reuse(directory: pathlib.Path, count: int) -> Any:
                 None, ())
 
 
+def _partial(args: argparse.Namespace, season: Any, panel: list[Any],
+             out: pathlib.Path) -> None:
+    """The panel cases named by ``--case`` (all with none) and, without
+    ``--skip-season``, the season: rows printed, no results file written."""
+    known = [c.name for c in panel]
+    unknown = [n for n in args.case if n not in known]
+    if unknown:
+        sys.exit(f'error: unknown case(s) {", ".join(unknown)} (known: {", ".join(known)})')
+    out.mkdir(parents=True, exist_ok=True)
+    rows: dict[str, Any] = {c.name: run_case(c, out) for c in panel
+                            if not args.case or c.name in args.case}
+    if not args.skip_season:
+        rows['season'] = {k: v for k, v in run_campaign(season, out, args.workers).items()
+                          if k != 'logs'}
+    print(json.dumps(rows, indent=1, default=str))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--logs', type=int, default=26, help='logs in the season (26)')
     parser.add_argument('--workers', type=int, default=2)
     parser.add_argument('--skip-panel', action='store_true')
     parser.add_argument('--keep', default=None, help='write the logs here and keep them')
+    parser.add_argument('--case', action='append', default=[],
+                        help='run only this panel case (repeatable): rows printed, no file')
+    parser.add_argument('--skip-season', action='store_true',
+                        help='no import and campaign of the season (with --case)')
     args = parser.parse_args()
     from auv_campaign.season import write_panel, write_season
 
     tmp = tempfile.TemporaryDirectory(prefix='real_season_')
     base = pathlib.Path(args.keep or tmp.name)
     t0 = time.perf_counter()
-    season = _reuse(base / 'season', args.logs) or write_season(base / 'season', args.logs,
-                                                                seed=0)
+    season = None if args.skip_season else (
+        _reuse(base / 'season', args.logs) or write_season(base / 'season', args.logs, seed=0))
     panel = [] if args.skip_panel else write_panel(base / 'panel', seed=0)
     made = time.perf_counter() - t0
+    if args.case or args.skip_season:
+        _partial(args, season, panel, base / 'out')
+        tmp.cleanup()
+        return
     out = base / 'out'
     out.mkdir(parents=True, exist_ok=True)
     imported = run_import(season, out)

@@ -1,11 +1,12 @@
 """The verdict rule of the gap diagnosis on hand-made candidates (no fit): how the explained
 share, the residual tests and rivals the held-out windows cannot tell apart combine.
 
-A candidate here carries only what the rule reads: its effect names, plausibility, whether it
-identifies something, the held-out cost (total and per window) and the explained share of the
-gap above the floor. The numbers are chosen by hand so that the t statistic of the per-window
-cost differences is known: differences (0.1, 0.3, 0.2, 0.2) have mean 0.2 and standard error
-0.0408, t = 4.9 (told apart); (0.3, -0.1, 0.2, -0.2) have mean 0.05, t = 0.44 (not told apart).
+A candidate here carries only what the rule reads: its effect names, plausibility (typical
+range) and possibility (what physics allows), whether it identifies something, the held-out
+cost (total and per window) and the explained share of the gap above the floor. The numbers
+are chosen by hand so that the t statistic of the per-window cost differences is known:
+differences (0.1, 0.3, 0.2, 0.2) have mean 0.2 and standard error 0.0408, t = 4.9 (told
+apart); (0.3, -0.1, 0.2, -0.2) have mean 0.05, t = 0.44 (not told apart).
 """
 from __future__ import annotations
 
@@ -20,10 +21,11 @@ from auv_gap.verdict import decide_verdict, window_t_stat
 BEST_WINDOWS = np.array([1.0, 1.0, 1.0, 1.0])
 
 
-def _cand(names: tuple[str, ...], explained: float, windows: np.ndarray) -> Any:
-    return SimpleNamespace(names=names, plausible=True, identifies=True, score=1.0,
-                           explained=explained, cost=float(windows.sum()),
-                           window_cost=windows)
+def _cand(names: tuple[str, ...], explained: float, windows: np.ndarray,
+          plausible: bool = True, possible: bool = True) -> Any:
+    return SimpleNamespace(names=names, plausible=plausible, possible=possible,
+                           identifies=True, score=1.0, explained=explained,
+                           cost=float(windows.sum()), window_cost=windows)
 
 
 def test_the_hand_worked_t_statistics() -> None:
@@ -55,6 +57,27 @@ def test_a_rival_the_windows_tell_apart_leaves_thedecide_verdict_alone() -> None
     assert decide_verdict(['z'], best, [best, rival], True) == ('explained', [], None)
     short = _cand(('cg_offset',), 0.8, BEST_WINDOWS)
     assert decide_verdict(['z'], short, [short, rival], True) == ('partly_explained', [], None)
+
+
+def test_an_atypical_rival_the_windows_cannot_tell_apart_makes_it_ambiguous() -> None:
+    """A 10 deg fin zero error (beyond the typical range, within what physics allows) that
+    predicts the held-out windows a little better than a typical plane effectiveness: the
+    data cannot choose, so not ``explained`` but ``ambiguous``, with the manoeuvre that
+    separates a bias from a gain (plane steps of several sizes). A rival beyond what physics
+    allows never counts."""
+    from auv_gap.verdict import verdict_and_rivals
+
+    best = _cand(('plane_effectiveness',), 0.93, BEST_WINDOWS)
+    bias = _cand(('bar_bias',), 0.96, BEST_WINDOWS - np.array([0.3, -0.1, 0.2, -0.2]),
+                 plausible=False)
+    got, rivals, manoeuvre, cands = verdict_and_rivals(['z', 'theta'], best, [best, bias],
+                                                       True)
+    assert (got, rivals) == ('ambiguous', ['bar_bias'])
+    assert cands == [bias]
+    assert manoeuvre is not None and manoeuvre.startswith('plane steps of several sizes')
+    impossible = _cand(('bar_bias',), 0.96, bias.window_cost, plausible=False,
+                       possible=False)
+    assert decide_verdict(['z'], best, [best, impossible], True) == ('explained', [], None)
 
 
 def test_residuals_that_cannot_be_tested_are_not_called_white() -> None:

@@ -18,6 +18,12 @@ and built (a pilot designed here) the workers inherit instead of paying for it a
 the Monte Carlo, whose fixed cost per worker is exactly that; the campaign of logs keeps
 ``spawn`` (a fresh interpreter per worker). The embedded workers' statistical profiler (it
 samples the running task for a dashboard the embedded cluster does not start) is off.
+
+A worker is one CPU: a mission runs with one numba thread and one BLAS thread
+(:func:`one_cpu`). The diagnosis' free runs spread their windows over numba's threads; with
+two workers on two cores each worker's second thread only competes with the other worker
+(on a busy 2-core machine one season log took 72 s with two threads, 37 s with one, the
+same report).
 """
 from __future__ import annotations
 
@@ -34,6 +40,24 @@ from auv_campaign.errors import CampaignError
 CONNECT_TIMEOUT_S = 5.0
 #: Times a task is started again after the worker running it died.
 ALLOWED_FAILURES = 3
+
+
+@contextlib.contextmanager
+def one_cpu() -> Iterator[None]:
+    """Run the body with one numba thread (the parallel free-run kernels) and one BLAS thread
+    (:func:`threadpoolctl.threadpool_limits`); numba's thread count is restored after.
+    A parallel kernel's jobs (one free run each) compute the same numbers on any thread
+    count, so results do not change."""
+    import numba
+    from threadpoolctl import threadpool_limits
+
+    before = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        with threadpool_limits(limits=1, user_api='blas'):
+            yield
+    finally:
+        numba.set_num_threads(before)
 
 
 def default_workers() -> int:

@@ -28,6 +28,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from auv_campaign.cache import Cache, content_hash, mission_key
+from auv_campaign.engine import one_cpu
 from auv_gap.errors import GapError
 from auv_ident.errors import IdentError
 from auv_logs.errors import LogError
@@ -335,7 +336,8 @@ def run_mission(kind: str, name: str, bag: str, settings: Mapping[str, Any]
     try:
         run = _run_ident if kind == 'ident' else \
             _run_gap_joint if settings.get('effect_set') else _run_gap
-        result = run(bag, out, settings)
+        with one_cpu():
+            result = run(bag, out, settings)
     except INPUT_ERRORS as exc:
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         return {**record, 'status': 'failed', 'reason': reason,

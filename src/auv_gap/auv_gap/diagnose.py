@@ -16,14 +16,15 @@ Steps (see :func:`diagnose`; each a function that returns its data):
 4. Combinations, greedily: the best plausible set plus each other effect, refitted jointly,
    kept while the held-out score improves, every parameter stays plausible and the added
    effect identifies something (an interval that excludes its "absent" value).
-5. Verdict (:func:`judge`, :func:`auv_gap.verdict.decide_verdict`): typical and possible
+5. Verdict (:func:`judge`, :func:`auv_gap.verdict.verdict_and_rivals`): typical and possible
    ranges (an atypical fit that predicts the held-out windows significantly better is a
    finding, at most ``partly_explained``: :func:`_atypical`), the held-out share of the gap
    explained, the residual tests of :mod:`auv_gap.residuals`, and the candidates the held-out
    windows cannot tell from the best (within ``AMBIGUOUS_RATIO`` of its held-out cost and of
-   its explained share, and not worse by ``AMBIGUOUS_T`` standard errors over the windows).
-   When the best leaves structure in its residuals, a larger plausible set that leaves none,
-   within ``RESCUE`` of its score, replaces it.
+   its explained share, and not worse by ``AMBIGUOUS_T`` standard errors over the windows;
+   typical or beyond the typical range, never beyond what physics allows). When the best
+   leaves structure in its residuals, a larger plausible set that leaves none, within
+   ``RESCUE`` of its score, replaces it.
 
 Score: ``ln(J_nominal / J_candidate) - PARAM_PRICE * k`` with ``J`` the held-out free-run
 cost (mean over samples of the squared channel errors over their scales) and ``k`` the number
@@ -71,12 +72,12 @@ from auv_gap.verdict import (
     candidate_details,
     candidate_entry,
     compose_statement,
-    decide_verdict,
     entry_params,
     held_out_entry,
     implausible_entries,
     nested,
     plausibility,
+    verdict_and_rivals,
     window_t_stat,
     with_quiet,
 )
@@ -428,7 +429,7 @@ def judge(pr: Problem, search: Search, nominal: NominalRuns, site: GapSite,
     replace it), a better fit beyond physics as structure left, a better fit beyond the
     typical range as the finding (verdict at most ``partly_explained`` or ``ambiguous``,
     with the manoeuvre that would confirm it), and the verdict
-    (:func:`auv_gap.verdict.decide_verdict`).
+    (:func:`auv_gap.verdict.verdict_and_rivals`).
     ``steadied``: the effect whose equation-error fit kept the runs of a diverging nominal
     model with the logs (:func:`_steadied_by`); beyond its typical range, it is the finding
     (the divergence was its) when it explains at least ``PARTLY`` of the gap."""
@@ -489,10 +490,11 @@ def judge(pr: Problem, search: Search, nominal: NominalRuns, site: GapSite,
         if rival is not None:
             white = False
             left = [rival, *left]
-    verdict, ambiguous, suggestion = decide_verdict(gap_channels, tested, candidates, white,
-                                                    search.scorer.window_cost_other, envelope)
+    verdict, ambiguous, suggestion, rivals = verdict_and_rivals(
+        gap_channels, tested, candidates, white, search.scorer.window_cost_other, envelope)
     named = best if verdict not in ('no_gap', 'unexplained') else None
-    return Judgement(verdict, named, False, ambiguous, suggestion, white, findings, left)
+    return Judgement(verdict, named, False, ambiguous, suggestion, white, findings, left,
+                     rivals)
 
 
 def _atypical(scorer: _Scorer, best: Candidate, candidates: Sequence[Candidate]
@@ -626,7 +628,8 @@ def diagnose(vehicle: VehicleParams, logs: Sequence[GapLog], *, window: float | 
     judgement = judge(pr, search, nominal, site, weighting, envelope, say,
                       steadied if fitted is not None else ())
     judgement = with_quiet(judgement, quiet)
-    implausible = implausible_entries(search.candidates, judgement.best)
+    implausible = implausible_entries(search.candidates, judgement.best,
+                                      judgement.rivals)
     statement = compose_statement(judgement, implausible, envelope)
     return _assemble(pr, nominal, site, search, judgement, weighting, quiet, statement,
                      envelope, implausible)

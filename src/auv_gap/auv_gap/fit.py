@@ -30,6 +30,7 @@ from collections.abc import Sequence
 import numpy as np
 from scipy import optimize, stats
 
+from auv_gap.catalogue import Perturbation
 from auv_gap.problem import CH_INDEX, EffectSet, Problem
 
 #: A parameter moved by one typical size must change the equation-error chi-square by more
@@ -169,13 +170,19 @@ class EquationFit:
         self.pr = problem
         self.train = ~problem.eq_held
         self.act_nominal: np.ndarray | None = None
+        #: effect names -> the set's change at its "absent" values, and whether moving its
+        #: parameters changes the actuator model (:func:`_probe_actuators`)
+        self._moves_actuators: dict[tuple[str, ...], tuple[Perturbation, bool]] = {}
 
     def residual(self, es: EffectSet, values: np.ndarray, mask: np.ndarray | None = None,
                  ) -> np.ndarray:
         """Normalised equation errors (n x 6) of the effect set at ``values``."""
         pert = es.perturbation(values)
         act = None
-        if not _changes_actuators(es, values):
+        if es.names not in self._moves_actuators:
+            self._moves_actuators[es.names] = _probe_actuators(es)
+        nom, probe_moves = self._moves_actuators[es.names]
+        if not (probe_moves or _actuators_differ(pert, nom)):
             if self.act_nominal is None:
                 self.act_nominal = self.pr.actuators(pert)
             act = self.act_nominal
@@ -261,13 +268,17 @@ class EquationFit:
         return full(sol.x), sol.jac, sol.fun
 
 
-def _changes_actuators(es: EffectSet, values: np.ndarray) -> bool:
-    pert = es.perturbation(values)
+def _probe_actuators(es: EffectSet) -> tuple[Perturbation, bool]:
+    """The model change of ``es`` at its "absent" values, and whether moving every parameter
+    by its scale changes the actuator model (delay, lag, rate)."""
     nom = es.perturbation(es.absent)
-    probe = es.perturbation(es.absent + es.scale)
-    return bool(np.any(pert.delay != nom.delay) or np.any(pert.tau != nom.tau)
-                or np.any(pert.rate != nom.rate) or np.any(probe.delay != nom.delay)
-                or np.any(probe.tau != nom.tau) or np.any(probe.rate != nom.rate))
+    return nom, _actuators_differ(es.perturbation(es.absent + es.scale), nom)
+
+
+def _actuators_differ(a: Perturbation, b: Perturbation) -> bool:
+    """Whether the actuator models (delay, lag, rate) of ``a`` and ``b`` differ."""
+    return bool(np.any(a.delay != b.delay) or np.any(a.tau != b.tau)
+                or np.any(a.rate != b.rate))
 
 
 class FreeRunFit:

@@ -177,6 +177,8 @@ class EffectSet:
         self.lo = np.array([p.lo for _, p in self.params])
         self.hi = np.array([p.hi for _, p in self.params])
         self.scale = np.array([p.scale for _, p in self.params])
+        #: parameters of each effect, in order (what :meth:`perturbation` slices)
+        self.counts = [len(e.parameters(vehicle)) for e in self.effects]
 
     @property
     def label(self) -> str:
@@ -187,8 +189,7 @@ class EffectSet:
         """The model change for parameter ``values`` (all parameters, set order)."""
         pert = Perturbation.nominal(self.vehicle)
         k = 0
-        for e in self.effects:
-            n = len(e.parameters(self.vehicle))
+        for e, n in zip(self.effects, self.counts):
             e.apply(pert, np.asarray(values[k:k + n], dtype=np.float64), self.vehicle)
             k += n
         return pert

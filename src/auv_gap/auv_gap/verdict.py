@@ -143,31 +143,50 @@ def decide_verdict(gap_channels: list[str], best: Candidate | None,
                    candidates: list[Candidate], white: bool,
                    other: Callable[[Candidate], np.ndarray | None] = lambda _c: None,
                    envelope: Envelope | None = None) -> tuple[str, list[str], str | None]:
-    """``(verdict, ambiguous_with, suggested_manoeuvre)``.
+    """``(verdict, ambiguous_with, suggested_manoeuvre)``: :func:`verdict_and_rivals`
+    without the rival candidates."""
+    verdict, ambiguous, manoeuvre, _ = verdict_and_rivals(gap_channels, best, candidates,
+                                                          white, other, envelope)
+    return verdict, ambiguous, manoeuvre
+
+
+def verdict_and_rivals(gap_channels: list[str], best: Candidate | None,
+                       candidates: list[Candidate], white: bool,
+                       other: Callable[[Candidate], np.ndarray | None] = lambda _c: None,
+                       envelope: Envelope | None = None
+                       ) -> tuple[str, list[str], str | None, list[Candidate]]:
+    """``(verdict, ambiguous_with, suggested_manoeuvre, rivals)``.
 
     ``explained`` needs all of: a plausible best that identifies every effect it names, an
     explained share of at least ``EXPLAINED`` and white, independent residuals; a plausible
     best short of one of the last two is ``partly_explained``; implausible fits never count.
-    A contender is ambiguous with the best when the held-out windows cannot tell them apart
-    with the commands as reconstructed, or, for commands logged only at the rows, with them
-    reconstructed the other way (``other``: cost per held-out window, or None). Contenders
-    make the verdict ``ambiguous`` only when the best would be ``explained``: rivals of an
-    answer that falls short leave it ``partly_explained``, with the rivals listed. The
-    separating manoeuvre is stated in the terms of the vehicle's ``envelope``.
+    A contender (``rivals``) is ambiguous with the best when the held-out windows cannot tell
+    them apart with the commands as reconstructed, or, for commands logged only at the rows,
+    with them reconstructed the other way (``other``: cost per held-out window, or None). A
+    contender beyond its typical range but within what physics allows counts as well (a
+    10 deg fin zero error that predicts the held-out windows as well as a typical plane
+    effectiveness: the data cannot choose, only the typical ranges would, and an atypical
+    value is a finding to check, not an answer to rule out); one beyond what physics allows
+    never does. Contenders make the verdict ``ambiguous`` only when the best would be
+    ``explained``: rivals of an answer that falls short leave it ``partly_explained``, with
+    the rivals listed. The separating manoeuvre (the one that best tells the best from the
+    rival closest to it in held-out cost) is stated in the terms of the vehicle's
+    ``envelope``.
     """
     if not gap_channels:
-        return 'no_gap', [], None
+        return 'no_gap', [], None, []
     if best is None or best.score <= 0 or best.explained < PARTLY:
-        return 'unexplained', [], None
+        return 'unexplained', [], None, []
     verdict = 'explained' if best.explained >= EXPLAINED and white else 'partly_explained'
     mine = set(best.names)
     ambiguous: list[str] = []
+    rivals: list[Candidate] = []
     for c in candidates:
         s = set(c.names)
         # a contender is close in held-out cost and in the share of the gap above the floor
         # it explains (the cost alone is dominated by the floor when the gap sits in one
         # channel, e.g. depth only)
-        if not (c.plausible and c.identifies) or nested(s, mine) or nested(mine, s) \
+        if not (c.possible and c.identifies) or nested(s, mine) or nested(mine, s) \
                 or c.cost > AMBIGUOUS_RATIO * best.cost \
                 or c.explained < best.explained / AMBIGUOUS_RATIO:
             continue
@@ -177,13 +196,17 @@ def decide_verdict(gap_channels: list[str], best: Candidate | None,
             if alt_best is not None and alt_c is not None:
                 t = min(t, window_t_stat(alt_c - alt_best))
         if t < AMBIGUOUS_T:
-            for n in c.names:
-                if n not in mine and n not in ambiguous:
-                    ambiguous.append(n)
+            new = [n for n in c.names if n not in mine and n not in ambiguous]
+            ambiguous += new
+            if new:
+                rivals.append(c)
     if ambiguous:
+        # the manoeuvre that tells the best from the rival closest to it on held-out data
+        closest = min(rivals, key=lambda c: c.cost)
+        other_name = next(n for n in closest.names if n not in mine)
         return ('ambiguous' if verdict == 'explained' else verdict), ambiguous, \
-            separating_manoeuvre(best.names[0], ambiguous[0], envelope)
-    return verdict, [], None
+            separating_manoeuvre(best.names[0], other_name, envelope), rivals
+    return verdict, [], None, []
 
 
 def window_t_stat(d: np.ndarray) -> float:
@@ -252,8 +275,14 @@ def compose_statement(j: Judgement, implausible: Sequence[Mapping[str, Any]],
                      + describe(best.fit) + f' ({best.explained:.0%} of the held-out gap '
                      'above the noise floor).')
         if j.ambiguous:
-            parts.append('The held-out data cannot tell it from '
-                         + ', '.join(j.ambiguous) + '.')
+            atypical = [c for c in j.rivals if not c.plausible]
+            texts = [f'{c.label} ({c.explained:.0%} of the gap; '
+                     + ' '.join(beyond_typical(c)).rstrip('.') + ')' for c in atypical]
+            named = {n for c in atypical for n in c.names}
+            texts += [n for n in j.ambiguous if n not in named]
+            parts.append('The held-out data cannot tell it from ' + ', '.join(texts) + '.')
+            if atypical and j.suggestion:
+                parts.append(f'To tell them apart, fly {j.suggestion}.')
     for item in implausible[:3]:
         tier = 'typical' if item['kind'] == 'atypical' else 'possible'
         ks = ', '.join(f'{k} = {v[0]:.4g} ({tier} {v[1]:.4g} to {v[2]:.4g})'
@@ -314,8 +343,8 @@ def candidate_details(c: Candidate) -> dict[str, Any]:
             'held_out_cost': c.cost, 'held_out_rms': c.rms, 'n_params': f.n_active}
 
 
-def implausible_entries(candidates: Sequence[Candidate], best: Candidate | None
-                        ) -> list[dict[str, Any]]:
+def implausible_entries(candidates: Sequence[Candidate], best: Candidate | None,
+                        rivals: Sequence[Candidate] = ()) -> list[dict[str, Any]]:
     """The ``implausible`` entries of the report.
 
     Parameters
@@ -324,6 +353,8 @@ def implausible_entries(candidates: Sequence[Candidate], best: Candidate | None
         every scored candidate.
     best
         the candidate named (left out), or None.
+    rivals
+        the candidates the answer is ambiguous with (left out: the statement names them).
 
     Returns
     -------
@@ -340,7 +371,7 @@ def implausible_entries(candidates: Sequence[Candidate], best: Candidate | None
                         {k: [v, *c.beyond[k]] for k, v in entry_params(c).items()
                          if k in c.beyond})}
             for c in candidates if not c.plausible and c.explained >= PARTLY
-            and c is not best]
+            and c is not best and all(c is not r for r in rivals)]
 
 
 def _shrink(before: float, after: float, floor: float) -> float:
