@@ -12,6 +12,9 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+import numpy as np
+import scipy.linalg
+
 from auv_depth_lqr.errors import DesignError
 from auv_depth_lqr.limits import Limits
 from auv_depth_lqr.roots import largest_root_below
@@ -42,7 +45,10 @@ class GovernorSettings:
       braking side (the vehicle pitches back at the rate the plane allows), then releases
       it towards the landing's BAR (plus ``release_bar_share`` of the room beyond) so that
       the landing starts with the attitude at rest (see :func:`stop_distance`);
-    * the speed-up: ``|a_r| <= accel_max``, ``|j_r| <= accel_max / jerk_time``.
+    * the speed-up: ``|a_r| <= accel_max``, ``|j_r| <= accel_max / jerk_time``;
+    * a short change from rest (one the speed-up's jerk would fly in four of the short time
+      constants ``short_swings`` ``t_swing``) follows a critically damped fourth-order
+      filter of the command with that time constant instead.
 
     The reference never overshoots the commanded depth; it waits for a vehicle that falls
     more than ``max_lag`` behind it. The defaults were chosen on the A18M model at 1.5-3 m/s
@@ -91,6 +97,20 @@ class GovernorSettings:
     jerk_bar_share: float = 0.28
     """Fraction of ``bar_margin * bar_max`` that the jerk term ``b_2 j`` of the speed-up may
     use; it bounds the jerk (the pitch acceleration) of the speed-up [-]."""
+    short_swings: float = 1.0
+    """Time constant of a short depth change, in full swings of the plane from one stop to
+    the other (``t_swing = 2 bar_max / bar_rate_max`` [s]) [-]. A change from rest whose
+    length is at most what the speed-up's jerk ``J`` covers in four such time constants
+    ``tau`` (``J (4 tau)^3 / 32`` [m], the four-phase profile of that jerk) follows the
+    critically damped fourth-order filter ``(1 + tau s)^-4`` of the command: speed,
+    acceleration, jerk and snap proportional to its length, no overshoot, a feed-forward
+    plane that never reverses faster than the plane swings. Planned time-optimally instead,
+    its jerk and snap are at their limits whatever its length: a 1 cm change moved the
+    A18M's plane 15 deg, and 5-10 cm changes (a depth reading a few centimetres off the
+    command) pitched the small AUV of ``auv vehicle-init`` past 40 deg, its loop running into
+    the plane's 20 deg/s rate limit. At 1.5 m/s the short changes are those below 0.53 m on
+    that AUV, 0.66 m on the REMUS 100, 0.19 m on the A18M, 0.28 m on the NPS AUV II. 0 turns
+    it off (every change planned time-optimally)."""
     max_lag: float = 0.5
     """Largest distance [m] by which the governed reference may lead the vehicle in the
     direction of travel; when the vehicle falls further behind (a current, a speed lower
@@ -172,7 +192,7 @@ class GovernorSettings:
         if not 0.0 <= share < 1.0:
             raise DesignError(f'GovernorSettings.release_bar_share must be in [0, 1), got '
                               f'{share!r}')
-        for name in ('pitch_anticipation', 'surge_length'):
+        for name in ('pitch_anticipation', 'surge_length', 'short_swings'):
             if finite(f'GovernorSettings.{name}', getattr(self, name)) < 0.0:
                 raise DesignError(f'GovernorSettings.{name} must be >= 0, got '
                                   f'{getattr(self, name)!r}')
@@ -234,6 +254,9 @@ class ReferenceGovernor:
         self._j_r = 0.0
         self._s_r = 0.0
         self._landing: tuple[float, float] | None = None
+        self._short: np.ndarray | None = None
+        """One-sample transition matrix (4 x 4) of the short change's filter on ``(z - z_cmd,
+        v, a, j)``, while the present change is a short one (``short_swings``)."""
         self._switch_hint = [0]
         self._s_root: float | None = None
 
@@ -252,6 +275,26 @@ class ReferenceGovernor:
     def accept(self, ref: Reference) -> None:
         """Store ``ref`` as the reference flown this sample."""
         self._z_r, self._v_r, self._a_r, self._j_r, self._s_r = ref
+
+    def short_tau(self) -> float:
+        """Time constant of a short change [s]: ``short_swings`` full swings of the plane
+        (``2 bar_max / bar_rate_max``)."""
+        return self.settings.short_swings * 2.0 * self.limits.bar_max / self.limits.bar_rate_max
+
+    def short_length(self, jerk: float) -> float:
+        """Longest short change [m]: what the jerk ``jerk`` [m/s^3] of a four-phase profile
+        covers in four :meth:`short_tau` (0 with ``short_swings`` 0)."""
+        return jerk * (4.0 * self.short_tau()) ** 3 / 32.0
+
+    def short_filter(self) -> np.ndarray:
+        """One-sample transition matrix (4 x 4) of the critically damped filter
+        ``(1 + tau s)^-4`` (``tau`` :meth:`short_tau`) on its state ``(z - z_cmd, v, a, j)``
+        [m, m/s, m/s^2, m/s^3] (exact, the matrix exponential over the sample)."""
+        tau = self.short_tau()
+        F = np.zeros((4, 4))
+        F[0, 1] = F[1, 2] = F[2, 3] = 1.0
+        F[3] = [-1.0 / tau**4, -4.0 / tau**3, -6.0 / tau**2, -4.0 / tau]
+        return np.asarray(scipy.linalg.expm(F * self.ts))
 
     def limits_toward(self, op: OperatingPoint, u: float, travel: float, landing: float
                        ) -> tuple[float, float, Brake]:
@@ -339,24 +382,31 @@ class ReferenceGovernor:
         limit gives way before the target does): the reference brakes as late as the plane
         allows and never overshoots.
 
-        A motion no longer than the landing (``v_land * landing``) is flown from rest as the
-        landing's exponential: its speed, acceleration, jerk and snap are then proportional
-        to its length, where a time-optimal plan puts its jerk and snap at their limits
-        whatever the length (a 1 cm change moved the A18M's plane 15 deg, and a depth reading
-        1 mm off the command put the small AUV's plane at its stop).
+        A short change from rest follows a critically damped filter of the command instead
+        (:meth:`short_filter`, ``short_swings``).
         """
         settings, lim, ts = self.settings, self.limits, self.ts
         assert self._z_r is not None, 'start() the governor first'
         # The landing's time constant is fixed per command (at the speed of its first sample):
         # a landing that changed with every wobble of the measured speed would re-plan itself.
-        if self._landing is None or self._landing[0] != z_cmd:
-            self._landing = (z_cmd, settings.approach_length / max(u, 0.1))
         error = z_cmd - self._z_r
         travel = 1.0 if error > 0.0 or (error == 0.0 and self._v_r > 0.0) else -1.0
         E, V = travel * error, travel * self._v_r
         A, J = travel * self._a_r, travel * self._j_r
+        if self._landing is None or self._landing[0] != z_cmd:
+            self._landing = (z_cmd, settings.approach_length / max(u, 0.1))
+            at_rest = V == 0.0 and A == 0.0 and J == 0.0
+            jerk0 = self.limits_toward(op, u, travel, self._landing[1])[1]
+            short = settings.short_swings > 0.0 and at_rest and self.short_length(jerk0) >= E
+            self._short = self.short_filter() if short else None
         if E < 1e-3 and abs(V) < 1e-3 and abs(A) < 2e-3 and abs(J) < 2e-3:
             return Reference(z_cmd, 0.0, 0.0, 0.0, 0.0)
+        if self._short is not None:
+            tau = self.short_tau()
+            e1, v1, a1, j1 = self._short @ np.array(
+                [self._z_r - z_cmd, self._v_r, self._a_r, self._j_r])
+            s1 = -(4.0 * j1 / tau + 6.0 * a1 / tau**2 + 4.0 * v1 / tau**3 + e1 / tau**4)
+            return Reference(z_cmd + float(e1), float(v1), float(a1), float(j1), float(s1))
         v_cap, jerk, brake = self.limits_toward(op, u, travel, self._landing[1])
         if stop is not None:
             # the climb or dive is capped, and the stop planned, at the speed the vehicle is
@@ -369,11 +419,8 @@ class ReferenceGovernor:
             v_cap = min(v_cap, plane_hi if travel > 0.0 else -plane_lo)
         v_cap = min(v_cap, v_limit)
         landing, v_land = brake.landing, brake.v_land
-        landing_at = 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E
-        from_rest = V == 0.0 and A == 0.0 and J == 0.0 and v_land * landing >= E
-        if landing_at or from_rest:
-            # Final approach (or a motion no longer than it, from rest): the exponential
-            # e(t) = E exp(-t / landing).
+        if 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E:
+            # Final approach: the exponential e(t) = E exp(-t / landing).
             e1 = E * math.exp(-ts / landing)
             v1 = e1 / landing
             return Reference(z_cmd - travel * e1, travel * v1, -travel * v1 / landing,
