@@ -82,6 +82,13 @@ _WINDOW = 5
 _CONVERGED = 5e-4
 """Merit decrease over :data:`_WINDOW` LPs [m] under which the smallest band counts as
 found."""
+_PIVOTS = 10
+"""Iterations per LP column after which HiGHS's simplex counts as stalled and the LP is
+solved again by its interior-point method (with crossover). The simplex takes about half an
+iteration per column; on a degenerate LP (a plan that already meets every row, merit 0, on
+the A18M's foreign plant of :func:`auv_depth_lqr.closed_loop.foreign_plant`) it can cycle
+without end. An iteration limit, unlike a time limit, gives the same answer on every
+machine."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -389,15 +396,23 @@ class _Linearised:
 
     def solve(self, rho: float) -> tuple[np.ndarray, np.ndarray, float] | None:
         """LP plan within ``rho`` [rad] of the linearisation's BAR: (BAR (N,), states
-        (N + 1, 4), predicted merit), or None when HiGHS finds no solution."""
+        (N + 1, 4), predicted merit), or None when HiGHS finds no solution (the dual simplex,
+        then, if it stalls past :data:`_PIVOTS` iterations per column, the interior-point
+        method; None also when both stop at that limit)."""
         p, N = self.problem, self.N
         lower = np.full(self.n_columns, -np.inf)
         upper = np.full(self.n_columns, np.inf)
         lower[4 * N:5 * N] = np.maximum(-p.bar_max, self.bars - rho)
         upper[4 * N:5 * N] = np.minimum(p.bar_max, self.bars + rho)
         lower[5 * N:] = 0.0
-        res = linprog(self.cost, A_ub=self.a_ub, b_ub=self.b_ub, A_eq=self.a_eq,
-                      b_eq=self.b_eq, bounds=np.c_[lower, upper], method='highs')
+        bounds = np.c_[lower, upper]
+        limit = _PIVOTS * self.n_columns
+        for method in ('highs', 'highs-ipm'):
+            res = linprog(self.cost, A_ub=self.a_ub, b_ub=self.b_ub, A_eq=self.a_eq,
+                          b_eq=self.b_eq, bounds=bounds, method=method,
+                          options={'maxiter': limit})
+            if res.status != 1:  # not stopped at the iteration limit
+                break
         if res.status != 0:
             return None
         states = np.vstack([p.start, res.x[:4 * N].reshape(N, 4)])
