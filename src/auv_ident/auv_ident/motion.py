@@ -32,7 +32,7 @@ Noise propagation (for the standard errors, :class:`auv_ident.identify.NoiseProp
 To first order, white noise on the logged state reaches the reconstructed wrench through the
 derivative weights (``M`` times the velocity noise) and through the low-passed sensitivities
 of the other wrenches (their Jacobian, by central differences of
-:func:`auv_sim.model.wrench_series`). The noise level of each channel is estimated from the
+:func:`auv_sim.model.wrenches`, sample by sample). The noise level of each channel is estimated from the
 log itself (:func:`noise_sigma`: robust scale of third differences, which cancel the smooth
 motion and leave ``20 sigma^2`` of white noise). Whether this model explains the residual is
 checked in the fit (see :mod:`auv_ident.identify`). The same central differences, with steps

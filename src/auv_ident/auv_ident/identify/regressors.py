@@ -182,8 +182,9 @@ def hydro_gradient(equation: Equation, nu: np.ndarray, coefficients: dict[str, f
     diffs, steps = differences if differences is not None else gradient_differences(
         equation, nu, base)
     index = {k: j for j, k in enumerate(component_terms(equation))}
-    out = np.zeros((len(nu), 6))
-    for c in range(6):
-        out[:, c] = sum(v * diffs[index[k], c] for k, v in coefficients.items()
-                        if k in index) / (2.0 * float(steps[c]))
+    acc = np.zeros((6, len(nu)))   # all channels at once, the terms summed in order
+    for k, v in coefficients.items():
+        if k in index:
+            acc += v * diffs[index[k]]
+    out: np.ndarray = (acc / (2.0 * np.asarray(steps, float))[:, None]).T
     return out
