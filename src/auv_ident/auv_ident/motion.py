@@ -32,12 +32,12 @@ Noise propagation (for the standard errors, :class:`auv_ident.identify.NoiseProp
 To first order, white noise on the logged state reaches the reconstructed wrench through the
 derivative weights (``M`` times the velocity noise) and through the low-passed sensitivities
 of the other wrenches (their Jacobian, by central differences of
-:func:`auv_sim.model.wrenches`, sample by sample). The noise level of each channel is estimated from the
-log itself (:func:`noise_sigma`: robust scale of third differences, which cancel the smooth
-motion and leave ``20 sigma^2`` of white noise). Whether this model explains the residual is
-checked in the fit (see :mod:`auv_ident.identify`). The same central differences, with steps
-of one noise standard deviation, give the second-order mean shift of the other wrenches of a
-noisy state, which the reconstruction removes.
+:func:`auv_sim.model.wrenches`, sample by sample). The noise level of each channel is
+estimated from the log itself (:func:`noise_sigma`: robust scale of third differences, which
+cancel the smooth motion and leave ``20 sigma^2`` of white noise). Whether this model explains
+the residual is checked in the fit (see :mod:`auv_ident.identify`). The same central
+differences, with steps of one noise standard deviation, give the second-order mean shift of
+the other wrenches of a noisy state, which the reconstruction removes.
 
 Assumed: no water current (velocities over ground = through the water); actuators settled at
 the first logged command when the log starts with no earlier command.
