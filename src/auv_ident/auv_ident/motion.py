@@ -32,12 +32,12 @@ Noise propagation (for the standard errors, :class:`auv_ident.identify.NoiseProp
 To first order, white noise on the logged state reaches the reconstructed wrench through the
 derivative weights (``M`` times the velocity noise) and through the low-passed sensitivities
 of the other wrenches (their Jacobian, by central differences of
-:func:`auv_sim.model.wrench_series`). The noise level of each channel is estimated from the
-log itself (:func:`noise_sigma`: robust scale of third differences, which cancel the smooth
-motion and leave ``20 sigma^2`` of white noise). Whether this model explains the residual is
-checked in the fit (see :mod:`auv_ident.identify`). The same central differences, with steps
-of one noise standard deviation, give the second-order mean shift of the other wrenches of a
-noisy state, which the reconstruction removes.
+:func:`auv_sim.model.wrenches`, sample by sample). The noise level of each channel is
+estimated from the log itself (:func:`noise_sigma`: robust scale of third differences, which
+cancel the smooth motion and leave ``20 sigma^2`` of white noise). Whether this model explains
+the residual is checked in the fit (see :mod:`auv_ident.identify`). The same central
+differences, with steps of one noise standard deviation, give the second-order mean shift of
+the other wrenches of a noisy state, which the reconstruction removes.
 
 Assumed: no water current (velocities over ground = through the water); actuators settled at
 the first logged command when the log starts with no earlier command.
@@ -64,7 +64,7 @@ from auv_contract import (
 from auv_ident.errors import IdentificationError
 from auv_ident.identify import ForceRecord, LoggedRun, NoisePropagation
 from auv_sim.environment import Environment
-from auv_sim.model import NX, actuator_steps, wrench_series
+from auv_sim.model import NX, actuator_steps, wrench_series, wrenches
 from auv_sim.params import VehicleParams, mass_matrix
 
 FORCE_FIELDS = tuple(f'hydrodynamic_{k}_{a}' for k in ('force', 'torque') for a in 'xyz')
@@ -125,31 +125,61 @@ def other_jacobian(t: np.ndarray, X: np.ndarray, params: VehicleParams, env: Env
                    sigma: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Sensitivity of ``tau_other`` = Coriolis + restoring + actuator wrench to state noise.
 
-    Central differences of :func:`auv_sim.model.wrench_series` with steps ``+-sigma_c`` on
+    Central differences of :func:`auv_sim.model.wrenches` with steps ``+-sigma_c`` on
     each of the 12 state channels (``1e-6 (1 + max|x_c|)`` where ``sigma_c`` is smaller):
     ``(f(x + s) - f(x - s)) / 2 s`` is the Jacobian (N, 6, 12) [N or N m per unit of each
     channel] and, summed over the channels, ``(f(x + s) + f(x - s) - 2 f(x)) / 2`` (scaled by
     ``(sigma_c / s)^2``) is ``1/2 sum_c sigma_c^2 d^2 f / d x_c^2``, the mean shift white noise
-    gives the wrench of a noisy state to second order (N, 6) [N, N m].
+    gives the wrench of a noisy state to second order (N, 6) [N, N m]. ``t`` (N,) [s], ``X``
+    (N, 15) the simulator's state with the actuator positions; ``sigma`` (12,) in the state's
+    units (None: zero).
     """
-    n = len(t)
     sig = np.zeros(12) if sigma is None else np.asarray(sigma, float)
+    steps = np.array([max(float(sig[c]), 1e-6 * (1.0 + float(np.max(np.abs(X[:, c])))))
+                      for c in range(12)])
+    weights = (sig[:12] / steps) ** 2
+    jac: np.ndarray
+    shift: np.ndarray
+    jac, shift = _other_differences(np.ascontiguousarray(t, dtype=np.float64),
+                                    np.ascontiguousarray(X, dtype=np.float64),
+                                    params.as_array(), env.env_vector(), env.profile(),
+                                    steps, weights)
+    return jac, shift
+
+
+@njit(cache=True)
+def _other_differences(T, X, P, env, prof, steps, weights):  # type: ignore[no-untyped-def]
+    """The central differences of :func:`other_jacobian` (its Jacobian (N, 6, 12) and mean
+    shift (N, 6)) for states ``X`` (N, 15) at times ``T`` (N) [s], steps ``steps`` (12,) and
+    shift weights ``weights`` = ``(sigma_c / step_c)^2`` (12,), sample by sample (no
+    perturbed copy of the log): the wrenches of :func:`auv_sim.model.wrenches`, the rows
+    Coriolis + restoring + actuators summed in that order."""
+    n = X.shape[0]
     jac = np.zeros((n, 6, 12))
     shift = np.zeros((n, 6))
-    P, ev, prof = params.as_array(), env.env_vector(), env.profile()
-    w0 = wrench_series(t, X, P, ev, prof)
-    f0 = w0[:, 1] + w0[:, 2] + w0[:, 3]
-    for c in range(12):
-        h = max(float(sig[c]), 1e-6 * (1.0 + float(np.max(np.abs(X[:, c])))))
-        up, dn = X.copy(), X.copy()
-        up[:, c] += h
-        dn[:, c] -= h
-        wu = wrench_series(t, up, P, ev, prof)
-        wd = wrench_series(t, dn, P, ev, prof)
-        fu = wu[:, 1] + wu[:, 2] + wu[:, 3]
-        fd = wd[:, 1] + wd[:, 2] + wd[:, 3]
-        jac[:, :, c] = (fu - fd) / (2.0 * h)
-        shift += 0.5 * (fu + fd - 2.0 * f0) * (sig[c] / h) ** 2
+    x = np.empty(X.shape[1])
+    w0 = np.empty((4, 6))
+    wu = np.empty((4, 6))
+    wd = np.empty((4, 6))
+    f0 = np.empty(6)
+    for k in range(n):
+        for i in range(X.shape[1]):
+            x[i] = X[k, i]
+        wrenches(T[k], x, P, env, prof, w0)
+        for a in range(6):
+            f0[a] = w0[1, a] + w0[2, a] + w0[3, a]
+        for c in range(12):
+            h = steps[c]
+            x[c] = X[k, c] + h
+            wrenches(T[k], x, P, env, prof, wu)
+            x[c] = X[k, c] - h
+            wrenches(T[k], x, P, env, prof, wd)
+            x[c] = X[k, c]
+            for a in range(6):
+                fu = wu[1, a] + wu[2, a] + wu[3, a]
+                fd = wd[1, a] + wd[2, a] + wd[3, a]
+                jac[k, a, c] = (fu - fd) / (2.0 * h)
+                shift[k, a] += 0.5 * (fu + fd - 2.0 * f0[a]) * weights[c]
     return jac, shift
 
 

@@ -51,7 +51,11 @@ import numpy as np
 
 from auv_ident.identify.records import ForceRecord
 from auv_ident.identify.regression import LinearSystem
-from auv_ident.identify.regressors import gradient_differences, hydro_gradient
+from auv_ident.identify.regressors import (
+    basis_differences,
+    gradient_differences,
+    hydro_gradient,
+)
 from auv_sim.params import VehicleParams
 
 ERROR_METHODS = ('hac', 'jackknife', 'ess', 'iid')
@@ -141,6 +145,20 @@ def _flat_top_meat(g: np.ndarray, m: int) -> np.ndarray:
     return _lag_window_meat(g, np.clip(2.0 - k / m, 0.0, 1.0))
 
 
+def _record_rows(record_index: np.ndarray, i: int) -> slice | np.ndarray | None:
+    """The rows of record ``i`` among a system's pooled rows (``record_index`` (n,)): a slice
+    when they are contiguous (as :func:`~auv_ident.identify.regression.build_system` pools
+    them), so that selecting them takes no copy, else a boolean mask (n,); None when the
+    record has no row."""
+    sel: np.ndarray = record_index == i
+    idx = np.flatnonzero(sel)
+    if not len(idx):
+        return None
+    if int(idx[-1]) - int(idx[0]) + 1 == len(idx):
+        return slice(int(idx[0]), int(idx[-1]) + 1)
+    return sel
+
+
 def sensor_noise_meat(system: LinearSystem, design: np.ndarray, resid: np.ndarray,
                       theta: np.ndarray, base: VehicleParams,
                       full: Sequence[np.ndarray | None] | None = None
@@ -161,8 +179,8 @@ def sensor_noise_meat(system: LinearSystem, design: np.ndarray, resid: np.ndarra
     predicted = 0.0
     axis = system.equation.axis
     for i, rec in enumerate(system.records):
-        sel = system.record_index == i
-        if not np.any(sel):
+        sel = _record_rows(system.record_index, i)
+        if sel is None:
             continue
         nm = rec.noise
         if nm is None or rec.kernel is None or system.rows is None:
@@ -206,16 +224,18 @@ def sensor_noise_meat(system: LinearSystem, design: np.ndarray, resid: np.ndarra
 
 def _gradient_differences(system: LinearSystem, i: int, rec: ForceRecord,
                           base: VehicleParams) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`gradient_differences` of record ``i`` of ``system`` for ``base``, kept in the
-    system's cache when it has one (they do not depend on the coefficients)."""
-    key, key_h = (i, f'{system.equation.name} gradient'), (i, f'{system.equation.name} steps')
+    """:func:`gradient_differences` of record ``i`` of ``system`` for ``base``; the
+    differences of every term (:func:`basis_differences`, which do not depend on the
+    coefficients, and which every equation takes its terms from) kept in the system's cache
+    when it has one."""
+    key, key_h = (i, '_basis differences'), (i, '_basis steps')
     cache = system.cache
     if cache is not None and key in cache and key_h in cache:
-        return cache[key], cache[key_h]
-    out = gradient_differences(system.equation, rec.nu, base)
+        return gradient_differences(system.equation, rec.nu, base, (cache[key], cache[key_h]))
+    full = basis_differences(rec.nu, base)
     if cache is not None:
-        cache[key], cache[key_h] = out
-    return out
+        cache[key], cache[key_h] = full
+    return gradient_differences(system.equation, rec.nu, base, full)
 
 
 def _block_jackknife(design: np.ndarray, regressors: np.ndarray, b: np.ndarray,
@@ -248,8 +268,8 @@ def _smoothed_design(system: LinearSystem, design: np.ndarray
     out = np.empty_like(design)
     full: list[np.ndarray | None] = []
     for i, rec in enumerate(system.records):
-        sel = system.record_index == i
-        if not np.any(sel):
+        sel = _record_rows(system.record_index, i)
+        if sel is None:
             full.append(None)
             continue
         if rec.kernel is None or system.rows is None:

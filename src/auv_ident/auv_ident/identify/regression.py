@@ -25,7 +25,12 @@ from scipy import optimize
 from auv_ident.errors import IdentificationError, NotIdentifiableError
 from auv_ident.identify.equations import EXCITATION, Equation, excitation_amplitude
 from auv_ident.identify.records import ForceRecord, check_record
-from auv_ident.identify.regressors import component_terms, filtered, unbiased_columns
+from auv_ident.identify.regressors import (
+    component_terms,
+    filtered,
+    unbiased_basis,
+    unbiased_columns,
+)
 from auv_sim.params import VehicleParams
 
 #: Column-scaled condition number above which an equation is declared not identifiable.
@@ -180,7 +185,12 @@ def _term_columns(i: int, rec: ForceRecord, equation: Equation, base: VehiclePar
     key = (i, equation.name)
     if cache is not None and key in cache:
         return cache[key]
-    cols = unbiased_columns(equation, rec, base)
+    basis = None
+    if cache is not None:   # every term at once, each equation takes its own
+        basis = cache.get((i, '_unbiased basis'))
+        if basis is None:
+            basis = cache[(i, '_unbiased basis')] = unbiased_basis(rec, base)
+    cols = unbiased_columns(equation, rec, base, basis)
     out = filtered(np.column_stack([cols[k] for k in component_terms(equation)]), rec.kernel)
     if cache is not None:
         cache[key] = out
