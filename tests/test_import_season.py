@@ -122,6 +122,35 @@ def test_cut_off_rows_non_finite_values_and_unusable_logs_are_left_out_and_said(
                for ln in proc.stderr.splitlines()) == 2
 
 
+def test_ident_leaves_unusable_logs_out_and_says_so(tmp_path: pathlib.Path) -> None:
+    """``auv ident --map`` over a season folder: the empty and the surface-only log are left
+    out with one line each (as ``auv gap`` and ``auv import`` do) and the flight is read;
+    ``--strict`` refuses instead."""
+    from auv_ident.job import load_records_from_map
+
+    t = np.arange(0.0, 60.0, 0.5)
+    _write(tmp_path / 'b.txt', t)
+    (tmp_path / 'empty.txt').write_text(HEADER + '\n')
+    _write(tmp_path / 'surface.txt', t, depth_scale=0.0)
+    m = _map(tmp_path)   # the rudder held at zero (a column times 0): every command logged
+    m.write_text(m.read_text().replace(
+        '  thrust:', '  helm: {unit: deg, sum: [{column: bar, gain: 0.0}]}\n  thrust:'))
+    logs = [str(tmp_path / n) for n in ('b.txt', 'empty.txt', 'surface.txt')]
+    base = load_vehicle(ROOT / 'config' / 'a18m.yaml')
+    said: list[str] = []
+    skipped: list[str] = []
+    records, imports = load_records_from_map(str(m), logs, base, progress=said.append,
+                                             skipped=skipped)
+    assert len(imports) == 1
+    assert records and all(r.name.startswith('b') for r in records)
+    assert len(skipped) == 2
+    assert 'empty.txt: left out:' in skipped[0] and 'no data rows' in skipped[0]
+    assert 'surface: no usable segment of 10 s or more' in skipped[1]
+    assert all(line in said for line in skipped)
+    with pytest.raises(NoSegmentError, match='no usable segment'):
+        load_records_from_map(str(m), [logs[0], logs[2]], base, strict=True, skipped=[])
+
+
 def test_a_sensor_slower_than_the_rows_and_values_in_steps(tmp_path: pathlib.Path) -> None:
     """The DVL updates at 1 Hz on 2 Hz rows (each value on two rows): declared ``rate: 1``,
     its fresh values are interpolated linearly onto the rows (hand: the row between two

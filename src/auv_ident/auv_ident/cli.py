@@ -82,6 +82,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='fit the equations the data identify and list the others under '
                              'not_identifiable (why, and what would fix it) instead of '
                              'stopping; the default with --map when --equations is not given')
+    parser.add_argument('--strict', action='store_true',
+                        help='with --map: refuse a row that does not parse or a log without a '
+                             'usable segment (default: leave it out and say so)')
 
 
 def options_from_args(args: argparse.Namespace) -> IdentOptions:
@@ -99,7 +102,7 @@ def options_from_args(args: argparse.Namespace) -> IdentOptions:
         output_error=args.output_error, source=args.source,
         equations=None if args.equations is None else tuple(args.equations),
         errors=args.errors, window=args.window, nelder_mead=not args.no_nelder_mead,
-        partial=args.partial)
+        partial=args.partial, strict=args.strict)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -92,6 +92,9 @@ class IdentOptions:
     """Compare with a Nelder-Mead fit in the report."""
     partial: bool = False
     """Fit the equations the data identify and list the others (the default with a map)."""
+    strict: bool = False
+    """With :attr:`map`: refuse a row that does not parse or a log without a usable segment
+    (default: leave it out and say so, in the progress lines and the report's ``skipped``)."""
 
     def __post_init__(self) -> None:
         if not self.logs:
@@ -127,6 +130,9 @@ class IdentRun:
     """Where the forces came from: ``forces`` or ``motion``."""
     imports: list[dict[str, Any]]
     """Import reports of the logs (original logs, or bags ``auv import`` wrote)."""
+    skipped: list[str] = dataclasses.field(default_factory=list)
+    """Logs left out, one line each (with a map: cut off, empty or without a usable
+    segment)."""
 
     @property
     def written(self) -> bool:
@@ -161,9 +167,10 @@ def _run_ident(opts: IdentOptions, progress: Progress | None) -> IdentRun:
     equations = list(opts.equations) if opts.equations is not None else None
     partial = opts.partial or (opts.map is not None and equations is None)
     imports: list[dict[str, Any]] = []
+    skipped: list[str] = []
     if opts.map is not None:
         records, imports = load_records_from_map(opts.map, opts.logs, base, opts.window, say,
-                                                 limits)
+                                                 limits, strict=opts.strict, skipped=skipped)
         source = 'motion'
     else:
         records, source = load_records(opts.logs, base, opts.source, opts.window, say, limits)
@@ -181,13 +188,15 @@ def _run_ident(opts: IdentOptions, progress: Progress | None) -> IdentRun:
     for line in describe(limits):
         say(line)
     extra['logged_outside_limits'] = limits
+    if skipped:
+        extra['skipped'] = skipped
     result, files, outcome = identify_and_report(
         records, base, opts.out, opts.logs, fit_c0=opts.fit_c0, bounds=opts.bounds,
         errors=opts.errors, equations=equations, nelder_mead=opts.nelder_mead,
         progress=progress, extra=extra, partial=partial, fit_planes=opts.fit_planes,
         priors=opts.priors, validation=opts.validation, output_error=opts.output_error,
         structures=opts.structure == 'chosen')
-    return IdentRun(result, outcome, files, source, imports)
+    return IdentRun(result, outcome, files, source, imports, skipped)
 
 
 def load_records(bags: Sequence[str], base: VehicleParams, source: str = 'auto',
@@ -304,15 +313,25 @@ def bag_imports(bags: Sequence[str]) -> list[dict[str, Any]]:
 
 def load_records_from_map(map_path: str, logs: Sequence[str], base: VehicleParams,
                           window_s: float = WINDOW_S, progress: Progress | None = None,
-                          limits: dict[str, Any] | None = None
+                          limits: dict[str, Any] | None = None, *, strict: bool = False,
+                          skipped: list[str] | None = None
                           ) -> tuple[list[ForceRecord], list[dict[str, Any]]]:
     """Import the original logs through a map (:mod:`auv_logs`) into the contract's
     arrays and build force records from motion exactly as from the imported bag; returns the
-    records and each log's import report."""
+    records and each log's import report. With ``skipped`` (a list) a log that cannot be read
+    or holds no usable segment is left out, its one-line reason appended there and said
+    (:func:`auv_logs.importer.import_logs`; ``strict``, or a single log, refuses instead)."""
     from auv_logs.contract_bag import contract_arrays
     from auv_logs.importer import import_logs
 
-    _, imported = import_logs(map_path, logs)
+    reasons: list[str] = []
+    _, imported = import_logs(map_path, logs, strict=strict,
+                              skipped=None if skipped is None else reasons)
+    for line in reasons:
+        if progress is not None:
+            progress(line)
+    if skipped is not None:
+        skipped.extend(reasons)
     records: list[ForceRecord] = []
     for lg in imported:
         if progress is not None:
