@@ -242,6 +242,8 @@ class ReferenceGovernor:
             kinematic_map(self.stop_tau, ts) if self.kinematic_stop
             else series_map([float(x) for x in design.F[k, :, 3]], ts)
             for k in range(design.speeds.size)]
+        self._short_map: np.ndarray | None = None
+        """The short change's transition matrix (:meth:`short_filter`), made on first use."""
         self._plane_only = dataclasses.replace(limits, theta_max=math.radians(89.0))
         """The limits without the pitch limit's (for the plane's bound alone)."""
         self.reset()
@@ -289,12 +291,25 @@ class ReferenceGovernor:
     def short_filter(self) -> np.ndarray:
         """One-sample transition matrix (4 x 4) of the critically damped filter
         ``(1 + tau s)^-4`` (``tau`` :meth:`short_tau`) on its state ``(z - z_cmd, v, a, j)``
-        [m, m/s, m/s^2, m/s^3] (exact, the matrix exponential over the sample)."""
-        tau = self.short_tau()
-        F = np.zeros((4, 4))
-        F[0, 1] = F[1, 2] = F[2, 3] = 1.0
-        F[3] = [-1.0 / tau**4, -4.0 / tau**3, -6.0 / tau**2, -4.0 / tau]
-        return np.asarray(scipy.linalg.expm(F * self.ts))
+        [m, m/s, m/s^2, m/s^3] (exact, the matrix exponential over the sample; made once)."""
+        if self._short_map is None:
+            tau = self.short_tau()
+            F = np.zeros((4, 4))
+            F[0, 1] = F[1, 2] = F[2, 3] = 1.0
+            F[3] = [-1.0 / tau**4, -4.0 / tau**3, -6.0 / tau**2, -4.0 / tau]
+            self._short_map = np.asarray(scipy.linalg.expm(F * self.ts))
+        return self._short_map
+
+    def speedup_jerk(self, op: OperatingPoint) -> float:
+        """Jerk limit of the speed-up [m/s^3]: ``accel_max / jerk_time``, and ``b_2 jerk``
+        (the series' jerk term at ``op``) within ``jerk_bar_share`` of the plane budget."""
+        settings = self.settings
+        jerk = settings.accel_max / settings.jerk_time
+        b2 = float(op.F[2, 3])
+        if b2 != 0.0:
+            budget = settings.bar_margin * self.limits.bar_max
+            jerk = min(jerk, settings.jerk_bar_share * budget / abs(b2))
+        return jerk
 
     def limits_toward(self, op: OperatingPoint, u: float, travel: float, landing: float
                        ) -> tuple[float, float, Brake]:
@@ -315,9 +330,7 @@ class ReferenceGovernor:
         settings, lim = self.settings, self.limits
         b = op.F[:, 3]
         budget = settings.bar_margin * lim.bar_max
-        jerk = settings.accel_max / settings.jerk_time
-        if b[2] != 0.0:
-            jerk = min(jerk, settings.jerk_bar_share * budget / abs(float(b[2])))
+        jerk = self.speedup_jerk(op)
         v_lo, v_hi = GainSchedule.vertical_speed_bounds(op, u, lim, settings.margin)
         v_cap = v_hi if travel > 0.0 else -v_lo
         v_land = settings.landing_distance / landing
@@ -387,17 +400,17 @@ class ReferenceGovernor:
         """
         settings, lim, ts = self.settings, self.limits, self.ts
         assert self._z_r is not None, 'start() the governor first'
-        # The landing's time constant is fixed per command (at the speed of its first sample):
-        # a landing that changed with every wobble of the measured speed would re-plan itself.
         error = z_cmd - self._z_r
         travel = 1.0 if error > 0.0 or (error == 0.0 and self._v_r > 0.0) else -1.0
         E, V = travel * error, travel * self._v_r
         A, J = travel * self._a_r, travel * self._j_r
         if self._landing is None or self._landing[0] != z_cmd:
+            # The landing's time constant is fixed per command (at the speed of its first
+            # sample): a landing that changed with every wobble of the measured speed would
+            # re-plan itself. Whether the change is a short one is decided there too.
             self._landing = (z_cmd, settings.approach_length / max(u, 0.1))
-            at_rest = V == 0.0 and A == 0.0 and J == 0.0
-            jerk0 = self.limits_toward(op, u, travel, self._landing[1])[1]
-            short = settings.short_swings > 0.0 and at_rest and self.short_length(jerk0) >= E
+            short = (settings.short_swings > 0.0 and V == 0.0 and A == 0.0 and J == 0.0
+                     and self.short_length(self.speedup_jerk(op)) >= E)
             self._short = self.short_filter() if short else None
         if E < 1e-3 and abs(V) < 1e-3 and abs(A) < 2e-3 and abs(J) < 2e-3:
             return Reference(z_cmd, 0.0, 0.0, 0.0, 0.0)

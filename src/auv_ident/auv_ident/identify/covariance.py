@@ -52,6 +52,7 @@ import numpy as np
 from auv_ident.identify.records import ForceRecord
 from auv_ident.identify.regression import LinearSystem
 from auv_ident.identify.regressors import (
+    as_slice,
     basis_differences,
     gradient_differences,
     hydro_gradient,
@@ -154,9 +155,8 @@ def _record_rows(record_index: np.ndarray, i: int) -> slice | np.ndarray | None:
     idx = np.flatnonzero(sel)
     if not len(idx):
         return None
-    if int(idx[-1]) - int(idx[0]) + 1 == len(idx):
-        return slice(int(idx[0]), int(idx[-1]) + 1)
-    return sel
+    rows = as_slice(idx)
+    return rows if isinstance(rows, slice) else sel
 
 
 def sensor_noise_meat(system: LinearSystem, design: np.ndarray, resid: np.ndarray,

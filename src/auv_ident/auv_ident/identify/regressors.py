@@ -33,13 +33,17 @@ def _term_indices(equation: Equation) -> np.ndarray:
     return np.flatnonzero(np.asarray(HYDRO_AXIS) == equation.axis)
 
 
-def term_selection(equation: Equation) -> slice | np.ndarray:
-    """The equation's terms among the columns of :func:`basis_columns` (a slice when they
-    are contiguous, so that selecting them takes no copy)."""
-    idx = _term_indices(equation)
+def as_slice(idx: np.ndarray) -> slice | np.ndarray:
+    """Sorted indices ``idx`` as a slice when they are contiguous (selecting by it takes no
+    copy), else as they are."""
     if len(idx) and int(idx[-1]) - int(idx[0]) + 1 == len(idx):
         return slice(int(idx[0]), int(idx[-1]) + 1)
     return idx
+
+
+def term_selection(equation: Equation) -> slice | np.ndarray:
+    """The equation's terms among the columns of :func:`basis_columns` (:func:`as_slice`)."""
+    return as_slice(_term_indices(equation))
 
 
 def basis_columns(nu: np.ndarray, params: VehicleParams) -> np.ndarray:
