@@ -91,6 +91,8 @@ def test_recording_check_counts_every_topic(tmp_path: pathlib.Path) -> None:
 @pytest.mark.parametrize(('args', 'message'), [
     (['--vehicle', '/nonexistent.yaml'],
      'error: cannot read vehicle file /nonexistent.yaml: No such file or directory\n'),
+    (['--effects', '/nonexistent.yaml'],
+     'error: cannot read effects file /nonexistent.yaml: No such file or directory\n'),
     (['--initial-depth', '400'],
      'error: initial depth 400 m is outside the envelope [0, 300] m of '),
     (['--depth', '-5'], 'error: depth command -5 m is outside the envelope [0, 300] m of '),

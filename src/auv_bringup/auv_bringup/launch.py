@@ -393,11 +393,13 @@ def namespace_lock(env: dict[str, str], namespace: str) -> Iterator[None]:
 def check_before_start(cfg: GraphConfig) -> None:
     """What can be checked before any node starts; one-line errors (LaunchError, or the
     vehicle's, effects' or mission's own ParameterError)."""
-    from auv_sim.environment import load_environment
     from auv_sim.params import load_vehicle
 
     params = load_vehicle(cfg.vehicle)
     if cfg.effects:
+        # the environment module loads the compiled model (numba): only when there are effects
+        from auv_sim.environment import load_environment
+
         load_environment(cfg.effects)
     namespace_path(cfg.namespace)
     if not params.depth_min <= cfg.initial_depth <= params.depth_max:

@@ -1,0 +1,102 @@
+"""Fresh-clone ``make test`` runs in a row with two CPU-bound processes beside them.
+
+Each run clones the repository at one commit into a new folder (a new machine: its own
+``.venv``, build and install), runs ``make test`` there, and records the exit code, pytest's
+summary line (passed, failed, errors, xfailed, xpassed), the wall time with set-up and the
+machine's load average before and after. Two ``while True: pass`` processes run for the
+whole series (the ``cpu2`` load of ``bench_graph.py``); whatever else the machine runs is
+recorded in the load averages. The results file is rewritten after every run, so an
+interrupted series keeps the runs it finished.
+
+Usage: ``python bench/bench_fresh_clone.py [--runs 10] [--commit HEAD] [--out PATH]``
+(default output ``bench/results/fresh_clone.json``). Goal: every run green.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import pathlib
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from typing import Any
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+#: pytest's last summary line, e.g. "903 passed, 7 xfailed in 994.12s (0:16:34)".
+SUMMARY = re.compile(r'^=*\s*(?P<body>(\d+ \w+(, )?)+) in [\d.]+s', re.MULTILINE)
+
+
+def summary_counts(text: str) -> dict[str, int]:
+    """The counts of pytest's last summary line in ``text`` ({} if there is none)."""
+    found = list(SUMMARY.finditer(text))
+    if not found:
+        return {}
+    return {word: int(n) for n, word in re.findall(r'(\d+) (\w+)', found[-1]['body'])}
+
+
+def one_run(commit: str, index: int, logs: pathlib.Path) -> dict[str, Any]:
+    """Clone ``commit`` into a new folder, ``make test`` there; what happened."""
+    with tempfile.TemporaryDirectory(prefix=f'fresh{index}-') as tmp:
+        clone = pathlib.Path(tmp) / 'repo'
+        subprocess.run(['git', 'clone', '-q', str(ROOT), str(clone)], check=True)
+        subprocess.run(['git', '-C', str(clone), 'checkout', '-q', commit], check=True)
+        load_before = os.getloadavg()[0]
+        start = time.monotonic()
+        env = {k: v for k, v in os.environ.items()
+               if not k.startswith(('AMENT', 'COLCON', 'ROS_', 'VIRTUAL_ENV', 'PYTHONPATH'))}
+        proc = subprocess.run(['make', 'test'], cwd=clone, env=env, stdout=subprocess.PIPE,
+                              stderr=subprocess.STDOUT, text=True)
+        wall = time.monotonic() - start
+        log = logs / f'run{index}.log'
+        log.write_text(proc.stdout)
+        counts = summary_counts(proc.stdout)
+        green = proc.returncode == 0 and counts.get('passed', 0) > 0 and not any(
+            counts.get(k, 0) for k in ('failed', 'error', 'errors', 'xpassed'))
+        failed = re.findall(r'^(?:FAILED|ERROR) (\S+)', proc.stdout, re.MULTILINE)
+        return {'run': index, 'exit_code': proc.returncode, 'green': green,
+                'counts': counts, 'failed': failed, 'wall_s_with_setup': round(wall, 1),
+                'load_average_1min_before': round(load_before, 2),
+                'load_average_1min_after': round(os.getloadavg()[0], 2), 'log': str(log)}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--runs', type=int, default=10, help='runs in the series (default 10)')
+    parser.add_argument('--commit', default='HEAD', help='commit to clone (default HEAD)')
+    parser.add_argument('--out', type=pathlib.Path,
+                        default=ROOT / 'bench' / 'results' / 'fresh_clone.json',
+                        help='results file (rewritten after every run)')
+    args = parser.parse_args()
+    if args.runs < 1:
+        parser.error(f'--runs must be at least 1, not {args.runs}')
+    commit = subprocess.run(['git', '-C', str(ROOT), 'rev-parse', args.commit], check=True,
+                            stdout=subprocess.PIPE, text=True).stdout.strip()
+    logs = pathlib.Path(tempfile.mkdtemp(prefix='fresh-clone-logs-'))
+    hogs = [subprocess.Popen([sys.executable, '-c', 'while True: pass'],
+                             start_new_session=True) for _ in range(2)]
+    figures: dict[str, Any] = {'commit': commit, 'runs_planned': args.runs,
+                               'load_beside': 'two CPU-bound processes', 'goal': 'all green',
+                               'machine_cpus': os.cpu_count(),
+                               'nice': os.nice(0), 'runs': []}
+    try:
+        for i in range(args.runs):
+            figures['runs'].append(one_run(commit, i, logs))
+            runs = figures['runs']
+            figures['green'] = sum(r['green'] for r in runs)
+            figures['done'] = len(runs)
+            figures['median_wall_s'] = sorted(r['wall_s_with_setup'] for r in runs)[len(runs) // 2]
+            figures['goal_met'] = figures['green'] == args.runs
+            args.out.write_text(json.dumps(figures, indent=2) + '\n')
+            print(json.dumps(runs[-1]), flush=True)
+    finally:
+        for hog in hogs:
+            hog.kill()
+    return 0 if figures.get('goal_met') else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())
