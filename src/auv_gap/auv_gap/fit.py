@@ -220,7 +220,8 @@ class EquationFit:
             if not free.any():
                 values = es.absent.copy()
                 break
-        active = free
+        active = self._generalising(es, values, free)
+        values = np.where(active, values, es.absent)
         if active.any():
             values, J, r = self._solve(es, (values - es.absent) / es.scale, active)
             clusters = np.repeat(self.pr.eq_window[self.train], 6)
@@ -229,6 +230,43 @@ class EquationFit:
         else:
             lo, hi = es.lo.copy(), es.hi.copy()
         return FitResult(es, values, active, lo, hi, 'equation_error')
+
+    def _generalising(self, es: EffectSet, values: np.ndarray, free: np.ndarray
+                      ) -> np.ndarray:
+        """Of several fitted parameters, those whose fitted value predicts the held-out
+        equation samples better than their "absent" value (the others held at the fit):
+        a parameter that makes the held-out equation error larger fits the training samples'
+        noise (through terms of higher order, a current across the heading seen only through
+        the noise of the derived rates), not the vehicle. The one with the largest held-out
+        gain is always kept.
+
+        Parameters
+        ----------
+        es
+            the effect set.
+        values
+            its fitted parameter values (all parameters, set order; units of each).
+        free
+            the parameters fitted.
+
+        Returns
+        -------
+        np.ndarray
+            the parameters kept (bool, set order).
+        """
+        idx = np.flatnonzero(free)
+        if idx.size < 2 or not np.any(self.pr.eq_held):
+            return free
+        held = self.cost(es, values, held_out=True)
+        gain = np.empty(idx.size)
+        for k, i in enumerate(idx):
+            without = values.copy()
+            without[i] = es.absent[i]
+            gain[k] = self.cost(es, without, held_out=True) - held
+        keep = free.copy()
+        drop = (gain <= 0.0) & (np.arange(idx.size) != int(np.argmax(gain)))
+        keep[idx[drop]] = False
+        return keep
 
     def _scan(self, es: EffectSet) -> np.ndarray:
         """Best start of a one-parameter effect on a geometric grid over its range."""

@@ -26,7 +26,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from auv_sim.model import EXTRA_BASIS, NB_EXTRA, extra_wrench, rk4_prescribed
+from auv_sim.model import (
+    EXTRA_BASIS,
+    NB_EXTRA,
+    current_ned,
+    extra_wrench,
+    rk4_prescribed,
+    rotation,
+)
 
 #: Basis functions of the extra wrench (the model's :data:`auv_sim.model.EXTRA_BASIS`).
 BASIS_NAMES = EXTRA_BASIS
@@ -139,3 +146,21 @@ def equation_terms(T, X, env, C, P):  # type: ignore[no-untyped-def]
         for i in range(6):
             tau_out[k, i] = tau[i]
     return tau_out
+
+
+@njit(cache=True)
+def water_sway(T, X, env):  # type: ignore[no-untyped-def]
+    """The water's velocity along the body's y axis [m/s] (FRD, starboard positive) at N
+    states ``X`` (N x >= 6: NED position [m] and roll, pitch, yaw [rad]) at times ``T`` (N)
+    [s] in the water of ``env`` (:func:`auv_sim.model.current_ned`): the sway over ground of
+    a vehicle that does not slide through the water sideways."""
+    n = X.shape[0]
+    out = np.empty(n)
+    prof0 = np.zeros((0, 4))
+    for k in range(n):
+        c = current_ned(T[k], X[k, 2], env, prof0)
+        r = rotation(np.cos(X[k, 3]), np.sin(X[k, 3]), np.cos(X[k, 4]), np.sin(X[k, 4]),
+                     np.cos(X[k, 5]), np.sin(X[k, 5]))
+        # column y of the rotation body -> NED: (r01, r11, r21)
+        out[k] = r[1] * c[0] + r[4] * c[1] + r[7] * c[2]
+    return out

@@ -27,7 +27,7 @@ from auv_gap.catalogue import (
     get_effect,
 )
 from auv_gap.errors import GapError
-from auv_gap.kernel import actuator_series, equation_terms, free_run_batch
+from auv_gap.kernel import actuator_series, equation_terms, free_run_batch, water_sway
 from auv_gap.logs import DERIVED_FROM, GapLog, Smoothed, smooth
 from auv_gap.ranges import Ranges, default_ranges
 from auv_sim.model import ENV_SIZE
@@ -231,6 +231,13 @@ class Problem:
     ranges
         the typical and possible ranges of the effects' parameters
         (:mod:`auv_gap.ranges`; default the ranges file).
+    sway_with_water
+        the sway ``v`` was not logged (assumed 0): take the vehicle's sway through the water
+        as zero instead, its sway over ground being the water's (:meth:`with_water_sway`).
+        A vehicle in straight flight does not slide sideways through the water (nothing
+        holds a side-slip): across a current it crabs with the water. Without this a
+        current across the heading would make the model fly the vehicle sideways through
+        the water at the current's speed, a side-slip the logs never showed.
     """
 
     def __init__(self, vehicle: VehicleParams, logs: Sequence[GapLog],
@@ -238,9 +245,11 @@ class Problem:
                  held_out_logs: Sequence[int] = (), eq_period: float = 0.5,
                  smooth_window: float = 1.0, cost_period: float = 0.2,
                  max_step: float = 0.05, left_out: Sequence[str] = (),
-                 fitted_initial: Sequence[str] = (), ranges: Ranges | None = None) -> None:
+                 fitted_initial: Sequence[str] = (), ranges: Ranges | None = None,
+                 sway_with_water: bool = False) -> None:
         if not logs:
             raise GapError('no logs to diagnose')
+        self.sway_with_water = sway_with_water
         self.window_why = 'given'
         if window is None:
             window, self.window_why = data_window(logs)
@@ -429,6 +438,8 @@ class Problem:
                     src = src + self.initial_bias[w.log]
                 X0[c, k, :12] = self.true_state(src, np.array([float(w.i0)]), pert)[0]
                 X0[c, k, 12:] = act[c, fine_base[k]]
+            if self.sway_with_water and np.any(env[c] != 0.0):
+                X0[c, :, 7] = self.with_water_sway(t0, X0[c], env[c])
         if self.x0_states:
             self._fit_initial(perts, wins, X0, P, act, fine_base, t0, env, C, x0_cov)
         if x0_noise is not None:
@@ -568,6 +579,16 @@ class Problem:
         true: np.ndarray = (out - pert.bias) / pert.scale
         return true
 
+    def with_water_sway(self, t: np.ndarray, X: np.ndarray, env: np.ndarray) -> np.ndarray:
+        """The sway [m/s] (body y, FRD) of states ``X`` (n x >= 6) at kernel times ``t`` (n)
+        [s] when :attr:`sway_with_water`: the water's in the environment ``env``, so the
+        sway through the water is zero; otherwise the states' own sway (``X[:, 7]``)."""
+        if not self.sway_with_water:
+            return np.array(X[:, 7], dtype=np.float64)
+        sway: np.ndarray = water_sway(np.ascontiguousarray(t, dtype=np.float64),
+                                      np.ascontiguousarray(X[:, :6], dtype=np.float64), env)
+        return sway
+
     def outputs(self, w: Window) -> int:
         """Number of free-run outputs of window ``w`` (every ``m``-th log sample)."""
         return (w.n - 1) // self.m + 1
@@ -665,7 +686,10 @@ class Problem:
             self._eq_act_cache[key] = eq_act
         X[:, 12:] = eq_act
         P, M = self.model_arrays(pert)
-        tau = equation_terms(self.eq_t - self.t_ref, X, pert.env_vector(), pert.C, P)
+        env = pert.env_vector()
+        if self.sway_with_water and np.any(env != 0.0):
+            X[:, 7] = self.with_water_sway(self.eq_t - self.t_ref, X, env)
+        tau = equation_terms(self.eq_t - self.t_ref, X, env, pert.C, P)
         lhs = rate[:, 6:12] @ M.T
         e = np.empty((X.shape[0], 6))
         for k, r in enumerate(EQ_ROWS):
