@@ -10,6 +10,14 @@ bag without any stamped message, which is said. A ``/clock`` topic stored in the
 not replayed. ``--wait-for-subscribers`` waits for a subscriber on every topic that has
 messages to replay (and ``/clock``). The whole bag is read before the first message goes out,
 so a damaged bag is an error before anything is published.
+
+No message is lost to a slow subscriber: the publishers are reliable, and every half
+``--qos-depth`` messages on a topic the replay waits (at most :data:`ACK_TIMEOUT`) until its
+subscribers have acknowledged them, before its keep-last history could overwrite one they
+have not received; a subscriber that falls behind (a loaded machine) slows the replay down
+instead. At the end the replay waits for every subscriber's acknowledgement of the last
+messages. A topic not acknowledged within :data:`ACK_TIMEOUT` is an error naming it (exit 1).
+``/clock`` is a latest-value stream and is not waited for.
 """
 from __future__ import annotations
 
@@ -27,7 +35,7 @@ from auv_bringup.topics import header_stamp
 
 CLOCK_TOPIC = '/clock'
 NS = 1_000_000_000
-ACK_TIMEOUT = 5.0  # s, longest wait at the end for reliable delivery
+ACK_TIMEOUT = 30.0  # s, longest wait for the subscribers' acknowledgement of a topic
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -121,15 +129,27 @@ def run(args: argparse.Namespace) -> int:
             _play_once(messages, pubs, clock_pub, args, stop, base)
             if not args.loop:
                 break
-        for pub in [*pubs.values(), *([clock_pub] if clock_pub else [])]:
-            pub.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT))
+        if clock_pub is not None:
+            clock_pub.wait_for_all_acked(Duration(seconds=1.0))
+        late = [t for t, pub in pubs.items() if not acknowledged(pub)]
         node.destroy_node()
+        if late:
+            raise CliError(f'not acknowledged by every subscriber within {ACK_TIMEOUT:g} s: '
+                           f'{", ".join(late)} (messages may be lost)')
     finally:
         if rclpy.ok():
             rclpy.shutdown()
         for sig, handler in previous.items():
             signal.signal(sig, handler)
     return 130 if stop['signal'] == signal.SIGINT else 0
+
+
+def acknowledged(pub: Any, timeout: float = ACK_TIMEOUT) -> bool:
+    """Whether every subscriber of the reliable publisher ``pub`` acknowledged all its
+    messages within ``timeout`` [s]."""
+    from rclpy.duration import Duration
+
+    return bool(pub.wait_for_all_acked(Duration(seconds=timeout)))
 
 
 MATCH_SETTLE = 0.3  # s after the writers see their readers, for the readers to see the writers
@@ -220,6 +240,8 @@ def _play_once(messages: list[tuple[int, str, bytes]], pubs: dict[str, Any], clo
             return base[max(0, i - 1)]
         return min(t0 + int((now - start) * args.rate * 1e9), messages[i][0])
 
+    every = max(1, args.qos_depth // 2)
+    sent = dict.fromkeys(pubs, 0)
     for i, (log_ns, topic, data) in enumerate(messages):
         target = start + (log_ns - t0) * 1e-9 / args.rate
         while not stop['signal']:
@@ -234,6 +256,11 @@ def _play_once(messages: list[tuple[int, str, bytes]], pubs: dict[str, Any], clo
         if stop['signal']:
             return
         pubs[topic].publish(data)
+        sent[topic] += 1
+        if sent[topic] % every == 0 and not acknowledged(pubs[topic]):
+            raise CliError(f'{topic}: the subscribers did not acknowledge the last {every} '
+                           f'messages within {ACK_TIMEOUT:g} s; replay stopped before any '
+                           'is lost')
     if clock_pub is not None:
         clock_pub.publish(_clock_message(base[-1] if base is not None else messages[-1][0]))
 
