@@ -32,9 +32,10 @@ Beyond the report, :class:`DepthController` adds
   less the pitch rate times the plane's reaction time while the vehicle rotates towards the
   limit (``pitch_anticipation``);
 * a pitch envelope selector (:mod:`auv_depth_lqr.envelope`): the BAR is kept between the
-  commands of an incremental pitch-hold law aiming at ``+-pitch_guard * theta_max``, which
-  counts the plane's reaction and braking on a rotation towards a limit; while it holds, the
-  integrator is frozen. The guard above shapes the depth loop's pitch demand on the model;
+  commands of an incremental pitch-hold law aiming at ``+-theta_max``, which counts the
+  plane's reaction and braking on a rotation towards a limit; while it holds, the integrator
+  is frozen. It aims at the limit itself, not at the guard's share of it, so that a flight
+  of the design model, which the guard keeps below the limit, is not touched by it. The guard above shapes the depth loop's pitch demand on the model;
   the selector holds the limit on the measured pitch acceleration, whatever the model gets
   wrong (buoyancy, a trim moment, weak planes, a speed that falls with the thrust held);
 * a stop planned at the surge speed the vehicle is heading for when that is lower than the
@@ -169,7 +170,7 @@ class DepthController:
                     'grid')
         self.reference = ReferenceGovernor(design, self.limits, self.governor, ts)
         """The reference governor (:class:`~auv_depth_lqr.governor.ReferenceGovernor`)."""
-        self.envelope = PitchEnvelope(self.governor.pitch_guard * self.limits.theta_max,
+        self.envelope = PitchEnvelope(self.limits.theta_max,
                                       self.limits.bar_rate_max, ts)
         """The pitch envelope selector (:class:`~auv_depth_lqr.envelope.PitchEnvelope`)."""
         self.surge = SurgeTrend(self.governor.surge_length, self.governor.surge_trend_time, ts,
