@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from auv_gap.diagnose import DIVERGE_SHARE, keeps_runs
+from auv_gap.nominal import DIVERGE_SHARE, keeps_runs
 
 
 def test_keeps_runs_by_a_sign_test_worked_by_hand() -> None:
