@@ -94,6 +94,10 @@ LIMITED_SHARE = 0.9
 kinematic one (the pitch limit's) is limited by the plane at the present speed [-]."""
 
 HELD_THRUST_PERIOD = 10.0
+
+ENVELOPE_REPORT_TIME = 2.0
+"""How long [s] after the pitch envelope selector last held a limit the pilot still says so
+(:meth:`DepthPilot.envelope_warning`): one line, not one per sample."""
 """How long [s of state time] the steadiest climb and dive with the thrust held
 (:meth:`DepthPilot.climb_limits`) are kept before they are solved again [s]."""
 
@@ -320,6 +324,8 @@ class DepthPilot:
         self._theta_measured = 0.0
         self._t_measured = 0.0
         self._held: tuple[float, float, float] | None = None
+        self._envelope_t: float | None = None
+        """Time [s] the pitch envelope selector last held a limit in normal control."""
         """``(t [s], climb, dive [m/s])`` of the last held-thrust limits solved."""
         """Measurement time [s] of the latest state (its stamp)."""
         self._t_offset: float | None = None
@@ -361,6 +367,19 @@ class DepthPilot:
             self._held = (t, self.controller.held_thrust_cap(-1.0, u),
                           self.controller.held_thrust_cap(1.0, u))
         return self._held[1], self._held[2]
+
+    def envelope_warning(self, t: float) -> str:
+        """One line for an operator when the pitch envelope selector
+        (:mod:`auv_depth_lqr.envelope`) held a limit within ``ENVELOPE_REPORT_TIME`` of
+        ``t`` [s]: the depth change asked for cannot be flown within the limits at the present
+        speed and thrust, and is flown the best it can within them; '' otherwise."""
+        if self._envelope_t is None or not 0.0 <= t - self._envelope_t <= ENVELOPE_REPORT_TIME:
+            return ''
+        env = self.controller.envelope
+        return (f'pitch limit held (nose up {math.degrees(env.up):.1f} deg, nose down '
+                f'{math.degrees(env.down):.1f} deg): the depth change cannot be flown within '
+                'the limits at the present speed and thrust; flying the best it can within '
+                'them')
 
     def learning_diagnostics(self) -> dict[str, str]:
         """What the pilot has learned of its plant and what it can fly, as diagnostic
@@ -529,6 +548,8 @@ class DepthPilot:
             self.status = f'error: {exc}'
             return self._safe(), self.status
         self._last_bar = bar
+        if self.controller.envelope.active:
+            self._envelope_t = t
         self.status = 'ok'
         self.authority_monitor.update(
             t, bar, self.controller.governed_reference == (self.z_ref, 0.0))
