@@ -35,9 +35,10 @@ Beyond the report, :class:`DepthController` adds
   commands of an incremental pitch-hold law aiming at ``+-theta_max``, which counts the
   plane's reaction and braking on a rotation towards a limit; while it holds, the integrator
   is frozen. It aims at the limit itself, not at the guard's share of it, so that a flight
-  of the design model, which the guard keeps below the limit, is not touched by it. The guard above shapes the depth loop's pitch demand on the model;
-  the selector holds the limit on the measured pitch acceleration, whatever the model gets
-  wrong (buoyancy, a trim moment, weak planes, a speed that falls with the thrust held);
+  of the design model, which the guard keeps below the limit, is not touched by it. The
+  guard above shapes the depth loop's pitch demand on the model; the selector holds the
+  limit on the measured pitch acceleration, whatever the model gets wrong (buoyancy, a trim
+  moment, weak planes, a speed that falls with the thrust held);
 * a stop planned at the surge speed the vehicle is heading for when that is lower than the
   measured one (``surge_length``, :class:`~auv_depth_lqr.surge.SurgeTrend`): with its
   propeller held, a positively buoyant vehicle slows down in a dive, and its plane with it;

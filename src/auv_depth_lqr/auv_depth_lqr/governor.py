@@ -146,7 +146,7 @@ class GovernorSettings:
     clipped there (pitch envelope protection; inactive in normal flight) [-]."""
     pitch_envelope: bool = True
     """Whether the pitch envelope selector (:mod:`auv_depth_lqr.envelope`) keeps the BAR
-    within the commands of its pitch-hold law towards ``+-pitch_guard * theta_max``; off
+    within the commands of its pitch-hold law towards ``+-theta_max``; off
     leaves the guard alone (to look at the depth loop by itself)."""
     pitch_anticipation: float = 0.5
     """Lead of the pitch guard on a rotation towards the limit, in units of the plane's

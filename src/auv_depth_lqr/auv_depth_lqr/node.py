@@ -61,7 +61,8 @@ envelope], ``depth_command_mode`` (``refuse`` or ``clamp``), ``odom_frame``, the
 fallback ``recovery`` (bool), ``recovery_pitch_margin`` [rad],
 ``recovery_rate_residual`` [m/s], ``recovery_rate_window`` [s], ``recovery_resume_time``
 [s], ``recovery_gain``, ``recovery_bar_fraction`` (see :mod:`auv_depth_lqr.recovery`),
-at start only: ``diagnostics_period`` [s], ``state_source`` (``vehicle_state`` or
+at start only: ``pitch_envelope`` (bool, the pitch envelope selector,
+:mod:`auv_depth_lqr.envelope`), ``diagnostics_period`` [s], ``state_source`` (``vehicle_state`` or
 ``odometry``), ``state_reliability``, ``realtime_priority`` (0-99; 0 = normal scheduling),
 ``start_subscribers`` (before its first command the node waits, at most ``startup_timeout``
 [s], until ``bar_command`` has this many matched subscriptions, so that a recorder started

@@ -170,7 +170,11 @@ class PilotSettings:
     :data:`AUTHORITY_WINDOW`). ``learn``: estimate what the vehicle file gets wrong while
     flying (:mod:`auv_depth_lqr.learning`) and, once the vehicle has been at rest on a
     command, fly the learned model (``docs/pilot-design.md``); off (the default), the vehicle
-    file's model with its disturbance estimate.
+    file's model with its disturbance estimate. ``pitch_envelope``: the pitch envelope
+    selector (:mod:`auv_depth_lqr.envelope`) keeps the BAR within the commands of a
+    pitch-hold law towards the pitch limits (default); off, only the pitch guard of the depth
+    loop limits the pitch (to look at the depth loop alone, or to let excitation added to the
+    pilot's command reach the pitch it is meant to).
     """
 
     rate_hz: float = 10.0
@@ -189,6 +193,7 @@ class PilotSettings:
     pitch_offset_max: float = math.radians(3.0)
     authority_window: float | None = None
     learn: bool = False
+    pitch_envelope: bool = True
 
     def __post_init__(self) -> None:
         for name in ('rate_hz', 'theta_max', 'state_timeout'):
@@ -284,7 +289,8 @@ def build_controller(params: VehicleParams, settings: PilotSettings) -> DepthCon
                                    Q=Q, R=R, Ts=settings.Ts)
     limits = Limits(bar_max=bar_max, bar_rate_max=bar_rate, theta_max=settings.theta_max)
     governor = dataclasses.replace(tuning.governor,
-                                   surge_length=surge_length(params, speeds))
+                                   surge_length=surge_length(params, speeds),
+                                   pitch_envelope=settings.pitch_envelope)
     learner = PlantEstimator(params, settings.Ts) if settings.learn else None
     return DepthController(schedule, limits, settings.Ts, governor, learner)
 
