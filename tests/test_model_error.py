@@ -35,7 +35,8 @@ CASES = {'a18m': (2.0, 40.0, 10.0), 'remus100': (1.5, 20.0, 10.0)}
 #: second (tests/test_settling_bound_vehicles.py): with +1 % buoyancy the REMUS settles after
 #: 43.9 s, 2.32x its 18.95 s bound (it would pass only at 37.9 s); in the following current
 #: after 58.3 s, 3.1x; the weak fins leave it 1.14 m short of the command after 200 s (line
-#: 0.01 m); in the head current after 39.4 s (line 37.9 s, 1.5 s away on a deterministic run).
+#: 0.01 m). The head current (39.4 s before the pitch envelope selector, line 37.9 s) now
+#: settles after 35.7 s and passes.
 KNOWN = {
     ('remus100', 'buoyancy+1%'): 'with the weights derived from the vehicle (Bryson on its '
                                  'Froude scales) the plane saturates holding the trim '
@@ -44,12 +45,6 @@ KNOWN = {
     ('remus100', 'current_following_0.3'): 'the pilot schedules and the speed loop holds the '
                                            'speed over ground: 1.2 m/s through the water, '
                                            'settled after 58.3 s, 3.1x the bound',
-    ('remus100', 'current_head_0.3'): 'the climb is capped at what the plane holds at the '
-                                      'speed the vehicle is heading for, predicted from the '
-                                      'surge trend as if the thrust were held; the speed loop '
-                                      'makes the dips short: settled after 39.4 s, 2.08x the '
-                                      'bound (31.3 s without the cap, whose pitch then passes '
-                                      'the limit by 5.8 deg with the thrust held)',
     ('remus100', 'fins*0.7'): 'with 30 % less fin lift the plane saturates holding the trim '
                               'against the 7 N of positive buoyancy: 1.14 m short of the '
                               'command after 200 s',

@@ -63,7 +63,7 @@ def edges(spec: ParameterSpec) -> list[tuple[float | int, float | int]]:
 
 # -- the schema -------------------------------------------------------------------------------
 def test_every_parameter_has_a_one_line_description_with_its_unit_or_none_declared() -> None:
-    assert len(PARAMETERS) == 31
+    assert len(PARAMETERS) == 32
     for spec in PARAMETERS.values():
         assert spec.description and '\n' not in spec.description, spec.name
         if spec.unit:
@@ -90,7 +90,7 @@ def test_defaults_pass_the_checks_and_match_the_declared_ranges_and_choices() ->
     assert set(START_ONLY) == {
         'realtime_priority', 'state_source', 'state_reliability', 'diagnostics_period',
         'start_subscribers', 'startup_timeout', 'diagnostics_subscribers', 'report_file',
-        'learn'}
+        'learn', 'pitch_envelope'}
 
 
 @pytest.mark.parametrize('spec', RANGED, ids=[s.name for s in RANGED])

@@ -31,6 +31,14 @@ Beyond the report, :class:`DepthController` adds
   ``pitch_guard * theta_max`` (a current or a wrong speed can make the vehicle lag the plan),
   less the pitch rate times the plane's reaction time while the vehicle rotates towards the
   limit (``pitch_anticipation``);
+* a pitch envelope selector (:mod:`auv_depth_lqr.envelope`): the BAR is kept between the
+  commands of an incremental pitch-hold law aiming at ``+-theta_max``, which counts the
+  plane's reaction and braking on a rotation towards a limit; while it holds, the integrator
+  is frozen. It aims at the limit itself, not at the guard's share of it, so that a flight
+  of the design model, which the guard keeps below the limit, is not touched by it. The
+  guard above shapes the depth loop's pitch demand on the model; the selector holds the
+  limit on the measured pitch acceleration, whatever the model gets wrong (buoyancy, a trim
+  moment, weak planes, a speed that falls with the thrust held);
 * a stop planned at the surge speed the vehicle is heading for when that is lower than the
   measured one (``surge_length``, :class:`~auv_depth_lqr.surge.SurgeTrend`): with its
   propeller held, a positively buoyant vehicle slows down in a dive, and its plane with it;
@@ -54,6 +62,7 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
+from auv_depth_lqr.envelope import PitchEnvelope
 from auv_depth_lqr.errors import ControllerError, DesignError
 from auv_depth_lqr.governor import GovernorSettings, Reference, ReferenceGovernor
 from auv_depth_lqr.learning import PlantEstimator
@@ -162,6 +171,9 @@ class DepthController:
                     'grid')
         self.reference = ReferenceGovernor(design, self.limits, self.governor, ts)
         """The reference governor (:class:`~auv_depth_lqr.governor.ReferenceGovernor`)."""
+        self.envelope = PitchEnvelope(self.limits.theta_max,
+                                      self.limits.bar_rate_max, ts)
+        """The pitch envelope selector (:class:`~auv_depth_lqr.envelope.PitchEnvelope`)."""
         self.surge = SurgeTrend(self.governor.surge_length, self.governor.surge_trend_time, ts,
                                 self.governor.surge_horizon)
         """The measured surge speed's trend (:class:`~auv_depth_lqr.surge.SurgeTrend`)."""
@@ -195,6 +207,7 @@ class DepthController:
         self._headings: collections.deque[float] = collections.deque(
             maxlen=max(int(round(self.governor.surge_horizon / self.Ts)), 1))
         self.surge.reset()
+        self.envelope.reset()
         self.reference.reset()
         self._bar_prev = None if bar_previous is None else finite('bar_previous', bar_previous)
         if self.learner is not None:
@@ -434,6 +447,17 @@ class DepthController:
             depth_terms = k_theta * (x_ref[3] - clipped)
         bar_linear = bar_ff - float(K[0] * error[0] + K[1] * error[1] + K[3] * error[3]) \
             - depth_terms
+        # Pitch envelope selector: within the pitch-hold law's commands towards the limits,
+        # on the plane's effectiveness at the measured speed (the grid's, times (u / u0)^2
+        # off the grid).
+        m_bar = float(op.P[1, 3]) * (u / op.u0) ** 2
+        settles = self.surge.ahead(u)  # the speed the thrust held settles at
+        bounds = self.envelope.bounds(theta, q, self._bar_prev, m_bar,
+                                      float(op.P[1, 1]) * u / op.u0, k_theta, float(K[1]),
+                                      lim.bar_max, u / settles if settles > 0.0 else 0.0,
+                                      settings.glide_bar_share * lim.bar_max)
+        if settings.pitch_envelope:
+            bar_linear = self.envelope.select(bar_linear, bounds)
 
         if not (math.isfinite(bar_linear) and math.isfinite(z_r) and math.isfinite(v_r)):
             # min/max would turn a NaN into a limit: refuse instead; the state is left as is
@@ -458,7 +482,7 @@ class DepthController:
         winds_up = abs(limited) > 1e-12 and pushes * limited > 0.0
         near = (abs(v_r) <= settings.integrate_below_speed
                 and (abs(z - z_r) <= settings.integrate_within or stalled))
-        if near and not winds_up:
+        if near and not winds_up and not self.envelope.active:
             self._xi += increment
         if k_xi != 0.0:
             # The integral term as a pitch offset of the attitude loop, at most

@@ -144,6 +144,10 @@ class GovernorSettings:
     """Fraction of ``theta_max`` beyond which the depth feedback may not ask for more pitch:
     the pitch command ``theta_ref + (depth and integral terms) / K_theta`` of the LQR is
     clipped there (pitch envelope protection; inactive in normal flight) [-]."""
+    pitch_envelope: bool = True
+    """Whether the pitch envelope selector (:mod:`auv_depth_lqr.envelope`) keeps the BAR
+    within the commands of its pitch-hold law towards ``+-theta_max``; off
+    leaves the guard alone (to look at the depth loop by itself)."""
     pitch_anticipation: float = 0.5
     """Lead of the pitch guard on a rotation towards the limit, in units of the plane's
     reaction time ``bar_max / bar_rate_max`` (the time it takes from one end to neutral)

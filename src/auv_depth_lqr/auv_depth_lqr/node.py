@@ -29,8 +29,11 @@ each topic also with ``-r state:=/nav/state`` etc.):
 * publishes ``bar_command`` (auv_msgs/ActuatorSetpoint, rad) at a fixed rate (``rate``,
   default 10 Hz) from a timer, whether or not new state arrived, and ``/diagnostics``
   (diagnostic_msgs/DiagnosticArray, absolute as the ROS convention has it) every
-  ``diagnostics_period`` seconds and at once when the pilot's mode or its plane authority
-  changes: two statuses, ``<node>: depth control`` (mode, command, envelope, what the pilot
+  ``diagnostics_period`` seconds and at once when the pilot's mode, its plane authority or
+  its pitch envelope changes: two statuses, ``<node>: depth control`` (mode, command,
+  envelope; WARN with one line while the pitch envelope selector holds a limit,
+  ``pitch_envelope`` ``holding``: :meth:`auv_depth_lqr.pilot.DepthPilot.envelope_warning`;
+  what the pilot
   has learned of its plant and the climb and dive it can fly:
   :meth:`auv_depth_lqr.pilot.DepthPilot.learning_diagnostics`) and ``<node>:
   plane authority`` (how much of the plane holding depth takes, WARN when little is left:
@@ -58,7 +61,8 @@ envelope], ``depth_command_mode`` (``refuse`` or ``clamp``), ``odom_frame``, the
 fallback ``recovery`` (bool), ``recovery_pitch_margin`` [rad],
 ``recovery_rate_residual`` [m/s], ``recovery_rate_window`` [s], ``recovery_resume_time``
 [s], ``recovery_gain``, ``recovery_bar_fraction`` (see :mod:`auv_depth_lqr.recovery`),
-at start only: ``diagnostics_period`` [s], ``state_source`` (``vehicle_state`` or
+at start only: ``pitch_envelope`` (bool, the pitch envelope selector,
+:mod:`auv_depth_lqr.envelope`), ``diagnostics_period`` [s], ``state_source`` (``vehicle_state`` or
 ``odometry``), ``state_reliability``, ``realtime_priority`` (0-99; 0 = normal scheduling),
 ``start_subscribers`` (before its first command the node waits, at most ``startup_timeout``
 [s], until ``bar_command`` has this many matched subscriptions, so that a recorder started
@@ -244,6 +248,9 @@ class DepthPilotNode(Node):
         self.timer: Timer | None = None
         self._reported = ''
         self._authority_reported = UNKNOWN
+        self._envelope_reported = False
+        self._t_command = 0.0
+        """Time [s] of the last command computed (what ``/diagnostics`` reports on)."""
         self._configure_timer()
         self.create_timer(values['diagnostics_period'], self._publish_diagnostics)
         self.get_logger().info(
@@ -501,6 +508,7 @@ class DepthPilotNode(Node):
         """Compute the command for ``t`` [s] and publish it stamped ``stamp``; with ``out_ns``
         [ns, system clock], not before that instant."""
         bar, status = self.pilot.command(t)
+        self._t_command = t
         changed = status != self._reported
         if changed:
             if status == 'ok':
@@ -516,6 +524,14 @@ class DepthPilotNode(Node):
             elif self._authority_reported == LOW:
                 self.get_logger().info(text)
             self._authority_reported = authority.level
+            changed = True
+        envelope = self.pilot.envelope_warning(t)
+        if bool(envelope) != self._envelope_reported:
+            if envelope:
+                self.get_logger().warning(envelope)
+            else:
+                self.get_logger().info('pitch limit no longer held: depth control as asked')
+            self._envelope_reported = bool(envelope)
             changed = True
         out = ActuatorSetpoint()
         out.header.stamp = stamp
@@ -619,6 +635,10 @@ class DepthPilotNode(Node):
         if self._command_warning:
             out.level = max(out.level, DiagnosticStatus.WARN)
             out.message = f'{out.message}; {self._command_warning}'
+        envelope = pilot.envelope_warning(self._t_command)
+        if envelope:
+            out.level = max(out.level, DiagnosticStatus.WARN)
+            out.message = f'{out.message}; {envelope}'
         out.hardware_id = self.get_namespace()
         values = {
             'status': status,
@@ -629,6 +649,7 @@ class DepthPilotNode(Node):
             'last_rejected_command': self._last_refusal,
             'pitch_deg': 'none' if verdict is None else f'{math.degrees(verdict.pitch):.2f}',
             'pitch_limit_deg': f'{math.degrees(pilot.controller.limits.theta_max):g}',
+            'pitch_envelope': 'holding' if envelope else 'clear',
             'depth_rate_residual_mps': ('none' if verdict is None or verdict.residual is None
                                         else f'{verdict.residual:+.3f}'),
             **pilot.learning_diagnostics(),

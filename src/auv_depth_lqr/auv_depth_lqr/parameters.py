@@ -123,6 +123,8 @@ _SPECS = (
     ParameterSpec('lockstep', False, 'answer each state at a control instant instead of a '
                   'timer (docs/lockstep.md)'),
     ParameterSpec('recovery', True, 'envelope fallback to the recovery law'),
+    ParameterSpec('pitch_envelope', True, 'keep the BAR within the commands of a pitch-hold '
+                  'law towards the pitch limits (auv_depth_lqr.envelope)', start_only=True),
     ParameterSpec('learn', False, 'learn what the vehicle file gets wrong while flying and fly '
                   'the learned model (docs/pilot-design.md)', start_only=True),
     ParameterSpec('realtime_priority', 0, 'SCHED_FIFO priority of the node\'s threads; '
@@ -253,7 +255,8 @@ def pilot_from_values(v: Mapping[str, Any]) -> DepthPilot:
         state_timeout=v['state_timeout'],
         safe_bar=None if math.isnan(v['safe_bar']) else v['safe_bar'],
         water_speed=v['water_speed'] or None, publish_delay=v['publish_delay'],
-        recovery=recovery, learn=bool(v['learn']))
+        recovery=recovery, learn=bool(v['learn']),
+        pitch_envelope=bool(v['pitch_envelope']))
     return DepthPilot.for_vehicle(
         params, settings,
         depth_min=None if math.isnan(v['depth_min']) else v['depth_min'],

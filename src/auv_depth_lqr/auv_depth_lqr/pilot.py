@@ -94,6 +94,10 @@ LIMITED_SHARE = 0.9
 kinematic one (the pitch limit's) is limited by the plane at the present speed [-]."""
 
 HELD_THRUST_PERIOD = 10.0
+
+ENVELOPE_REPORT_TIME = 2.0
+"""How long [s] after the pitch envelope selector last held a limit the pilot still says so
+(:meth:`DepthPilot.envelope_warning`): one line, not one per sample."""
 """How long [s of state time] the steadiest climb and dive with the thrust held
 (:meth:`DepthPilot.climb_limits`) are kept before they are solved again [s]."""
 
@@ -166,7 +170,11 @@ class PilotSettings:
     :data:`AUTHORITY_WINDOW`). ``learn``: estimate what the vehicle file gets wrong while
     flying (:mod:`auv_depth_lqr.learning`) and, once the vehicle has been at rest on a
     command, fly the learned model (``docs/pilot-design.md``); off (the default), the vehicle
-    file's model with its disturbance estimate.
+    file's model with its disturbance estimate. ``pitch_envelope``: the pitch envelope
+    selector (:mod:`auv_depth_lqr.envelope`) keeps the BAR within the commands of a
+    pitch-hold law towards the pitch limits (default); off, only the pitch guard of the depth
+    loop limits the pitch (to look at the depth loop alone, or to let excitation added to the
+    pilot's command reach the pitch it is meant to).
     """
 
     rate_hz: float = 10.0
@@ -185,6 +193,7 @@ class PilotSettings:
     pitch_offset_max: float = math.radians(3.0)
     authority_window: float | None = None
     learn: bool = False
+    pitch_envelope: bool = True
 
     def __post_init__(self) -> None:
         for name in ('rate_hz', 'theta_max', 'state_timeout'):
@@ -280,7 +289,8 @@ def build_controller(params: VehicleParams, settings: PilotSettings) -> DepthCon
                                    Q=Q, R=R, Ts=settings.Ts)
     limits = Limits(bar_max=bar_max, bar_rate_max=bar_rate, theta_max=settings.theta_max)
     governor = dataclasses.replace(tuning.governor,
-                                   surge_length=surge_length(params, speeds))
+                                   surge_length=surge_length(params, speeds),
+                                   pitch_envelope=settings.pitch_envelope)
     learner = PlantEstimator(params, settings.Ts) if settings.learn else None
     return DepthController(schedule, limits, settings.Ts, governor, learner)
 
@@ -320,6 +330,8 @@ class DepthPilot:
         self._theta_measured = 0.0
         self._t_measured = 0.0
         self._held: tuple[float, float, float] | None = None
+        self._envelope_t: float | None = None
+        """Time [s] the pitch envelope selector last held a limit in normal control."""
         """``(t [s], climb, dive [m/s])`` of the last held-thrust limits solved."""
         """Measurement time [s] of the latest state (its stamp)."""
         self._t_offset: float | None = None
@@ -361,6 +373,19 @@ class DepthPilot:
             self._held = (t, self.controller.held_thrust_cap(-1.0, u),
                           self.controller.held_thrust_cap(1.0, u))
         return self._held[1], self._held[2]
+
+    def envelope_warning(self, t: float) -> str:
+        """One line for an operator when the pitch envelope selector
+        (:mod:`auv_depth_lqr.envelope`) held a limit within ``ENVELOPE_REPORT_TIME`` of
+        ``t`` [s]: the depth change asked for cannot be flown within the limits at the present
+        speed and thrust, and is flown the best it can within them; '' otherwise."""
+        if self._envelope_t is None or not 0.0 <= t - self._envelope_t <= ENVELOPE_REPORT_TIME:
+            return ''
+        env = self.controller.envelope
+        return (f'pitch limit held (nose up {math.degrees(env.up):.1f} deg, nose down '
+                f'{math.degrees(env.down):.1f} deg): the depth change cannot be flown within '
+                'the limits at the present speed and thrust; flying the best it can within '
+                'them')
 
     def learning_diagnostics(self) -> dict[str, str]:
         """What the pilot has learned of its plant and what it can fly, as diagnostic
@@ -529,6 +554,8 @@ class DepthPilot:
             self.status = f'error: {exc}'
             return self._safe(), self.status
         self._last_bar = bar
+        if self.controller.envelope.active:
+            self._envelope_t = t
         self.status = 'ok'
         self.authority_monitor.update(
             t, bar, self.controller.governed_reference == (self.z_ref, 0.0))

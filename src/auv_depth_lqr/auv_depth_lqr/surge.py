@@ -82,7 +82,13 @@ class SurgeTrend:
         alpha = self.ts / (self.time + self.ts)
         self._u1 += alpha * (u - self._u1)
         self._u2 += alpha * (self._u1 - self._u2)
+        return self.ahead(u, self.horizon)
+
+    def ahead(self, u: float, horizon: float = math.inf) -> float:
+        """The speed [m/s] the trend heads for ``horizon`` [s] ahead of the measured ``u``
+        [m/s] (``inf``: the speed it settles at, ``u + tau u_dot``), without taking a sample;
+        ``u`` itself when the prediction is off."""
         if self.surge_length <= 0.0 or not math.isfinite(u) or u <= 0.0:
             return u
         tau = self.surge_length / u
-        return u + tau * (1.0 - math.exp(-self.horizon / tau)) * self.rate
+        return u + tau * (1.0 - math.exp(-horizon / tau)) * self.rate

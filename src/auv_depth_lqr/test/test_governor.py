@@ -205,11 +205,16 @@ def test_reference_goes_on_for_a_stalled_vehicle(schedule: GainSchedule) -> None
         ctrl.step(PlaneState(z=10.6, theta=0.0069, w=0.0138, q=0.0, u=2.0), 10.0)
     assert ctrl.governed_reference == (10.0, 0.0)
     assert ctrl.integrator > 0.0
+GUARD_ONLY = dataclasses.replace(IDEAL, pitch_envelope=False)
+"""The depth loop's pitch guard without the envelope selector behind it (which would act on
+the jump of the pitch rate between these tests' two samples)."""
+
+
 def test_pitch_protection_caps_the_depth_feedback(schedule: GainSchedule) -> None:
     """Far below a reference held at rest, the pitch demand is capped at pitch_guard *
     theta_max: at that pitch, with no rate, the command is the trim BAR again."""
     # a plane rate limit that cannot bind (2 bar_max per sample) isolates the feedback law
-    limits, governor = Limits(bar_rate_max=2.0 * Limits().bar_max / TS), IDEAL
+    limits, governor = Limits(bar_rate_max=2.0 * Limits().bar_max / TS), GUARD_ONLY
     ctrl = DepthController(schedule, limits, TS, governor)
     op = schedule.at(2.0)
     theta_cap = governor.pitch_guard * limits.theta_max
@@ -231,13 +236,13 @@ def test_pitch_protection_leads_a_rotation_towards_the_limit(schedule: GainSched
     lead = IDEAL.pitch_anticipation * limits.bar_max / limits.bar_rate_max
     k_q = float(op.K[1])
     for q, theta in ((0.03, theta_cap - lead * 0.03), (-0.03, theta_cap)):
-        ctrl = DepthController(schedule, limits, TS, IDEAL)
+        ctrl = DepthController(schedule, limits, TS, GUARD_ONLY)
         ctrl.step(PlaneState(z=20.0, theta=op.theta_e, w=op.w_e, q=0.0, u=2.0), 20.0)
         bar = ctrl.step(PlaneState(z=30.0, theta=theta, w=op.w_e, q=q, u=2.0), 20.0)
         assert bar == pytest.approx(op.bar_e - k_q * q, abs=1e-9)
     # Without the lead, the same rotation at the same pitch would be commanded further up.
     ctrl = DepthController(schedule, limits, TS,
-                           dataclasses.replace(IDEAL, pitch_anticipation=0.0))
+                           dataclasses.replace(GUARD_ONLY, pitch_anticipation=0.0))
     ctrl.step(PlaneState(z=20.0, theta=op.theta_e, w=op.w_e, q=0.0, u=2.0), 20.0)
     bar = ctrl.step(PlaneState(z=30.0, theta=theta_cap - lead * 0.03, w=op.w_e, q=0.03,
                                u=2.0), 20.0)
