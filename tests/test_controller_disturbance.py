@@ -8,6 +8,8 @@
   model at is the true one (oracle: the hand-worked ``u - c cos(theta)``), not the setting.
 * Settings derived from the vehicle file: the disturbance estimate's time constant scales
   with ``sqrt(L/g)`` (Froude), the safe BAR with the plane travel.
+* A plane held at its angle limit: the disturbance estimate holds still there (a plane
+  weaker than the model's would read as an offset), and learns off the limit.
 
 Frames and units: NED, z down [m]; pitch nose up [rad]; BAR [rad].
 """
@@ -20,6 +22,7 @@ import numpy as np
 import pytest
 
 from auv_depth_lqr.closed_loop import run_closed_loop
+from auv_depth_lqr.controller import PlaneState
 from auv_depth_lqr.pilot import DepthPilot, PilotSettings
 from auv_depth_lqr.tuning import derive_tuning
 from auv_sim.environment import Environment
@@ -60,6 +63,28 @@ def test_disturbance_estimate_holds_a_buoyancy_offset(a18m: VehicleParams,
     rec = run.record
     last = rec.t >= rec.t[-1] - 10.0
     assert np.max(np.abs(rec.x[last, 2] - 30.0)) < 0.02
+
+
+def test_disturbance_estimate_holds_still_with_the_plane_at_its_limit(
+        a18m: VehicleParams) -> None:
+    """The same unexplained pitch acceleration (the pitch rate ramping by 0.005 rad/s^2, at
+    2 m/s, depth on the command) fed to two controllers: one pitched 15 deg nose up, whose
+    loop holds the BAR at +bar_max on every sample, keeps its estimate at zero; one at its
+    trim pitch, its BAR within the limits, takes the same data for a disturbance."""
+    estimates = []
+    for pitch in (15.0, 0.0):
+        controller = DepthPilot.for_vehicle(a18m).controller
+        op = controller.design.at(2.0)
+        bars = [controller.step(PlaneState(z=30.0, theta=op.theta_e + math.radians(pitch),
+                                           w=op.w_e, q=0.0005 * k, u=2.0), 30.0)
+                for k in range(30)]
+        share = [abs(b) / controller.limits.bar_max for b in bars]
+        estimates.append((controller.disturbance, share))
+    (held, at_limit), (learned, within) = estimates
+    assert min(at_limit) == 1.0  # the plane at its limit on every sample ...
+    assert held == (0.0, 0.0)    # ... and the estimate as it started
+    assert max(within) < 0.6     # the plane within its limits on every sample ...
+    assert abs(learned[1]) > 5e-3  # ... and the pitch acceleration taken [rad/s^2]
 
 
 def test_told_its_water_speed_the_pilot_flies_its_true_surge(a18m: VehicleParams) -> None:

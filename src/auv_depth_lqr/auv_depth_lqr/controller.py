@@ -210,6 +210,7 @@ class DepthController:
         self.envelope.reset()
         self.reference.reset()
         self._bar_prev = None if bar_previous is None else finite('bar_previous', bar_previous)
+        self._bar_at_limit = False
         if self.learner is not None:
             self.learner.forget_plane()
 
@@ -268,7 +269,19 @@ class DepthController:
         moves the trim (10 -> 30 m: 27.4 deg peak pitch, against 24.4 deg without), and at
         rest behind a 0.3 s plane delay it widens the hold's limit cycle (1.3 cm against
         0.8 cm); its estimate stays zero and its integrator removes offsets.
-        With a :attr:`learner`, the sample goes to it instead (any vehicle)."""
+        With a :attr:`learner`, the sample goes to it instead (any vehicle).
+
+        A sample over which the BAR was held at its angle limit (``|BAR| = bar_max``) leaves
+        the estimate as it is: the estimate is an offset, and an error of the model's plane
+        effectiveness ``k`` shows in the residual as ``(k - 1)`` times the plane's
+        acceleration per radian times ``BAR - BAR_e`` [rad], largest at the limits and of
+        either sign, which the offset cannot tell from a trim offset. A plane 0.6 times as
+        strong held at -25 deg for a climb (the A18M's foreign plant of
+        :func:`auv_depth_lqr.closed_loop.foreign_plant`, 20 -> 10 m) moved the trim BAR from
+        the model's -5.0 deg to -13.6 deg, away from the plant's +4.0 deg, and the stop was
+        planned on that much more braking room; held at +25 deg in the stop, it moved it to
+        +14 deg. With the plane at its limit the feedback cannot act on what the estimate
+        moves either; it learns again as soon as the plane leaves the limit."""
         if self.learner is not None and self._observed is not None \
                 and self._bar_prev is not None and self._u_last is not None \
                 and self.governor.disturbance_estimate:
@@ -276,7 +289,8 @@ class DepthController:
                                 self._bar_prev, u - self._u_last)
         self._u_last = u
         if self._observed is not None and self._bar_prev is not None \
-                and self.governor.disturbance_estimate and not self.kinematic_stop:
+                and self.governor.disturbance_estimate and not self.kinematic_stop \
+                and not self._bar_at_limit:
             w0, q0, theta0 = self._observed
             ts = self.Ts
             dx = np.array([0.5 * (w + w0) - op.w_e, 0.5 * (q + q0),
@@ -493,6 +507,7 @@ class DepthController:
 
         self.reference.accept(Reference(z_r, v_r, a_r, j_r, s_r))
         self._bar_prev = bar_cmd
+        self._bar_at_limit = abs(bar_cmd) >= lim.bar_max  # held over the next sample
         self._z_prev = z
         return bar_cmd
 
