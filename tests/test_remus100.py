@@ -347,10 +347,10 @@ def test_auv_run_with_the_vehicle_speed_loop_flies_the_dive(remus: VehicleParams
 
 @pytest.mark.xfail(strict=True, reason=(
     'measured: with the thrust held at its 1.5 m/s trim value (no speed loop), the 7 N '
-    'positively buoyant REMUS slows to 0.86 m/s in the 24 deg dive, below the speed at which '
+    'positively buoyant REMUS slows to 0.87 m/s in the 22 deg dive, below the speed at which '
     'its fins can hold it level (no trim at 1 m/s within 13.6 deg): 10 -> 30 m settles after '
-    '107 s (2.8x the 38.4 s bound, line 1.5x), peaking at 31 deg (line 27 deg); 5 -> 40 m '
-    'does not settle in 150 s. '
+    '107 s (2.8x the 38.4 s bound, line 1.5x); its pitch peaks at 24.6 deg (line 27 deg; 31 '
+    'deg before the pitch envelope selector); 5 -> 40 m does not settle in 150 s. '
     'The pilot does not yet limit a dive to what a held thrust sustains'))
 def test_the_dive_with_the_thrust_held(remus: VehicleParams) -> None:
     run = run_closed_loop(remus, [(0.0, 30.0)], 150.0, z0=10.0, u0=1.5,
