@@ -461,16 +461,16 @@ class DepthController:
             depth_terms = k_theta * (x_ref[3] - clipped)
         bar_linear = bar_ff - float(K[0] * error[0] + K[1] * error[1] + K[3] * error[3]) \
             - depth_terms
-        # Pitch envelope selector: within the pitch-hold law's commands towards the limits,
-        # on the plane's effectiveness at the measured speed (the grid's, times (u / u0)^2
-        # off the grid).
-        m_bar = float(op.P[1, 3]) * (u / op.u0) ** 2
-        settles = self.surge.ahead(u)  # the speed the thrust held settles at
-        bounds = self.envelope.bounds(theta, q, self._bar_prev, m_bar,
-                                      float(op.P[1, 1]) * u / op.u0, k_theta, float(K[1]),
-                                      lim.bar_max, u / settles if settles > 0.0 else 0.0,
-                                      settings.glide_bar_share * lim.bar_max)
         if settings.pitch_envelope:
+            # Pitch envelope selector: within the pitch-hold law's commands towards the
+            # limits, on the plane's effectiveness at the measured speed (the grid's, times
+            # (u / u0)^2 off the grid).
+            m_bar = float(op.P[1, 3]) * (u / op.u0) ** 2
+            settles = self.surge.ahead(u)  # the speed the thrust held settles at
+            bounds = self.envelope.bounds(theta, q, self._bar_prev, m_bar,
+                                          float(op.P[1, 1]) * u / op.u0, k_theta, float(K[1]),
+                                          lim.bar_max, u / settles if settles > 0.0 else 0.0,
+                                          settings.glide_bar_share * lim.bar_max)
             bar_linear = self.envelope.select(bar_linear, bounds)
 
         if not (math.isfinite(bar_linear) and math.isfinite(z_r) and math.isfinite(v_r)):

@@ -94,12 +94,12 @@ LIMITED_SHARE = 0.9
 kinematic one (the pitch limit's) is limited by the plane at the present speed [-]."""
 
 HELD_THRUST_PERIOD = 10.0
+"""How long [s of state time] the steadiest climb and dive with the thrust held
+(:meth:`DepthPilot.climb_limits`) are kept before they are solved again [s]."""
 
 ENVELOPE_REPORT_TIME = 2.0
 """How long [s] after the pitch envelope selector last held a limit the pilot still says so
 (:meth:`DepthPilot.envelope_warning`): one line, not one per sample."""
-"""How long [s of state time] the steadiest climb and dive with the thrust held
-(:meth:`DepthPilot.climb_limits`) are kept before they are solved again [s]."""
 
 
 class ClimbLimits(NamedTuple):
@@ -330,9 +330,9 @@ class DepthPilot:
         self._theta_measured = 0.0
         self._t_measured = 0.0
         self._held: tuple[float, float, float] | None = None
+        """``(t [s], climb, dive [m/s])`` of the last held-thrust limits solved."""
         self._envelope_t: float | None = None
         """Time [s] the pitch envelope selector last held a limit in normal control."""
-        """``(t [s], climb, dive [m/s])`` of the last held-thrust limits solved."""
         """Measurement time [s] of the latest state (its stamp)."""
         self._t_offset: float | None = None
         """Measurement time [s] of the last state the pitch-offset estimate took."""
