@@ -15,7 +15,6 @@ Everything is written under ``--out`` (default ``out/demo``); ``summary.md`` lin
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import pathlib
@@ -32,6 +31,7 @@ from auv_bringup.launch import GraphConfig, run_graph
 from auv_bringup.options import check_number
 from auv_bringup.plots import plot_depth_run
 from auv_contract import STATE_FIELDS, config_path
+from auv_contract.jsonout import dumps
 from auv_depth_lqr.closed_loop import run_closed_loop
 from auv_depth_lqr.metrics import step_metrics
 from auv_depth_lqr.pilot import PilotSettings
@@ -129,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
         from auv_bringup.demo_gap import gap_step
         summary['gap'] = gap_step(params, args.vehicle, out / 'gap')
 
-    (out / 'summary.json').write_text(json.dumps(summary, indent=2))
+    (out / 'summary.json').write_text(dumps(summary, indent=2))
     (out / 'summary.md').write_text(summary_markdown(summary))
     print((out / 'summary.md').read_text())
     return 0

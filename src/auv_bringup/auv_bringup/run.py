@@ -11,12 +11,11 @@ vehicle differs from its model as the effects file says. Prints a JSON summary.
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 
 from auv_bringup.errors import RunError
 from auv_bringup.options import check_number
 from auv_contract import config_path
+from auv_contract.jsonout import dumps
 from auv_depth_lqr.closed_loop import run_closed_loop
 from auv_depth_lqr.metrics import step_metrics
 from auv_depth_lqr.pilot import PilotSettings
@@ -93,6 +92,5 @@ def run(args: argparse.Namespace) -> int:
                          theta_max=settings.theta_max)
         summary = {'bag': args.out, 'messages': n, 'speed_hold_s': hold,
                    'metrics': m.as_dict()}
-    json.dump(summary, sys.stdout, indent=2)
-    print()
+    print(dumps(summary, indent=2))
     return 0

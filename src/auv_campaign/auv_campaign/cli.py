@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import math
 import pathlib
 import shlex
@@ -33,6 +32,7 @@ from auv_campaign.cache import code_version, file_hash
 from auv_campaign.errors import CampaignError
 from auv_campaign.runner import run_missions, stderr_lines
 from auv_contract import config_path
+from auv_contract.jsonout import dumps
 from auv_sim.cli_options import add_vehicle_option
 
 
@@ -293,7 +293,7 @@ def _montecarlo(args: argparse.Namespace, say: Any) -> int:
            'vehicle_steps_per_s_tasks': summary['vehicle_steps'] / tasks_wall
            if tasks_wall > 0 else None,
            'summary': summary, 'failed_tasks': failed_tasks, 'rerun': rerun, 'runs': runs}
-    (out / 'montecarlo.json').write_text(json.dumps(report.clean(doc), indent=1) + '\n')
+    (out / 'montecarlo.json').write_text(dumps(doc, indent=1) + '\n')
     _write_csv(out / 'runs.csv', runs)
     (out / 'montecarlo.md').write_text(_mc_markdown(doc))
     say(f'{summary["flown"]} flown, {summary["tumbled"]} tumbled, {summary["not_settled"]} not '

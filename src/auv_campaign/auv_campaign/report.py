@@ -10,7 +10,6 @@ run again after a worker died or a fault are listed too.
 from __future__ import annotations
 
 import datetime
-import json
 import math
 import pathlib
 from collections.abc import Mapping, Sequence
@@ -19,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from auv_campaign import trend
+from auv_contract.jsonout import dumps, plain
 
 #: Reorderings of the permutation tests.
 PERMUTATIONS = 1999
@@ -133,19 +133,6 @@ def _plot(qn: str, s: Mapping[str, Any], t: Mapping[str, Any], path: pathlib.Pat
     plt.close(fig)
 
 
-def clean(obj: Any) -> Any:
-    """JSON-safe copy: numpy scalars to Python, non-finite floats to None."""
-    if isinstance(obj, dict):
-        return {str(k): clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [clean(v) for v in obj]
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    if isinstance(obj, np.integer):
-        return int(obj)
-    return obj
-
-
 def write(out: str | pathlib.Path, kind: str, records: Sequence[Mapping[str, Any]],
           meta: Mapping[str, Any], refit: Sequence[Mapping[str, Any]] | None = None,
           effect_set: Sequence[str] = (), alpha: float = 0.01, plots: bool = True
@@ -194,8 +181,8 @@ def write(out: str | pathlib.Path, kind: str, records: Sequence[Mapping[str, Any
     }
     if refit is not None:
         doc['refit'] = [refit[i] for i in order]
-    doc = clean(doc)
-    (out / 'campaign.json').write_text(json.dumps(doc, indent=1) + '\n')
+    doc = plain(doc)
+    (out / 'campaign.json').write_text(dumps(doc, indent=1) + '\n')
     (out / 'campaign.md').write_text(_markdown(doc))
     return dict(doc)
 

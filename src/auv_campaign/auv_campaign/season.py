@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from auv_contract import config_path
+from auv_contract.jsonout import dumps
 from auv_gap import synth
 from auv_logs import synth as vendor
 from auv_logs.simlog import SensorNoise
@@ -226,7 +227,7 @@ def write_season(out: str | pathlib.Path, count: int = 26, seed: int = 0) -> Cas
             text = path.read_text()
             iso = datetime.datetime.fromtimestamp(start, datetime.UTC).isoformat()
             path.write_text(f'# vendor logger v2.3, start {iso}\n' + text)
-    (out / 'season.json').write_text(json.dumps(kinds, indent=1) + '\n')
+    (out / 'season.json').write_text(dumps(kinds, indent=1) + '\n')
     return Case('small_auv_season', vehicle_path, out / 'small_auv_map.yaml', tuple(logs),
                 SMALL_TRUTH, COAST_HAND + SURFACE_HAND, None,
                 ('jittered 2 Hz rows (0.39/0.61 s)', '1 Hz DVL repeated on rows',

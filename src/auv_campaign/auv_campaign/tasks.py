@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
-import json
 import math
 import os
 import pathlib
@@ -29,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 from auv_campaign.cache import Cache, content_hash, mission_key
 from auv_campaign.engine import one_cpu
+from auv_contract.jsonout import dumps
 from auv_gap.errors import GapError
 from auv_ident.errors import IdentError
 from auv_logs.errors import LogError
@@ -282,7 +282,7 @@ def _run_gap_joint(bag: str, out: pathlib.Path, settings: Mapping[str, Any]
     vehicle, _ = as_logged(load_vehicle(opts.vehicle), list(unique.values()))
     label, quantities = joint_fit(vehicle, logs, opts.window, settings['effect_set'])
     out.mkdir(parents=True, exist_ok=True)
-    (out / 'joint.json').write_text(json.dumps({'effects': label,
+    (out / 'joint.json').write_text(dumps({'effects': label,
                                                 'quantities': quantities}, indent=1) + '\n')
     return {'span': import_span(imports), 'verdict': 'joint_fit', 'best': label,
             'ambiguous_with': [], 'quantities': quantities}

@@ -4,7 +4,8 @@
 * :mod:`.state`: the vehicle state's layout (Fossen's 12 states, NED/FRD) and the actuator
   channels;
 * :mod:`.files`: the shipped configuration (vehicle files, missions, effects, maps) found
-  through the ament index, and the one YAML loader.
+  through the ament index, and the one YAML loader;
+* :mod:`.jsonout`: the strict JSON every command prints and every report file holds.
 
 Nothing here imports another package of the project: it is the lowest layer.
 """

@@ -25,6 +25,7 @@ import math
 import pathlib
 from typing import Any
 
+from auv_contract.jsonout import plain
 from auv_depth_lqr.errors import DesignError
 from auv_depth_lqr.summary import design_summary
 from auv_depth_lqr.weights import PRESETS, preset
@@ -82,19 +83,8 @@ def design(params: VehicleParams, speed: float, weights: str = 'default', Ts: fl
     summary = design_summary(linearize, u0, Q, R, ts)
     summary['trim']['thrust'] = trim.thrust
     summary = {'vehicle': params.name, 'weights': weights, 'kinematics': kinematics, **summary}
-    ready: dict[str, Any] = _json_ready(summary)
+    ready: dict[str, Any] = plain(summary)
     return ready
-
-
-def _json_ready(value: Any) -> Any:
-    """``value`` with every non-finite float replaced by ``None`` (strict JSON)."""
-    if isinstance(value, dict):
-        return {key: _json_ready(item) for key, item in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_ready(item) for item in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 def run(args: argparse.Namespace) -> int:

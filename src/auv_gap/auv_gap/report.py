@@ -2,13 +2,13 @@
 ``details.json`` (everything else), and ``report.md`` with PNG plots (matplotlib, Agg)."""
 from __future__ import annotations
 
-import json
 import math
 import pathlib
 from typing import Any
 
 import numpy as np
 
+from auv_contract.jsonout import dumps, plain
 from auv_gap.catalogue import CATALOGUE
 from auv_gap.errors import GapError
 from auv_gap.problem import EQ_UNITS, EQUATIONS
@@ -19,22 +19,6 @@ REPORT_KEYS = ('verdict', 'gap', 'candidates', 'best', 'ambiguous_with',
                'signals', 'findings', 'diverges')
 
 
-def _clean(obj: Any) -> Any:
-    """JSON-safe copy: numpy scalars to Python, non-finite floats to None."""
-    if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, (np.floating, float)):
-        v = float(obj)
-        return v if math.isfinite(v) else None
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    return obj
-
-
 def write_report(diag: Diagnosis, out: str | pathlib.Path, plots: bool = True) -> pathlib.Path:
     """Write ``report.json``, ``details.json``, ``report.md`` and PNG plots into ``out``."""
     out = pathlib.Path(out)
@@ -42,10 +26,10 @@ def write_report(diag: Diagnosis, out: str | pathlib.Path, plots: bool = True) -
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise GapError(f'cannot create output directory {out}: {exc.strerror}') from None
-    report = _clean(diag.report)
+    report = plain(diag.report)
     assert tuple(report) == REPORT_KEYS
-    (out / 'report.json').write_text(json.dumps(report, indent=2) + '\n')
-    (out / 'details.json').write_text(json.dumps(_clean(diag.details), indent=2) + '\n')
+    (out / 'report.json').write_text(dumps(report, indent=2) + '\n')
+    (out / 'details.json').write_text(dumps(diag.details, indent=2) + '\n')
     figures = _plots(diag, out) if plots else []
     (out / 'report.md').write_text(_markdown(diag, figures))
     return out / 'report.json'

@@ -10,11 +10,11 @@ the fit figures and ``report.md`` (:mod:`auv_ident.report`). Progress goes to st
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Sequence
 
 from auv_contract import config_path
+from auv_contract.jsonout import dumps
 from auv_ident.errors import IdentError
 from auv_ident.identify import EQUATIONS, ERROR_METHODS
 from auv_ident.job import OUTPUT_ERROR_MODES, STRUCTURES, IdentOptions, run_ident
@@ -117,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
     done = run_ident(options_from_args(args), stderr_progress)
     out = {name: {'value': c.value, 'std_error': c.std_error, 'ci95': list(c.ci95)}
            for name, c in done.result.coefficients.items()}
-    print(json.dumps({'source': done.source, 'coefficients': out, 'files': done.files,
+    print(dumps({'source': done.source, 'coefficients': out, 'files': done.files,
                       'validation': done.outcome.validation.verdict,
                       'written': done.written}, indent=2))
     return 0 if done.written else NOT_WRITTEN

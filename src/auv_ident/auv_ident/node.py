@@ -28,7 +28,6 @@ applies at start only.
 from __future__ import annotations
 
 import argparse
-import json
 import signal
 import sys
 from collections.abc import Sequence
@@ -38,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from auv_contract import COMMAND_TOPICS, FORCES_TOPIC, STATE_FIELDS, STATE_TOPIC
+from auv_contract.jsonout import dumps
 from auv_ident.errors import IdentError
 from auv_ident.identify import EQUATIONS, ERROR_METHODS
 from auv_ident.motion import FORCE_FIELDS, SOURCES, WINDOW_S
@@ -318,7 +318,7 @@ def _make_node(overrides: dict[str, Any]) -> Any:
 
         def _on_identify(self, request: Any, response: Any) -> Any:
             try:
-                response.message = json.dumps(self.identify())
+                response.message = dumps(self.identify())
                 response.success = True
             except (IdentError, ValueError) as exc:
                 response.success = False
@@ -338,11 +338,11 @@ def _make_node(overrides: dict[str, Any]) -> Any:
                 result = identify(records, self.base, equations=equations,
                                   fit_offsets=p['fit_c0'], errors=p['errors'],
                                   fit_planes=bool(p['fit_planes']))
-                text = json.dumps({'t': float(self.state.array()['t'][-1]),
+                text = dumps({'t': float(self.state.array()['t'][-1]),
                                    'coefficients': {n: [c.value, c.std_error] for n, c in
                                                     result.coefficients.items()}})
             except (IdentError, ValueError) as exc:
-                text = json.dumps({'error': str(exc)})
+                text = dumps({'error': str(exc)})
             self.estimate_pub.publish(self._string(data=text))
 
     return IdentifierNode()

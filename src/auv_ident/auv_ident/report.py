@@ -13,7 +13,6 @@
 from __future__ import annotations
 
 import datetime
-import json
 import math
 import pathlib
 from collections.abc import Mapping, Sequence
@@ -21,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from auv_contract.jsonout import dumps
 from auv_ident.identify import AXES, EquationFit, Identification, summary
 from auv_sim.params import save_vehicle
 
@@ -28,21 +28,6 @@ SOURCE_TEXT = {'forces': 'forces from the /auv/hydrodynamic_forces topic',
                'motion': 'forces reconstructed from the logged motion (M nu_dot minus '
                          'Coriolis, restoring and actuator terms)'}
 _MAX_PLOT_POINTS = 6000
-
-
-def _jsonable(obj: Any) -> Any:
-    """``obj`` with non-finite floats as None and numpy values as Python ones."""
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, (np.floating, float)):
-        return float(obj) if math.isfinite(obj) else None
-    if isinstance(obj, np.integer):
-        return int(obj)
-    return obj
 
 
 def coefficient_sources(result: Identification) -> dict[str, str]:
@@ -322,5 +307,5 @@ def write_outputs(result: Identification, out_dir: str | pathlib.Path, bags: Seq
     files['report_json'] = str(out / 'report.json')
     doc['files'] = dict(files)
     (out / 'report.md').write_text(markdown(result, doc, figures, nelder_mead, record_figures))
-    (out / 'report.json').write_text(json.dumps(_jsonable(doc), indent=2) + '\n')
+    (out / 'report.json').write_text(dumps(doc, indent=2) + '\n')
     return files
