@@ -43,7 +43,7 @@ All logic is in :class:`auv_depth_lqr.pilot.DepthPilot`; this module converts me
 
 Lockstep (parameter ``lockstep``, with the simulator's ``lockstep``; ``docs/lockstep.md``): no
 timer; each state whose stamp is a control instant ``k / rate`` (within 1 us, see
-:func:`auv_sim.sim_settings.control_instant`) gets its BAR command stamped with the state's
+:func:`auv_contract.lockstep.control_instant`) gets its BAR command stamped with the state's
 own stamp, so the simulator can wait for it (see :mod:`auv_sim.node`). A state stamped within
 1 ms of an instant but farther than 1 us gets no answer and one warning.
 
@@ -124,6 +124,7 @@ from rclpy.timer import Timer, TimerInfo
 from std_msgs.msg import Float64
 
 from auv_contract import DEPTH_ANSWER_TOPIC, topic_basename
+from auv_contract.lockstep import control_instant
 from auv_depth_lqr.authority import LOW, UNKNOWN
 from auv_depth_lqr.command_intake import (
     ACCEPTED,
@@ -148,7 +149,6 @@ from auv_msgs.msg import ActuatorSetpoint, VehicleState
 from auv_sim.errors import AuvSimError
 from auv_sim.node_report import write_report
 from auv_sim.parameter_descriptor import descriptor
-from auv_sim.sim_settings import control_instant
 
 NS_PER_S = 1_000_000_000
 DEFAULT_NAMESPACE = '/auv'

@@ -128,6 +128,7 @@ from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 
 from auv_contract import CHANNELS
+from auv_contract.lockstep import LOCKSTEP_TOLERANCE_NS, NS_PER_S
 from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
 from auv_sim.errors import AuvSimError, DivergenceError, GraphConflictError, ParameterError
 from auv_sim.frames import state_to_odometry
@@ -136,8 +137,6 @@ from auv_sim.parameter_descriptor import descriptor
 from auv_sim.sim_settings import (
     BOOL_FIELDS,
     FLOAT_FIELDS,
-    LOCKSTEP_TOLERANCE_NS,
-    NS_PER_S,
     PARAMETERS,
     RUNTIME_FIELDS,
     SimSettings,
