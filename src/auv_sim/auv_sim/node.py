@@ -561,6 +561,7 @@ class SimulatorNode(Node):
     def run_loop(self, executor: SingleThreadedExecutor) -> None:
         """Step, publish and serve callbacks until :meth:`stop`. DivergenceError and
         GraphConflictError propagate."""
+        self.sim.warm_up()  # the compiled kernels loaded while the other nodes start
         self._wait_for_graph(executor)
         self.check_no_other_graph()
         watch_until = time.monotonic() + CONFLICT_WATCH
