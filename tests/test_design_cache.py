@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import pathlib
+import subprocess
 import sys
 
 import numpy as np
@@ -185,3 +187,32 @@ def test_the_simulators_initial_trim(params, tmp_path, monkeypatch) -> None:
     assert cached_trim(params, 1.7, z=25.5) != fresh_trim  # another depth, another entry
     entry.write_text(entry.read_text().replace('"theta": ', '"theta": "x'))
     assert cached_trim(params, 1.7, z=25.0) == fresh_trim  # damaged: solved again
+
+
+_PROBE = '''
+import sys
+from auv_sim.params import load_vehicle
+from auv_depth_lqr.pilot import DepthPilot, PilotSettings
+pilot = DepthPilot.for_vehicle(load_vehicle(sys.argv[1]), PilotSettings(learn=sys.argv[2] == "1"))
+loaded = [m for m in ("numba", "scipy.optimize") if m in sys.modules]
+if loaded:
+    from auv_sim.model import wrenches
+    loaded.append(f"{len(wrenches.signatures)} signatures")
+print(" ".join(loaded))
+'''
+
+
+def test_what_a_start_from_the_cache_loads(tmp_path) -> None:
+    """From a warm cache a pilot loads neither numba nor scipy.optimize; one that learns
+    loads both, and the compiled force kernel, at start (its control steps use them)."""
+    env = dict(os.environ, **{CACHE_ENV: str(tmp_path)})
+
+    def probe(learn: str) -> str:
+        out = subprocess.run([sys.executable, '-c', _PROBE, A18M, learn], env=env, check=True,
+                             capture_output=True, text=True, timeout=300)
+        return out.stdout.strip()
+
+    probe('0')  # the design computed and stored
+    assert probe('0') == ''
+    numba, optimize, compiled, _ = probe('1').split()
+    assert (numba, optimize) == ('numba', 'scipy.optimize') and int(compiled) >= 1

@@ -141,6 +141,7 @@ class PlantEstimator:
 
         self.settings = settings if settings is not None else LearningSettings()
         self.plane = VerticalPlane(params)
+        self.plane.warm_up()  # at start, not in the first control step that learns or trims
         self.ts = float(ts)
         m = mass_matrix(params)
         self.m_wq: Matrix = np.asarray(m[np.ix_([2, 4], [2, 4])], dtype=np.float64)

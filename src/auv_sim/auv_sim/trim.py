@@ -17,6 +17,7 @@ derivatives: exact to rounding, no step-size trade-off.
 from __future__ import annotations
 
 import dataclasses
+import importlib
 from typing import Any, Literal
 
 import numpy as np
@@ -85,6 +86,14 @@ class VerticalPlane:
         self._prof = env.profile()
         m = mass_matrix(self.params)
         self._mwq_inv = np.linalg.inv(m[np.ix_([2, 4], [2, 4])])
+
+    def warm_up(self) -> None:
+        """Load what a trim and a force evaluation need, so that a later call (in a control
+        step) does not pay for it: SciPy's root finder (imported where a trim is solved) and
+        the compiled force kernel for complex states (numba's target initialisation at a
+        process's first call); ~0.5-1 s of CPU, once per process."""
+        importlib.import_module('scipy.optimize')
+        self.wrench(self.full_state(0.0, 0.0, 0.0, 0.0, 0.0, 1.0))
 
     def full_state(self, w: complex, q: complex, z: complex, theta: complex, bar: complex,
                    u0: float, thrust: complex = 0.0) -> np.ndarray:
