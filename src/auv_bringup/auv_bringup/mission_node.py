@@ -4,7 +4,7 @@ The mission's commands go out on ``bar_command``, ``helm_command`` [rad] and
 ``thrust_command`` [N] (``auv_msgs/ActuatorSetpoint``, relative to the node's namespace,
 ``/auv`` unless remapped with ``--ros-args -r __ns:=/NS``) on simulated time: every ``state``
 (NED/FRD) stamped at a control instant ``k * control_period`` (within 1 us,
-:func:`auv_sim.sim_settings.control_instant`) is answered on the three channels, stamped with
+:func:`auv_contract.lockstep.control_instant`) is answered on the three channels, stamped with
 the state's stamp, with the value each holds at that instant: the mission's events due at or
 before it applied, ``trim`` resolved from the vehicle file at the mission's initial speed and
 depth (the simulator starts trimmed there: ``auv launch --mission NAME`` does). This is the
@@ -27,11 +27,11 @@ from typing import Any
 
 from auv_bringup.cli import CliError
 from auv_contract import CHANNELS, config_path
+from auv_contract.lockstep import NS_PER_S, control_instant
 from auv_sim.missions import events_array, load_mission
 from auv_sim.node_report import write_report
 from auv_sim.params import load_vehicle
-from auv_sim.sim_settings import NS_PER_S, control_instant
-from auv_sim.trim import VerticalPlane
+from auv_sim.trim import cached_trim
 
 NAMESPACE = '/auv'
 ACK_TIMEOUT = 2.0  # wall s, longest wait at exit for the subscribers' acknowledgements
@@ -67,7 +67,7 @@ def _check(args: argparse.Namespace) -> None:
 def initial_commands(mission: Any, params: Any) -> list[float]:
     """The commands (bar [rad], helm [rad], thrust [N]) the simulator holds at a trimmed start
     at the mission's initial speed and depth: what a channel answers before its first event."""
-    x0 = VerticalPlane(params).trim(mission.u0, z=mission.z0).state()
+    x0 = cached_trim(params, mission.u0, z=mission.z0).state()
     return [float(v) for v in x0[12:15]]
 
 

@@ -60,7 +60,6 @@ from auv_depth_lqr.glide import Glide, glide_cap
 from auv_depth_lqr.schedule import Matrix, OperatingPoint, disturbance_map, feedforward_series
 from auv_sim.errors import TrimError
 from auv_sim.params import VehicleParams, mass_matrix
-from auv_sim.trim import VerticalPlane
 
 __all__ = ['N_PARAMS', 'PARAMETERS', 'LearningSettings', 'PlantEstimate', 'PlantEstimator']
 
@@ -137,8 +136,12 @@ class PlantEstimator:
                  settings: LearningSettings | None = None) -> None:
         if not (math.isfinite(ts) and ts > 0.0):
             raise DesignError(f'plant estimator: ts = {ts!r} s must be finite and > 0')
+        # the compiled model only for a pilot that learns (a node's start without it is quicker)
+        from auv_sim.trim import VerticalPlane
+
         self.settings = settings if settings is not None else LearningSettings()
         self.plane = VerticalPlane(params)
+        self.plane.warm_up()  # at start, not in the first control step that learns or trims
         self.ts = float(ts)
         m = mass_matrix(params)
         self.m_wq: Matrix = np.asarray(m[np.ix_([2, 4], [2, 4])], dtype=np.float64)

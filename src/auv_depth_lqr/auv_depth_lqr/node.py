@@ -43,7 +43,7 @@ All logic is in :class:`auv_depth_lqr.pilot.DepthPilot`; this module converts me
 
 Lockstep (parameter ``lockstep``, with the simulator's ``lockstep``; ``docs/lockstep.md``): no
 timer; each state whose stamp is a control instant ``k / rate`` (within 1 us, see
-:func:`auv_sim.sim_settings.control_instant`) gets its BAR command stamped with the state's
+:func:`auv_contract.lockstep.control_instant`) gets its BAR command stamped with the state's
 own stamp, so the simulator can wait for it (see :mod:`auv_sim.node`). A state stamped within
 1 ms of an instant but farther than 1 us gets no answer and one warning.
 
@@ -68,7 +68,8 @@ at start only: ``pitch_envelope`` (bool, the pitch envelope selector,
 [s], until ``bar_command`` has this many matched subscriptions, so that a recorder started
 with the graph misses none of the first commands; 0 = do not wait),
 ``diagnostics_subscribers`` (the same for ``/diagnostics`` before its first status),
-``report_file`` (JSON written at exit: messages published per topic; '' none).
+``report_file`` (JSON written at exit: messages published per topic, when the first command went
+out; '' none).
 
 On SIGINT or SIGTERM the node waits (at most :data:`ACK_TIMEOUT` s) until its reliable
 subscribers have acknowledged what it published, writes its report and exits 0.
@@ -124,6 +125,7 @@ from rclpy.timer import Timer, TimerInfo
 from std_msgs.msg import Float64
 
 from auv_contract import DEPTH_ANSWER_TOPIC, topic_basename
+from auv_contract.lockstep import control_instant
 from auv_depth_lqr.authority import LOW, UNKNOWN
 from auv_depth_lqr.command_intake import (
     ACCEPTED,
@@ -148,7 +150,6 @@ from auv_msgs.msg import ActuatorSetpoint, VehicleState
 from auv_sim.errors import AuvSimError
 from auv_sim.node_report import write_report
 from auv_sim.parameter_descriptor import descriptor
-from auv_sim.sim_settings import control_instant
 
 NS_PER_S = 1_000_000_000
 DEFAULT_NAMESPACE = '/auv'
@@ -208,6 +209,8 @@ class DepthPilotNode(Node):
         self._subscribers_awaited = self.start_subscribers == 0
         self._diagnostics_awaited = self.diagnostics_subscribers == 0
         self.published: dict[str, int] = {}  # topic -> messages published
+        self.first_command_time: float | None = None
+        """Wall-clock time [s since the epoch] of the first BAR command published."""
         self.pilot = pilot_from_values(values)
         self.command_mode = values['depth_command_mode']
         self.odom_frame = values['odom_frame']
@@ -545,6 +548,8 @@ class DepthPilotNode(Node):
                 time.sleep(wait / NS_PER_S)
         self._count(self.pub)
         self.pub.publish(out)
+        if self.first_command_time is None:
+            self.first_command_time = time.time()
         if changed:
             self._publish_diagnostics()
 
@@ -676,8 +681,10 @@ class DepthPilotNode(Node):
         return late
 
     def report(self) -> dict[str, Any]:
-        """What the node published (``report_file``)."""
-        return {'node': self.get_fully_qualified_name(), 'published': dict(self.published)}
+        """What the node published (``report_file``), and when its first command went out
+        (``first_command_time``, wall clock [s since the epoch]; None before any)."""
+        return {'node': self.get_fully_qualified_name(), 'published': dict(self.published),
+                'first_command_time': self.first_command_time}
 
 
 def _sample_identity(info: Any) -> tuple[bytes | None, int | None]:

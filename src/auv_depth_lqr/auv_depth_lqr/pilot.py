@@ -39,6 +39,7 @@ from typing import NamedTuple
 from auv_depth_lqr.attitude import PitchOffset, PitchOffsetEstimator
 from auv_depth_lqr.authority import Authority, AuthorityMonitor
 from auv_depth_lqr.controller import DepthController, PlaneState
+from auv_depth_lqr.design_cache import cached_design
 from auv_depth_lqr.errors import AuvLqrError, DesignError, InvalidInputError
 from auv_depth_lqr.learning import PARAMETERS, PlantEstimator
 from auv_depth_lqr.limits import Limits
@@ -55,7 +56,6 @@ from auv_depth_lqr.tuning import derive_tuning
 from auv_depth_lqr.weights import Weights, preset
 from auv_sim.errors import TrimError
 from auv_sim.params import VehicleParams
-from auv_sim.trim import VerticalPlane
 
 SAFE_BAR_DEFAULT = -0.12
 """Safe dive-plane angle [rad] without state of the A18M (a gentle nose-up climb), for
@@ -239,6 +239,8 @@ def water_relative(u: float, w: float, theta: float, water_speed: float) -> tupl
 def vehicle_linearization(params: VehicleParams):  # type: ignore[no-untyped-def]
     """``linearize(u0) -> (x_e, BAR_e, A, B)`` of the vehicle's vertical plane (exact
     kinematics)."""
+    from auv_sim.trim import VerticalPlane  # the compiled model, only when a design is solved
+
     plane = VerticalPlane(params)
 
     def linearize(u0: float):  # type: ignore[no-untyped-def]
@@ -252,6 +254,8 @@ def vehicle_linearization(params: VehicleParams):  # type: ignore[no-untyped-def
 def trimmable_speeds(params: VehicleParams, speeds: Sequence[float]) -> tuple[float, ...]:
     """The speeds [m/s] of a gain-scheduling grid at which the vehicle can trim (a slow
     speed may need more plane than the vehicle has); DesignError if there is none."""
+    from auv_sim.trim import VerticalPlane  # the compiled model, only when a design is solved
+
     plane = VerticalPlane(params)
     usable = []
     for u in speeds:
@@ -284,12 +288,18 @@ def build_controller(params: VehicleParams, settings: PilotSettings) -> DepthCon
     Q, R = weights.matrices()
     if settings.safe_bar is not None and not abs(settings.safe_bar) <= bar_max:
         raise DesignError(f'safe_bar = {settings.safe_bar} rad is beyond bar_max = {bar_max}')
-    speeds = trimmable_speeds(params, settings.speeds)
-    schedule = GainSchedule.design(vehicle_linearization(params), speeds=speeds,
-                                   Q=Q, R=R, Ts=settings.Ts)
+
+    def design() -> tuple[GainSchedule, float]:
+        speeds = trimmable_speeds(params, settings.speeds)
+        schedule = GainSchedule.design(vehicle_linearization(params), speeds=speeds,
+                                       Q=Q, R=R, Ts=settings.Ts)
+        return schedule, surge_length(params, speeds)
+
+    # the same design as computed afresh, from the disk cache when the vehicle, the settings
+    # and the code are those it was made with (auv_depth_lqr.design_cache)
+    schedule, surge = cached_design(params, settings.speeds, Q, R, settings.Ts, design)
     limits = Limits(bar_max=bar_max, bar_rate_max=bar_rate, theta_max=settings.theta_max)
-    governor = dataclasses.replace(tuning.governor,
-                                   surge_length=surge_length(params, speeds),
+    governor = dataclasses.replace(tuning.governor, surge_length=surge,
                                    pitch_envelope=settings.pitch_envelope)
     learner = PlantEstimator(params, settings.Ts) if settings.learn else None
     return DepthController(schedule, limits, settings.Ts, governor, learner)

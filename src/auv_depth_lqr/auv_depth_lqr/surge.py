@@ -17,7 +17,6 @@ from collections.abc import Sequence
 import numpy as np
 
 from auv_sim.params import VehicleParams
-from auv_sim.trim import VerticalPlane
 
 __all__ = ['SurgeTrend', 'surge_length']
 
@@ -29,6 +28,8 @@ def surge_length(params: VehicleParams, speeds: Sequence[float]) -> float:
     differences over the speeds, ``2 T / u`` at a single speed), the median over the speeds
     (a drag ``k u^2`` gives ``(m - Xudot) / (2 k)`` at every speed). Raises TrimError if the
     vehicle cannot trim at a speed."""
+    from auv_sim.trim import VerticalPlane  # the compiled model, only when solved
+
     plane = VerticalPlane(params)
     u = np.array(sorted(float(x) for x in speeds))
     thrust = np.array([plane.trim(x).thrust for x in u])

@@ -128,6 +128,7 @@ from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 
 from auv_contract import CHANNELS
+from auv_contract.lockstep import LOCKSTEP_TOLERANCE_NS, NS_PER_S
 from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
 from auv_sim.errors import AuvSimError, DivergenceError, GraphConflictError, ParameterError
 from auv_sim.frames import state_to_odometry
@@ -136,8 +137,6 @@ from auv_sim.parameter_descriptor import descriptor
 from auv_sim.sim_settings import (
     BOOL_FIELDS,
     FLOAT_FIELDS,
-    LOCKSTEP_TOLERANCE_NS,
-    NS_PER_S,
     PARAMETERS,
     RUNTIME_FIELDS,
     SimSettings,
@@ -562,6 +561,7 @@ class SimulatorNode(Node):
     def run_loop(self, executor: SingleThreadedExecutor) -> None:
         """Step, publish and serve callbacks until :meth:`stop`. DivergenceError and
         GraphConflictError propagate."""
+        self.sim.warm_up()  # the compiled kernels loaded while the other nodes start
         self._wait_for_graph(executor)
         self.check_no_other_graph()
         watch_until = time.monotonic() + CONFLICT_WATCH

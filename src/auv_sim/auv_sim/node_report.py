@@ -4,8 +4,9 @@ A node of the graph given a report file (parameter ``report_file`` of the simula
 depth pilot, ``--report-file`` of ``auv mission``) writes one JSON object there when it exits:
 ``node`` (its full name), ``published`` (topic -> messages it published on it, counting any it
 had to drop) and what else it has to say (the simulator: ``lockstep_missed``,
-``recorder_pacing_given_up``, ``t_end`` [s]). ``auv launch`` compares the published counts
-with what the recorder wrote.
+``recorder_pacing_given_up``, ``t_end`` [s]; the depth pilot: ``first_command_time``, the
+wall-clock time [s since the epoch] it published its first BAR command). ``auv launch``
+compares the published counts with what the recorder wrote.
 """
 from __future__ import annotations
 

@@ -13,13 +13,15 @@ import dataclasses
 import math
 import pathlib
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
 import yaml
 
 from auv_contract import YamlError, parse_yaml
 from auv_sim.errors import ParameterError
+
+if TYPE_CHECKING:
+    import numpy as np
 
 # name -> (section, unit, check). The order is the packing order of the model vector.
 POSITIVE: Callable[[float], bool] = lambda v: v > 0.0  # noqa: E731
@@ -154,6 +156,8 @@ class VehicleParams:
 
     def as_array(self) -> np.ndarray:
         """Parameter vector in :data:`PARAM_NAMES` order, then the inverse mass matrix (36)."""
+        import numpy as np  # not for loading a file (``auv launch`` checks it, numpy-free)
+
         vec = np.array([self.values[k] for k in PARAM_NAMES], dtype=np.float64)
         minv = np.linalg.inv(mass_matrix(self))
         return np.concatenate([vec, minv.ravel()])
@@ -166,6 +170,8 @@ def mass_matrix(params: VehicleParams) -> np.ndarray:
     (Fossen 2011, eq. 3.44); ``M_A = -[[Xudot..]]`` with the sway-yaw and heave-pitch cross
     terms ``Yrdot = Nvdot`` and ``Zqdot = Mwdot`` (symmetric M_A).
     """
+    import numpy as np  # not for loading a file (``auv launch`` checks it, numpy-free)
+
     v = params.values
     m = v['m']
     rg = np.array([v['xg'], v['yg'], v['zg']])

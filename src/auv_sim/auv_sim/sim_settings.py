@@ -20,19 +20,16 @@ from typing import Any
 import numpy as np
 
 from auv_contract import CHANNELS, config_dir
+from auv_contract.lockstep import NS_PER_S
 from auv_contract.parameters import NON_NEGATIVE, POSITIVE, ParameterSpec, Range
 from auv_sim.environment import Environment, load_environment
 from auv_sim.errors import ParameterError, TrimError
 from auv_sim.params import VehicleParams, load_vehicle
 from auv_sim.simulator import Simulator, initial_state
-from auv_sim.trim import VerticalPlane
+from auv_sim.trim import cached_trim
 
 #: Repository root when running from the source tree (src/auv_sim/auv_sim/ -> root).
-NS_PER_S = 1_000_000_000
 _GRID_TOL = 1e-6  # relative tolerance for "a whole number of steps" checks
-#: Largest distance [ns] between a command's stamp and a control instant for which it stands
-#: for that instant (lockstep): sub-microsecond rounding of float stamps, far below any step.
-LOCKSTEP_TOLERANCE_NS = 1_000
 
 
 @dataclasses.dataclass(frozen=True)
@@ -289,7 +286,7 @@ def build_setup(s: SimSettings) -> SimSetup:
             f'[{params.depth_min}, {params.depth_max}] m of {params.path}')
     if s.initial_trim:
         try:
-            trim = VerticalPlane(params).trim(s.initial_speed, z=s.initial_depth)
+            trim = cached_trim(params, s.initial_speed, z=s.initial_depth)
         except TrimError as exc:
             raise ParameterError(f'initial state: {exc}') from None
         x0 = trim.state(environment, psi=s.initial_heading)
@@ -302,16 +299,6 @@ def build_setup(s: SimSettings) -> SimSetup:
                     steps_per_publish=whole_steps(1.0 / s.publish_rate, dt, 'publish period'),
                     steps_per_control=whole_steps(s.control_period, dt, 'control_period')
                     if s.lockstep else 0)
-
-
-def control_instant(stamp_ns: int, period_ns: int) -> int | None:
-    """The control instant ``k * period_ns`` [ns] a stamp [ns] stands for (lockstep): the
-    nearest multiple of ``period_ns`` if the stamp is within :data:`LOCKSTEP_TOLERANCE_NS` of
-    it, else None. A stamp computed in floating point (``Time(seconds=k * 0.02)``) is up to a
-    few nanoseconds off its instant."""
-    k = (stamp_ns + period_ns // 2) // period_ns
-    instant = k * period_ns
-    return instant if abs(stamp_ns - instant) <= LOCKSTEP_TOLERANCE_NS else None
 
 
 def next_multiple(k: int, n: int) -> int:

@@ -149,6 +149,18 @@ class Simulator:
             self.k += n
         self._apply_due()
 
+    def warm_up(self) -> None:
+        """Load the compiled step and force kernels now, leaving the simulator as it was.
+
+        A process's first call of a compiled function initialises numba's target and loads
+        the function from its cache (~0.3-0.5 s of CPU); one step is integrated and the forces
+        evaluated on copies of the state and the commands, so that this happens here (in a
+        node: while the other nodes start) and not at ``t = 0``.
+        """
+        x, cmd = self.x.copy(), self.cmd.copy()
+        rk4_steps(self.t, x, cmd, self._p, self._env, self._prof, self.dt, 1)
+        wrenches(self.t, x, self._p, self._env, self._prof, np.empty((4, 6)))
+
     def measured_state(self) -> np.ndarray:
         """The state as the vehicle's sensors report it: depth and pitch with the
         environment's sensor scale, latency and bias (:class:`auv_sim.environment.Sensors`;

@@ -17,11 +17,12 @@ derivatives: exact to rounding, no step-size trade-off.
 from __future__ import annotations
 
 import dataclasses
-from typing import Literal
+import importlib
+from typing import Any, Literal
 
 import numpy as np
-from scipy import optimize
 
+from auv_sim.disk_cache import cached
 from auv_sim.environment import Environment
 from auv_sim.errors import TrimError
 from auv_sim.model import NX, current_ned, rotation, wrenches
@@ -61,10 +62,15 @@ class Trim:
         x[2], x[4], x[5], x[6], x[8], x[12], x[14] = self.z, self.theta, psi, self.u0, \
             self.w, self.bar, self.thrust
         if environment is not None:
-            c = np.asarray(current_ned(0.0, float(self.z), environment.env_vector(),
-                                       environment.profile())[:3], dtype=float)
-            R = np.array(rotation(1.0, 0.0, np.cos(self.theta), np.sin(self.theta),
-                                  np.cos(psi), np.sin(psi))).reshape(3, 3)
+            # evaluated once: the compiled functions' Python form (the same code, the same
+            # numbers), so that a start does not wait ~0.3 s of CPU for numba's target
+            # initialisation to evaluate them once
+            c = np.array(current_ned.py_func(  # type: ignore[no-untyped-call]  # the kernel's
+                0.0, float(self.z), environment.env_vector(), environment.profile())[:3],
+                dtype=np.float64)
+            R = np.array(rotation.py_func(  # type: ignore[no-untyped-call]  # the kernel's
+                1.0, 0.0, np.cos(self.theta), np.sin(self.theta), np.cos(psi), np.sin(psi)),
+                dtype=np.float64).reshape(3, 3)
             x[6:9] += R.T @ c
         return x
 
@@ -80,6 +86,14 @@ class VerticalPlane:
         self._prof = env.profile()
         m = mass_matrix(self.params)
         self._mwq_inv = np.linalg.inv(m[np.ix_([2, 4], [2, 4])])
+
+    def warm_up(self) -> None:
+        """Load what a trim and a force evaluation need, so that a later call (in a control
+        step) does not pay for it: SciPy's root finder (imported where a trim is solved) and
+        the compiled force kernel for complex states (numba's target initialisation at a
+        process's first call); ~0.5-1 s of CPU, once per process."""
+        importlib.import_module('scipy.optimize')
+        self.wrench(self.full_state(0.0, 0.0, 0.0, 0.0, 0.0, 1.0))
 
     def full_state(self, w: complex, q: complex, z: complex, theta: complex, bar: complex,
                    u0: float, thrust: complex = 0.0) -> np.ndarray:
@@ -109,6 +123,10 @@ class VerticalPlane:
         Unknowns (w, theta, BAR) for 'full' kinematics; (theta, BAR) with w = 0 for 'w'.
         Raises TrimError when no equilibrium exists within the plane's angle limit.
         """
+        # scipy.optimize only where a trim is solved: importing it costs a node's start
+        # ~0.5 s of CPU (it loads scipy.linalg, scipy.special and their docstring parsing)
+        from scipy import optimize
+
         if not np.isfinite(u0) or abs(u0) < 1e-3:
             raise TrimError(f'trim needs a forward speed, got u0 = {u0} m/s')
 
@@ -166,3 +184,53 @@ class VerticalPlane:
         B = (self.rates(X0, trim.bar + 1j * _H, trim.u0, z_ref=trim.z, kinematics=kin).imag
              / _H).reshape(5, 1)
         return A, B
+
+
+TRIM_KIND = 'trim'
+"""Kind (file prefix) of the trims kept in the disk cache (:func:`cached_trim`)."""
+
+
+def _trim_from_data(data: dict[str, Any]) -> Trim:
+    """A :class:`Trim` from its fields as stored; ValueError unless every number is finite."""
+    numbers = {name: data[name] for name in ('u0', 'z', 'w', 'theta', 'bar', 'thrust')}
+    if not all(isinstance(v, float) and np.isfinite(v) for v in numbers.values()) \
+            or data['kinematics'] not in ('full', 'w'):
+        raise ValueError('not a whole trim')
+    return Trim(**numbers, kinematics=data['kinematics'])
+
+
+def cached_trim(params: VehicleParams, u0: float, z: float = 0.0,
+                kinematics: Kinematics = 'full') -> Trim:
+    """``VerticalPlane(params).trim(u0, z, kinematics)``, kept in the disk cache.
+
+    The same trim, number for number, without the solve (and SciPy's import) at a start
+    whose vehicle, speed and depth were trimmed before (:mod:`auv_sim.disk_cache`: keyed by
+    the vehicle's parameters as loaded, ``u0`` [m/s], ``z`` [m], the kinematics and the
+    source of ``auv_sim``).
+
+    Parameters
+    ----------
+    params : VehicleParams
+        The vehicle (in still water, no environment).
+    u0 : float
+        Forward speed [m/s].
+    z : float
+        Depth [m, NED down].
+    kinematics : {'full', 'w'}
+        The depth kinematics (see :meth:`VerticalPlane.trim`).
+
+    Returns
+    -------
+    Trim
+        The equilibrium.
+
+    Raises
+    ------
+    TrimError
+        No equilibrium within the plane's angle limit (nothing is cached).
+    """
+    inputs = {'vehicle': {k: float(v) for k, v in sorted(params.values.items())},
+              'u0': float(u0), 'z': float(z), 'kinematics': kinematics}
+    return cached(TRIM_KIND, inputs, ('auv_sim',),
+                  lambda: VerticalPlane(params).trim(u0, z=z, kinematics=kinematics),
+                  dataclasses.asdict, _trim_from_data)
