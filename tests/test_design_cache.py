@@ -216,3 +216,32 @@ def test_what_a_start_from_the_cache_loads(tmp_path) -> None:
     assert probe('0') == ''
     numba, optimize, compiled, _ = probe('1').split()
     assert (numba, optimize) == ('numba', 'scipy.optimize') and int(compiled) >= 1
+
+
+def test_the_least_recently_used_entries_beyond_the_cap_are_removed(tmp_path,
+                                                                     monkeypatch) -> None:
+    """Five values of a kind with room for three: the three kept are the last two written
+    and the first, read (used) after the second was written; another kind is not touched."""
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    monkeypatch.setattr(disk_cache, 'MAX_ENTRIES', 3)
+    computed: list[int] = []
+
+    def value(n: int, kind: str = 'test') -> int:
+        def compute() -> int:
+            computed.append(n)
+            return n
+        return disk_cache.cached(kind, {'n': n}, ('auv_sim',), compute, int, int)
+
+    value(0, 'other')
+    for n, stamp in ((1, 100.0), (2, 200.0)):
+        value(n)
+        path = disk_cache.entry_path('test', entry_key('test', {'n': n}, ('auv_sim',)))
+        assert path is not None
+        os.utime(path, (stamp, stamp))  # written long ago, one after the other
+    assert value(1) == 1 and computed == [0, 1, 2]  # read from the cache: now the newest
+    for n in (3, 4):
+        value(n)
+    assert len(list(tmp_path.glob('test-*.json'))) == 3
+    assert len(list(tmp_path.glob('other-*.json'))) == 1
+    assert [value(n) for n in (1, 3, 4)] == [1, 3, 4] and computed == [0, 1, 2, 3, 4]
+    assert value(2) == 2 and computed[-1] == 2  # the one removed is computed again

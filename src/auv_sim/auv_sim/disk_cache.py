@@ -15,6 +15,10 @@ again): an entry is never trusted beyond what its key proves. Entries are writte
 (a temporary file renamed over the entry), so a reader sees a whole entry or none, also with
 several nodes starting at once; a cache directory that cannot be written only costs the
 computation.
+
+Size: every edit of the code makes new keys, so old entries would pile up. A read renews an
+entry's modification time, and writing an entry removes the least recently used ones of its
+kind beyond :data:`MAX_ENTRIES` (a pilot design is about 30 kB: 8 MB at most per kind).
 """
 from __future__ import annotations
 
@@ -32,8 +36,8 @@ import tempfile
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
-__all__ = ['CACHE_ENV', 'FORMAT', 'cache_dir', 'cached', 'entry_key', 'entry_path',
-           'payload_digest', 'source_digest']
+__all__ = ['CACHE_ENV', 'FORMAT', 'MAX_ENTRIES', 'cache_dir', 'cached', 'entry_key',
+           'entry_path', 'payload_digest', 'source_digest']
 
 T = TypeVar('T')
 
@@ -41,6 +45,9 @@ CACHE_ENV = 'AUV_CACHE_DIR'
 """Environment variable naming the cache directory ('' turns the cache off)."""
 FORMAT = 1
 """Version of the entry layout (part of every key)."""
+MAX_ENTRIES = 256
+"""Entries kept per kind: writing one more removes the least recently used beyond it (by
+modification time, renewed at every read)."""
 
 
 def cache_dir() -> pathlib.Path | None:
@@ -158,6 +165,20 @@ def _write(path: pathlib.Path, kind: str, key: str, payload: Any) -> None:
         raise
 
 
+def _prune(root: pathlib.Path, kind: str) -> None:
+    """Remove the least recently used entries of ``kind`` in ``root`` beyond
+    :data:`MAX_ENTRIES` (an entry another process removes or renews meanwhile is skipped)."""
+    def used(path: pathlib.Path) -> float:
+        try:
+            return path.stat().st_mtime
+        except OSError:
+            return float('inf')
+
+    entries = sorted(root.glob(f'{kind}-*.json'), key=used)
+    for old in entries[:max(len(entries) - MAX_ENTRIES, 0)]:
+        old.unlink(missing_ok=True)
+
+
 def cached(kind: str, inputs: Any, packages: Sequence[str], compute: Callable[[], T],
            encode: Callable[[T], Any], decode: Callable[[Any], T]) -> T:
     """The value of ``compute()``, from the cache when a whole entry of the same key is there.
@@ -187,12 +208,17 @@ def cached(kind: str, inputs: Any, packages: Sequence[str], compute: Callable[[]
     path = entry_path(kind, key)
     if path is not None:
         try:
-            return decode(_read(path, kind, key))
+            value = decode(_read(path, kind, key))
         except (OSError, KeyError, TypeError, ValueError):
             pass  # missing, unreadable or not this entry whole: computed afresh below
+        else:
+            with contextlib.suppress(OSError):
+                os.utime(path)  # used now: the last to be pruned
+            return value
     value = compute()
     if path is not None:
         # a cache that cannot be written only costs the computation next time
         with contextlib.suppress(OSError):
             _write(path, kind, key, encode(value))
+            _prune(path.parent, kind)
     return value
