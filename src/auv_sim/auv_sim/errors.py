@@ -9,6 +9,10 @@ class ParameterError(AuvSimError, ValueError):
     """A vehicle, effect or node parameter is missing, malformed or out of range."""
 
 
+class CommandError(ParameterError):
+    """A command is NaN, infinite or outside the actuator's range; it was not applied."""
+
+
 class DivergenceError(AuvSimError, FloatingPointError):
     """The integrated state turned non-finite."""
 

@@ -130,7 +130,13 @@ from rosgraph_msgs.msg import Clock
 from auv_contract import CHANNELS
 from auv_contract.lockstep import LOCKSTEP_TOLERANCE_NS, NS_PER_S
 from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
-from auv_sim.errors import AuvSimError, DivergenceError, GraphConflictError, ParameterError
+from auv_sim.errors import (
+    AuvSimError,
+    CommandError,
+    DivergenceError,
+    GraphConflictError,
+    ParameterError,
+)
 from auv_sim.frames import state_to_odometry
 from auv_sim.node_report import write_report
 from auv_sim.parameter_descriptor import descriptor
@@ -147,7 +153,6 @@ from auv_sim.sim_settings import (
     next_multiple,
     whole_steps,
 )
-from auv_sim.simulator import CommandError
 
 NODE_NAME = 'simulator'
 DEFAULT_NAMESPACE = '/auv'
@@ -205,6 +210,22 @@ class SimulatorNode(Node):
         for spec in PARAMETERS.values():
             self.declare_parameter(spec.name, spec.default, descriptor(spec, ranged=False))
         self.settings = self._read_settings()
+        check_settings(self.settings)  # ParameterError ends the start
+        # Publishers and subscriptions before the files and the compiled model are loaded
+        # (build_setup): the graph's discovery goes on meanwhile, and a pilot that waits for
+        # this node's subscription sends its first command the sooner. Callbacks run only
+        # once the node spins, after this constructor.
+        self._pub_state = self.create_publisher(VehicleState, 'state', STREAM_QOS)
+        self._pub_odom = self.create_publisher(Odometry, 'odom', STREAM_QOS)
+        self._pub_forces = self.create_publisher(HydrodynamicForces, 'hydrodynamic_forces',
+                                                 STREAM_QOS)
+        self._pub_clock = (self.create_publisher(Clock, '/clock', STREAM_QOS)
+                           if self.settings.use_sim_clock else None)
+        self._subs = {channel: self.create_subscription(
+            ActuatorSetpoint, f'{channel}_command', self._command_callback(channel),
+            STREAM_QOS) for channel in CHANNELS}
+        self._sub_progress = self.create_subscription(
+            Time, PROGRESS_TOPIC, self._on_progress, PROGRESS_QOS)
         self.setup: SimSetup = build_setup(self.settings)  # ParameterError ends the start
         for spec in PARAMETERS.values():
             if spec.range is not None:
@@ -222,17 +243,6 @@ class SimulatorNode(Node):
         self.published: dict[str, int] = {}  # topic -> messages published (or dropped)
         self._conflict_next = 0.0  # time.monotonic() of the next look for another graph
 
-        self._pub_state = self.create_publisher(VehicleState, 'state', STREAM_QOS)
-        self._pub_odom = self.create_publisher(Odometry, 'odom', STREAM_QOS)
-        self._pub_forces = self.create_publisher(HydrodynamicForces, 'hydrodynamic_forces',
-                                                 STREAM_QOS)
-        self._pub_clock = (self.create_publisher(Clock, '/clock', STREAM_QOS)
-                           if self.settings.use_sim_clock else None)
-        self._subs = {channel: self.create_subscription(
-            ActuatorSetpoint, f'{channel}_command', self._command_callback(channel),
-            STREAM_QOS) for channel in CHANNELS}
-        self._sub_progress = self.create_subscription(
-            Time, PROGRESS_TOPIC, self._on_progress, PROGRESS_QOS)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._post_set_parameters)
         s = self.settings

@@ -15,18 +15,19 @@ import os
 import pathlib
 from collections.abc import Mapping
 from types import MappingProxyType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from auv_contract import CHANNELS, config_dir
 from auv_contract.lockstep import NS_PER_S
 from auv_contract.parameters import NON_NEGATIVE, POSITIVE, ParameterSpec, Range
-from auv_sim.environment import Environment, load_environment
 from auv_sim.errors import ParameterError, TrimError
 from auv_sim.params import VehicleParams, load_vehicle
-from auv_sim.simulator import Simulator, initial_state
-from auv_sim.trim import cached_trim
+
+if TYPE_CHECKING:
+    from auv_sim.environment import Environment
+    from auv_sim.simulator import Simulator
 
 #: Repository root when running from the source tree (src/auv_sim/auv_sim/ -> root).
 _GRID_TOL = 1e-6  # relative tolerance for "a whole number of steps" checks
@@ -263,6 +264,8 @@ class SimSetup:
 
     def simulator(self) -> Simulator:
         """A fresh :class:`Simulator` at the initial state (what the node drives)."""
+        from auv_sim.simulator import Simulator
+
         return Simulator(self.params, self.environment, x0=self.x0, dt=self.dt)
 
     def stamp_ns(self, k: int) -> int:
@@ -273,8 +276,14 @@ class SimSetup:
 def build_setup(s: SimSettings) -> SimSetup:
     """Validate ``s``, load the files and trim: everything the node needs to start.
 
-    Raises ParameterError (bad parameter or file) with one line naming what is wrong.
+    Raises ParameterError (bad parameter or file) with one line naming what is wrong. The
+    compiled model (numba) is imported here, not with this module: a node creates its
+    publishers and subscriptions first, so that the graph's discovery goes on while it loads.
     """
+    from auv_sim.environment import Environment, load_environment
+    from auv_sim.simulator import initial_state
+    from auv_sim.trim import cached_trim
+
     check_settings(s)
     params = load_vehicle(resolve_file(s.vehicle_file, 'vehicle_file'))
     environment = (load_environment(resolve_file(s.effects_file, 'effects_file'))

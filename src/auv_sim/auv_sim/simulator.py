@@ -16,13 +16,9 @@ import numpy as np
 
 from auv_contract import CHANNELS
 from auv_sim.environment import Environment
-from auv_sim.errors import DivergenceError, ParameterError
+from auv_sim.errors import CommandError, DivergenceError, ParameterError
 from auv_sim.model import NX, STATE_NAMES, rk4_batch, rk4_batch_parallel, rk4_steps, wrenches
 from auv_sim.params import VehicleParams
-
-
-class CommandError(ParameterError):
-    """A command is NaN, infinite or outside the actuator's range; it was not applied."""
 
 
 @dataclasses.dataclass
