@@ -354,6 +354,11 @@ def _first_command(env: dict[str, str], tmp: pathlib.Path,
         context.try_shutdown()
 
 
+PROCESSES = (('launcher', 'launcher'), ('pilot', 'auv_depth_lqr.node'),
+             ('simulator', 'auv_sim.node'))
+"""Name in the results -> key of :func:`_node_cpu` of the processes of a start."""
+
+
 def run_startup(env: dict[str, str], loads: tuple[str, ...] = LOADS,
                 repeats: int = 5) -> dict[str, Any]:
     """Start-to-first-plane-command of a plain ``auv launch``, ``repeats`` times per load
@@ -375,9 +380,7 @@ def run_startup(env: dict[str, str], loads: tuple[str, ...] = LOADS,
             published = [p for _, _, p in runs]
             ok_published = [p for p in published if p is not None]
             cpu = {name: float(np.median([c.get(module, np.nan) for _, c, _ in runs]))
-                   for name, module in (('launcher', 'launcher'),
-                                        ('pilot', 'auv_depth_lqr.node'),
-                                        ('simulator', 'auv_sim.node'))}
+                   for name, module in PROCESSES}
             out[kind] = {'seconds': times, 'median_s': float(np.median(ok)) if ok else None,
                          'max_s': max(ok) if ok else None,
                          # when the pilot published it (to the simulator, whose subscription
@@ -397,9 +400,7 @@ def run_startup(env: dict[str, str], loads: tuple[str, ...] = LOADS,
                          # the first start of a vehicle file: the design and trim computed
                          'cold_cache': {'seconds': cold[0], 'published_seconds': cold[2],
                                         'cpu_s_before_first_command': {
-                             name: cold[1].get(module) for name, module in (
-                                 ('launcher', 'launcher'), ('pilot', 'auv_depth_lqr.node'),
-                                 ('simulator', 'auv_sim.node'))}}}
+                             name: cold[1].get(module) for name, module in PROCESSES}}}
     out['goal_met'] = all(out[k]['median_s'] is not None and out[k]['median_s'] < 3.0
                           for k in loads)
     out['published_goal_met'] = all(out[k]['published_median_s'] is not None

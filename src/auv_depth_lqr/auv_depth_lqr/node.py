@@ -125,7 +125,7 @@ from rclpy.timer import Timer, TimerInfo
 from std_msgs.msg import Float64
 
 from auv_contract import DEPTH_ANSWER_TOPIC, topic_basename
-from auv_contract.lockstep import control_instant
+from auv_contract.lockstep import NS_PER_S, control_instant
 from auv_depth_lqr.authority import LOW, UNKNOWN
 from auv_depth_lqr.command_intake import (
     ACCEPTED,
@@ -151,7 +151,6 @@ from auv_sim.errors import AuvSimError
 from auv_sim.node_report import write_report
 from auv_sim.parameter_descriptor import descriptor
 
-NS_PER_S = 1_000_000_000
 DEFAULT_NAMESPACE = '/auv'
 NODE_NAME = 'depth_pilot'
 #: Depth of the ``bar_command`` publisher's history (reliable, keep last): 100 s of commands

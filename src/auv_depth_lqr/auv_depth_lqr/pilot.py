@@ -338,15 +338,15 @@ class DepthPilot:
         self._pitch_offset = PitchOffsetEstimator(offset_time, settings.pitch_offset_max,
                                                   settings.state_timeout)
         self._theta_measured = 0.0
+        """Pitch [rad] of the latest state as measured (before the offset is removed)."""
         self._t_measured = 0.0
+        """Measurement time [s] of the latest state (its stamp)."""
         self._held: tuple[float, float, float] | None = None
         """``(t [s], climb, dive [m/s])`` of the last held-thrust limits solved."""
         self._envelope_t: float | None = None
         """Time [s] the pitch envelope selector last held a limit in normal control."""
-        """Measurement time [s] of the latest state (its stamp)."""
         self._t_offset: float | None = None
         """Measurement time [s] of the last state the pitch-offset estimate took."""
-        """Pitch [rad] of the latest state as measured (before the offset is removed)."""
         self.pitch_offset = PitchOffset(0.0, False, math.nan)
         """The last pitch-sensor offset estimate (:class:`~auv_depth_lqr.attitude.PitchOffset`;
         its ``offset`` [rad] is subtracted from the measured pitch when ``pitch_offset``)."""

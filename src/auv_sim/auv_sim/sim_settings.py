@@ -29,7 +29,6 @@ if TYPE_CHECKING:
     from auv_sim.environment import Environment
     from auv_sim.simulator import Simulator
 
-#: Repository root when running from the source tree (src/auv_sim/auv_sim/ -> root).
 _GRID_TOL = 1e-6  # relative tolerance for "a whole number of steps" checks
 
 
