@@ -37,6 +37,13 @@ pitch-up, the climb and the stop, whose planning is the pilot's heaviest computa
   this process and listening since before the start, is matched by the new nodes only at its
   own participant's next periodic DDS announcement, which adds up to a few seconds to
   ``seconds`` whatever the graph does.
+* ``join``: from starting ``auv depth Z`` (a new process, hence a new DDS participant, with
+  Fast DDS's own settings, as a user's script has them) to its exit on the pilot's answer,
+  against a plain ``auv launch`` running in real time, ``repeats`` times, with the graph's
+  nodes on the toolkit's profile (``config/dds/fastdds.xml``: participants announce
+  themselves every 0.5 s) and side by side on Fast DDS's defaults (every 3 s), alternating.
+  A joining participant finds one that was there before it either at once or only at that
+  one's next periodic announcement.
 
 Each section records the load average when it ran (the machine is shared: "idle" is the
 machine with nothing added by the benchmark). Run: ``. .venv/bin/auv-env && python
@@ -408,6 +415,67 @@ def run_startup(env: dict[str, str], loads: tuple[str, ...] = LOADS,
     return out
 
 
+FAST_DDS_DEFAULTS = '<?xml version="1.0"?><dds xmlns="http://www.eprosima.com"><profiles/></dds>'
+"""A profile file that changes nothing: Fast DDS's own settings."""
+
+
+def _join_times(env: dict[str, str], log_dir: pathlib.Path, profile: pathlib.Path,
+                defaults: pathlib.Path, repeats: int) -> list[float | None]:
+    """Wall s of each of ``repeats`` ``auv depth`` commands on Fast DDS's own settings
+    (``defaults``), None for one not answered, against a running ``auv launch`` whose nodes
+    use the profile file ``profile``."""
+    py = sys.executable
+    joiner = dict(env, FASTDDS_DEFAULT_PROFILES_FILE=str(defaults))
+    launch = subprocess.Popen(
+        [py, '-m', 'auv_bringup.cli', 'launch', '--log-dir', str(log_dir)],
+        env=dict(env, FASTDDS_DEFAULT_PROFILES_FILE=str(profile)), cwd=ROOT,
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    try:
+        depth = [py, '-m', 'auv_bringup.cli', 'depth', '--timeout', '30']
+        # the graph up and answering before the first measured command
+        subprocess.run([*depth, '10'], env=joiner, cwd=ROOT, capture_output=True, timeout=90)
+        times: list[float | None] = []
+        for i in range(repeats):
+            start = time.monotonic()
+            done = subprocess.run([*depth, str(11.0 + i % 5)], env=joiner, cwd=ROOT,
+                                  capture_output=True, timeout=60)
+            times.append(time.monotonic() - start if done.returncode == 0 else None)
+        return times
+    finally:
+        os.killpg(launch.pid, signal.SIGINT)
+        launch.wait(60)
+
+
+def run_join(env: dict[str, str], repeats: int = 10, rounds: int = 2) -> dict[str, Any]:
+    """``auv depth`` against a running graph whose nodes use the toolkit's Fast DDS profile
+    and, side by side, Fast DDS's defaults: ``rounds`` alternating rounds of ``repeats``."""
+    from auv_contract.dds import dds_profile
+
+    toolkit = dds_profile()
+    if toolkit is None:
+        raise SystemExit('error: the toolkit\'s configuration is not found (source '
+                         '.venv/bin/auv-env)')
+    load = os.getloadavg()[0]
+    times: dict[str, list[float | None]] = {'toolkit_profile': [], 'fast_dds_defaults': []}
+    with tempfile.TemporaryDirectory() as tmp_name:
+        tmp = pathlib.Path(tmp_name)
+        defaults = tmp / 'fastdds_defaults.xml'
+        defaults.write_text(FAST_DDS_DEFAULTS)
+        profiles = {'toolkit_profile': pathlib.Path(toolkit), 'fast_dds_defaults': defaults}
+        for k in range(rounds):
+            for name, profile in profiles.items():
+                times[name] += _join_times(env, tmp / f'{name}{k}', profile, defaults,
+                                           repeats)
+    out: dict[str, Any] = {'load_average_1min_before': load}
+    for name, values in times.items():
+        ok = [t for t in values if t is not None]
+        out[name] = {'seconds': values,
+                     'median_s': float(np.median(ok)) if ok else None,
+                     'max_s': max(ok) if ok else None,
+                     'over_1_5_s': sum(t > 1.5 for t in ok),
+                     'unanswered': len(values) - len(ok)}
+    return out
+
 def _env() -> tuple[dict[str, str], Any]:
     """The environment of the measured graphs: a DDS domain id reserved as the tests reserve
     theirs (tests/conftest.py), localhost discovery."""
@@ -420,7 +488,7 @@ def _env() -> tuple[dict[str, str], Any]:
     return env, reservation
 
 
-SECTIONS = ('timing', 'completeness', 'startup')
+SECTIONS = ('timing', 'completeness', 'startup', 'join')
 
 
 def run(sections: tuple[str, ...] = SECTIONS) -> dict[str, Any]:
@@ -434,6 +502,8 @@ def run(sections: tuple[str, ...] = SECTIONS) -> dict[str, Any]:
             out['completeness'] = run_completeness(env)
         if 'startup' in sections:
             out['startup'] = run_startup(env)
+        if 'join' in sections:
+            out['join'] = run_join(env)
         return out
     finally:
         reservation.release()

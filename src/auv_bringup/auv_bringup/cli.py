@@ -15,6 +15,8 @@ from collections.abc import Callable, Sequence
 from types import ModuleType
 from typing import NamedTuple
 
+from auv_contract.dds import use_dds_profile
+
 
 class CliError(Exception):
     """Bad input to a command of auv_bringup (bad argument value, nothing to talk to)."""
@@ -119,6 +121,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _top_parser().print_help()
         return 0 if argv else 2
     name, rest = argv[0], argv[1:]
+    use_dds_profile()  # before this process's first participant (auv_contract.dds)
     try:
         module = load(name)
     except CliError as exc:
@@ -138,6 +141,7 @@ def standalone(module_name: str, prog: str) -> int:
     argv = sys.argv[1:]
     if '--ros-args' in argv:
         argv = argv[:argv.index('--ros-args')]
+    use_dds_profile()
     module = importlib.import_module(module_name)
     try:
         return run_module(module, prog, argv)

@@ -62,6 +62,7 @@ from auv_bringup.errors import LaunchError
 from auv_bringup.options import check_number
 from auv_bringup.topics import DEFAULT_TOPICS
 from auv_contract import config_path, topic_basename
+from auv_contract.dds import use_dds_profile
 
 STOP_DEADLINE = 10.0  # s a node gets to exit after its signal
 PR_SET_PDEATHSIG = 1  # prctl(2) option: signal sent to this process when its parent dies
@@ -77,9 +78,6 @@ RECORDER_TIMEOUT = 120.0
 LOCK_DIR = pathlib.Path(tempfile.gettempdir()) / 'auv-launch'
 FOXGLOVE_APP = 'https://app.foxglove.dev/?ds=foxglove-websocket&ds.url=ws%3A%2F%2F{host}%3A{port}'
 LAYOUT = config_path('foxglove', 'auv_graph_layout.json')
-#: Fast DDS profile of the graph's nodes (reliable writers' heartbeat every 100 ms: a lost
-#: sample is repaired, and a node's last samples acknowledged at exit, within about 0.1 s).
-DDS_PROFILE = config_path('dds', 'fastdds.xml')
 _ERROR_LINE = re.compile(r'^(error: |\[ERROR\]|\w+(Error|Exception)\b)')
 
 
@@ -456,8 +454,7 @@ def run_graph(cfg: GraphConfig, duration: float | None = None,
         without an answer.
     """
     env = dict(env or os.environ)
-    if 'FASTRTPS_DEFAULT_PROFILES_FILE' not in env:
-        env.setdefault('FASTDDS_DEFAULT_PROFILES_FILE', str(DDS_PROFILE))
+    use_dds_profile(env)  # the nodes' Fast DDS timings (auv_contract.dds), unless the user's
     # The nodes' matrices are small (6 x 6 to 12 x 12): OpenBLAS's worker threads only cost
     # there, and on a busy machine they spin against other jobs (the pilot's design took 1.4 s
     # of CPU instead of 0.4 s at load 14, 4.2 s of wall time instead of 1.2 s).

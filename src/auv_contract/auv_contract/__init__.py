@@ -5,7 +5,8 @@
   channels;
 * :mod:`.files`: the shipped configuration (vehicle files, missions, effects, maps) found
   through the ament index, and the one YAML loader;
-* :mod:`.jsonout`: the strict JSON every command prints and every report file holds.
+* :mod:`.jsonout`: the strict JSON every command prints and every report file holds;
+* :mod:`.dds`: the Fast DDS profile the toolkit's processes use unless the user names one.
 
 Nothing here imports another package of the project: it is the lowest layer.
 """

@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from auv_contract import COMMAND_TOPICS, FORCES_TOPIC, STATE_FIELDS, STATE_TOPIC
+from auv_contract.dds import use_dds_profile
 from auv_contract.jsonout import dumps
 from auv_ident.errors import IdentError
 from auv_ident.identify import EQUATIONS, ERROR_METHODS
@@ -370,6 +371,7 @@ def run(args: argparse.Namespace, ros_args: Sequence[str] | None = None) -> int:
         stop['signal'] = signum
 
     previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    use_dds_profile()  # before the first participant (auv_contract.dds)
     rclpy.init(args=['--ros-args', *ros_args] if ros_args else None,
                signal_handler_options=SignalHandlerOptions.NO)
     status = 0

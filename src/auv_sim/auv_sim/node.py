@@ -128,6 +128,7 @@ from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 
 from auv_contract import CHANNELS
+from auv_contract.dds import use_dds_profile
 from auv_contract.lockstep import LOCKSTEP_TOLERANCE_NS, NS_PER_S
 from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
 from auv_sim.errors import (
@@ -692,6 +693,7 @@ def run(args: argparse.Namespace) -> int:
     ros_argv = getattr(args, 'ros_argv', None)
     if ros_argv is None:
         ros_argv = ['auv-sim'] + (['--ros-args', *args.ros_args] if args.ros_args else [])
+    use_dds_profile()  # before the first participant (auv_contract.dds)
     context = Context()
     rclpy.init(args=list(ros_argv), context=context,
                signal_handler_options=SignalHandlerOptions.NO)
