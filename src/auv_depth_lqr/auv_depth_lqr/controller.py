@@ -210,7 +210,6 @@ class DepthController:
         self.envelope.reset()
         self.reference.reset()
         self._bar_prev = None if bar_previous is None else finite('bar_previous', bar_previous)
-        self._bar_ff_prev: float | None = None
         self._bar_at_limit = False
         if self.learner is not None:
             self.learner.forget_plane()
@@ -448,11 +447,9 @@ class DepthController:
         error = x - x_ref
         # With a plane-rate design (OperatingPoint.K_rate) the law commands the plane's rate
         # from the state augmented by the plane, the last command (where the plane is now,
-        # within its rate), against the feed-forward plane; the feed-forward's own rate is
-        # that over the last sample.
-        bar_ff_prev, self._bar_ff_prev = self._bar_ff_prev, bar_ff
-        rate_law = op.K_rate.size == N_STATES + 1 and self._bar_prev is not None \
-            and bar_ff_prev is not None
+        # within its rate), against the feed-forward plane, whose own rate is the series'
+        # derivative (one order up the profile).
+        rate_law = op.K_rate.size == N_STATES + 1 and self._bar_prev is not None
         K = op.K_rate if rate_law else op.K
         depth_terms = float(K[2] * error[2] + K[4] * error[4])
         # Pitch envelope protection: the depth and integral terms act like a pitch command
@@ -469,8 +466,9 @@ class DepthController:
             depth_terms = k_theta * (x_ref[3] - clipped)
         attitude_terms = float(K[0] * error[0] + K[1] * error[1] + K[3] * error[3])
         if rate_law:
-            assert self._bar_prev is not None and bar_ff_prev is not None
-            rate = (bar_ff - bar_ff_prev) / ts - attitude_terms - depth_terms \
+            assert self._bar_prev is not None
+            rate_ff = float(np.array([a_r, j_r, s_r, 0.0]) @ op.F[:, 3])
+            rate = rate_ff - attitude_terms - depth_terms \
                 - float(K[5]) * (self._bar_prev - bar_ff)
             bar_linear = self._bar_prev + rate * ts
         else:

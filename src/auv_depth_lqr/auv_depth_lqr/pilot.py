@@ -36,6 +36,8 @@ import math
 from collections.abc import Sequence
 from typing import NamedTuple
 
+import numpy as np
+
 from auv_depth_lqr.attitude import PitchOffset, PitchOffsetEstimator
 from auv_depth_lqr.authority import Authority, AuthorityMonitor
 from auv_depth_lqr.controller import DepthController, PlaneState
@@ -98,10 +100,12 @@ HELD_THRUST_PERIOD = 10.0
 (:meth:`DepthPilot.climb_limits`) are kept before they are solved again [s]."""
 
 PLANE_RATE_SHARE = 1.0
-"""The plane-rate design's rate weight (``plane_rate_design``): Bryson's rule on a rate
-excursion of this share of the plane's rate limit times the plane's angle excursion over its
-angle limit, ``R_rate = R (bar_max / (share bar_rate))^2`` [-]: at 1 the rate spends its limit
-in the proportion the angle spends its own."""
+"""The plane-rate design's rate weight (``plane_rate_design``) is Bryson's rule on a rate
+excursion of this share of the plane's rate limit, ``R_rate = 1 / (share bar_rate)^2``
+[-]: at 1 the acceptable rate is the limit itself (the vehicle's default weights take
+0.2292 ``bar_max`` as the plane's acceptable angle, :func:`~auv_depth_lqr.tuning.derive_tuning`;
+a rate weight in that proportion, ``share`` 0.2292, slowed the REMUS 100's plane-rate loop
+and left more of its porpoise in the head-current case of ``tests/test_model_error.py``)."""
 
 ENVELOPE_REPORT_TIME = 2.0
 """How long [s] after the pitch envelope selector last held a limit the pilot still says so
@@ -296,7 +300,7 @@ def build_controller(params: VehicleParams, settings: PilotSettings) -> DepthCon
     else:
         weights = preset(settings.weights)
     Q, R = weights.matrices()
-    R_rate = R * (bar_max / (PLANE_RATE_SHARE * bar_rate)) ** 2 \
+    R_rate = np.array([[1.0 / (PLANE_RATE_SHARE * bar_rate) ** 2]]) \
         if settings.plane_rate_design else None
     if settings.safe_bar is not None and not abs(settings.safe_bar) <= bar_max:
         raise DesignError(f'safe_bar = {settings.safe_bar} rad is beyond bar_max = {bar_max}')
