@@ -51,8 +51,8 @@ def test_augmented_riccati_matches_python_control() -> None:
     assert result.Phi == pytest.approx(np.array([[1.0, ts], [0.0, 1.0]]), abs=1e-12)
     assert result.Gamma == pytest.approx(np.array([[ts ** 2 / 2], [ts]]), abs=1e-12)
     K, S, _ = control.dlqr(result.Phi, result.Gamma, result.Qd, result.Rd, result.Nd)
-    assert result.S == pytest.approx(np.asarray(S), rel=1e-8)
-    assert result.K == pytest.approx(np.asarray(K), rel=1e-8)
+    np.testing.assert_allclose(result.S, np.asarray(S), rtol=1e-8)
+    np.testing.assert_allclose(result.K, np.asarray(K), rtol=1e-8)
 
 
 def test_a_stronger_plane_divides_the_state_gains_and_keeps_the_plane_gain() -> None:

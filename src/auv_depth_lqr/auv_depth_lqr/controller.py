@@ -45,7 +45,11 @@ Beyond the report, :class:`DepthController` adds
 * for a vehicle that is open-loop unstable in pitch/heave (its BAR -> vertical-speed series is
   not stable, e.g. the REMUS 100), a kinematic stop of the reference (``kinematic_stop``,
   :func:`~auv_depth_lqr.stop.kinematic_map`) instead of the held-plane stop, which would
-  diverge.
+  diverge;
+* with a plane-rate design (``GainSchedule.K_rate``, ``PilotSettings.plane_rate_design``),
+  the LQR on the state augmented by the plane with the plane's rate as its input: the rate
+  command is integrated from the last commanded BAR, against the feed-forward BAR and its
+  rate, before the selector and the limits (``docs/pilot-design.md``, 4b).
 
 Modules: weights (:mod:`~auv_depth_lqr.weights`), limits (:mod:`~auv_depth_lqr.limits`), gain
 schedule (:mod:`~auv_depth_lqr.schedule`), reference governor

@@ -60,7 +60,8 @@ def design_inputs(params: VehicleParams, speeds: Sequence[float], Q: Matrix, R: 
         JSON-serialisable inputs.
     """
     rate = {} if R_rate is None else {'R_rate': np.asarray(R_rate, dtype=float).tolist()}
-    return {**rate, 'vehicle': {name: float(value) for name, value in sorted(params.values.items())},
+    return {**rate,
+            'vehicle': {name: float(value) for name, value in sorted(params.values.items())},
             'speeds': [float(u) for u in speeds],
             'Q': np.asarray(Q, dtype=float).tolist(), 'R': np.asarray(R, dtype=float).tolist(),
             'Ts': float(Ts)}

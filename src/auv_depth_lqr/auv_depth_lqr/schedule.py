@@ -2,10 +2,10 @@
 
 Frames and units (Fossen): world NED (z down, depth) [m]; body FRD; pitch ``theta`` nose up
 [rad]; heave ``w`` [m/s], pitch rate ``q`` [rad/s], surge ``u`` [m/s]; BAR [rad]. Design
-state ``X = (w, q, z, theta, xi)`` with ``xi = int (z - z_ref) dt`` [m s]. With a plane-rate design (``R_rate`` of
-:meth:`GainSchedule.design`) a second gain is designed on the state augmented by the plane,
-``(w, q, z, theta, xi, BAR)``, whose input is the plane's rate ``BAR_dot`` [rad/s]
-(:func:`~auv_depth_lqr.lqr.input_rate_system`). The vehicle model
+state ``X = (w, q, z, theta, xi)`` with ``xi = int (z - z_ref) dt`` [m s]. With a plane-rate
+design (``R_rate`` of :meth:`GainSchedule.design`) a second gain is designed on the state
+augmented by the plane, ``(w, q, z, theta, xi, BAR)``, whose input is the plane's rate
+``BAR_dot`` [rad/s] (:func:`~auv_depth_lqr.lqr.input_rate_system`). The vehicle model
 supplies ``linearize(u0) -> (x_e, u_e, A, B)``: trim state ``x_e = (w_e, 0, z_any, theta_e,
 0)``, trim input ``u_e = BAR_e`` and the Jacobians ``A`` (5, 5), ``B`` (5, 1) at that trim.
 """
