@@ -245,9 +245,9 @@ def input_rate_system(A: ArrayLike, B: ArrayLike) -> tuple[Matrix, Matrix]:
     Parameters
     ----------
     A : array_like, shape (n, n)
-        Continuous state matrix [1/s].
+        The plant's continuous state matrix [1/s].
     B : array_like, shape (n, m)
-        Continuous input matrix [state unit / (input unit s)].
+        The plant's continuous input matrix [state unit / (input unit s)].
 
     Returns
     -------
