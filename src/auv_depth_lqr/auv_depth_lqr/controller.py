@@ -45,7 +45,11 @@ Beyond the report, :class:`DepthController` adds
 * for a vehicle that is open-loop unstable in pitch/heave (its BAR -> vertical-speed series is
   not stable, e.g. the REMUS 100), a kinematic stop of the reference (``kinematic_stop``,
   :func:`~auv_depth_lqr.stop.kinematic_map`) instead of the held-plane stop, which would
-  diverge.
+  diverge;
+* with a plane-rate design (``GainSchedule.K_rate``, ``PilotSettings.plane_rate_design``),
+  the LQR on the state augmented by the plane with the plane's rate as its input: the rate
+  command is integrated from the last commanded BAR, against the feed-forward BAR and its
+  rate, before the selector and the limits (``docs/pilot-design.md``, 4b).
 
 Modules: weights (:mod:`~auv_depth_lqr.weights`), limits (:mod:`~auv_depth_lqr.limits`), gain
 schedule (:mod:`~auv_depth_lqr.schedule`), reference governor
@@ -67,7 +71,7 @@ from auv_depth_lqr.errors import ControllerError, DesignError
 from auv_depth_lqr.governor import GovernorSettings, Reference, ReferenceGovernor
 from auv_depth_lqr.learning import PlantEstimator
 from auv_depth_lqr.limits import Limits
-from auv_depth_lqr.schedule import GainSchedule, Matrix, OperatingPoint, feedforward
+from auv_depth_lqr.schedule import N_STATES, GainSchedule, Matrix, OperatingPoint, feedforward
 from auv_depth_lqr.surge import SurgeTrend
 from auv_depth_lqr.validate import finite, run_input
 
@@ -445,7 +449,12 @@ class DepthController:
         x = np.array([w, q, z, theta, self._xi])
         x_ref = np.array([wqt[0], wqt[1], z_r, wqt[2], 0.0])
         error = x - x_ref
-        K = op.K
+        # With a plane-rate design (OperatingPoint.K_rate) the law commands the plane's rate
+        # from the state augmented by the plane, the last command (where the plane is now,
+        # within its rate), against the feed-forward plane, whose own rate is the series'
+        # derivative (one order up the profile).
+        rate_law = op.K_rate.size == N_STATES + 1 and self._bar_prev is not None
+        K = op.K_rate if rate_law else op.K
         depth_terms = float(K[2] * error[2] + K[4] * error[4])
         # Pitch envelope protection: the depth and integral terms act like a pitch command
         # theta_ref - depth_terms / K_theta for the attitude loop; clip that command. While
@@ -459,16 +468,25 @@ class DepthController:
             clipped = min(max(theta_cmd, -theta_lim + lead * max(-q, 0.0)),
                           theta_lim - lead * max(q, 0.0))
             depth_terms = k_theta * (x_ref[3] - clipped)
-        bar_linear = bar_ff - float(K[0] * error[0] + K[1] * error[1] + K[3] * error[3]) \
-            - depth_terms
+        attitude_terms = float(K[0] * error[0] + K[1] * error[1] + K[3] * error[3])
+        if rate_law:
+            assert self._bar_prev is not None
+            rate_ff = float(np.array([a_r, j_r, s_r, 0.0]) @ op.F[:, 3])
+            rate = rate_ff - attitude_terms - depth_terms \
+                - float(K[5]) * (self._bar_prev - bar_ff)
+            bar_linear = self._bar_prev + rate * ts
+        else:
+            bar_linear = bar_ff - attitude_terms - depth_terms
         if settings.pitch_envelope:
             # Pitch envelope selector: within the pitch-hold law's commands towards the
             # limits, on the plane's effectiveness at the measured speed (the grid's, times
             # (u / u0)^2 off the grid).
             m_bar = float(op.P[1, 3]) * (u / op.u0) ** 2
             settles = self.surge.ahead(u)  # the speed the thrust held settles at
+            # the hold law's attitude gains are the angle design's, whichever law flies
             bounds = self.envelope.bounds(theta, q, self._bar_prev, m_bar,
-                                          float(op.P[1, 1]) * u / op.u0, k_theta, float(K[1]),
+                                          float(op.P[1, 1]) * u / op.u0, float(op.K[3]),
+                                          float(op.K[1]),
                                           lim.bar_max, u / settles if settles > 0.0 else 0.0,
                                           settings.glide_bar_share * lim.bar_max)
             bar_linear = self.envelope.select(bar_linear, bounds)

@@ -5,7 +5,8 @@ node's start (108 trims, 36 discrete LQR designs: ~1 s of CPU, more than a loade
 gives it in the seconds a start may take). :func:`cached_design` keeps it in the cache of
 :mod:`auv_sim.disk_cache` (``~/.cache/auv`` by default, ``$AUV_CACHE_DIR`` to move it, empty
 to turn it off; ``rm -rf ~/.cache/auv`` clears it), keyed by the vehicle's parameters as
-loaded, the gain-scheduling grid [m/s], the weights ``Q``, ``R``, the sample period [s] and
+loaded, the gain-scheduling grid [m/s], the weights ``Q``, ``R`` (and ``R_rate`` of a plane-rate
+design), the sample period [s] and
 the source of ``auv_sim`` and ``auv_depth_lqr`` (the trim, the model, the design code): a
 changed vehicle file, setting or line of code gives a new key. Values are stored exactly (JSON
 floats in their shortest round-trip form), so a cached design equals the one computed afresh,
@@ -37,7 +38,7 @@ Design = tuple[GainSchedule, float]
 
 
 def design_inputs(params: VehicleParams, speeds: Sequence[float], Q: Matrix, R: Matrix,
-                  Ts: float) -> dict[str, Any]:
+                  Ts: float, R_rate: Matrix | None = None) -> dict[str, Any]:
     """What the design depends on besides the code, as JSON data (the cache key's inputs).
 
     Parameters
@@ -50,13 +51,17 @@ def design_inputs(params: VehicleParams, speeds: Sequence[float], Q: Matrix, R: 
         Continuous weights (5, 5) and (1, 1).
     Ts : float
         Sample period [s].
+    R_rate : ndarray, optional
+        Weight (1, 1) of the plane's rate of a plane-rate design; None without.
 
     Returns
     -------
     dict
         JSON-serialisable inputs.
     """
-    return {'vehicle': {name: float(value) for name, value in sorted(params.values.items())},
+    rate = {} if R_rate is None else {'R_rate': np.asarray(R_rate, dtype=float).tolist()}
+    return {**rate,
+            'vehicle': {name: float(value) for name, value in sorted(params.values.items())},
             'speeds': [float(u) for u in speeds],
             'Q': np.asarray(Q, dtype=float).tolist(), 'R': np.asarray(R, dtype=float).tolist(),
             'Ts': float(Ts)}
@@ -66,7 +71,8 @@ def design_data(design: Design) -> dict[str, Any]:
     """A design as JSON data (exact floats)."""
     schedule, surge = design
     arrays = {name: np.asarray(getattr(schedule, name), dtype=float).tolist()
-              for name in ('speeds', 'K', 'w_e', 'theta_e', 'bar_e', 'F', 'P', 'D', 'Q', 'R')}
+              for name in ('speeds', 'K', 'w_e', 'theta_e', 'bar_e', 'F', 'P', 'D', 'Q', 'R',
+                           'K_rate', 'R_rate')}
     return {**arrays, 'Ts': float(schedule.Ts), 'surge_length': float(surge)}
 
 
@@ -107,6 +113,7 @@ def design_from_data(data: dict[str, Any], Ts: float) -> Design:
     if float(data['Ts']) != float(Ts):
         raise ValueError('another sample period')
     surge = float(data['surge_length'])
+    rated = len(data['K_rate']) > 0
     if not math.isfinite(surge):
         raise ValueError('surge_length: not finite')
     schedule = GainSchedule(
@@ -114,17 +121,21 @@ def design_from_data(data: dict[str, Any], Ts: float) -> Design:
         theta_e=_array(data, 'theta_e', (g,)), bar_e=_array(data, 'bar_e', (g,)),
         F=_array(data, 'F', (g, N_FF, 4)), Ts=float(Ts), P=_array(data, 'P', (g, 2, 4)),
         D=_array(data, 'D', (g, 4, 2)), Q=_array(data, 'Q', (N_STATES, N_STATES)),
-        R=_array(data, 'R', (1, 1)))
+        R=_array(data, 'R', (1, 1)),
+        K_rate=_array(data, 'K_rate', (g, N_STATES + 1)) if rated
+        else np.zeros((0, N_STATES + 1)),
+        R_rate=_array(data, 'R_rate', (1, 1)) if rated else np.zeros((0, 0)))
     return schedule, surge
 
 
 def cached_design(params: VehicleParams, speeds: Sequence[float], Q: Matrix, R: Matrix,
-                  Ts: float, compute: Callable[[], Design]) -> Design:
+                  Ts: float, compute: Callable[[], Design], R_rate: Matrix | None = None
+                  ) -> Design:
     """The pilot's design from the cache, or ``compute()`` (then stored).
 
     Parameters
     ----------
-    params, speeds, Q, R, Ts
+    params, speeds, Q, R, Ts, R_rate
         What the design depends on (:func:`design_inputs`).
     compute : callable
         Computes the design from these (:func:`auv_depth_lqr.pilot.build_controller`); its
@@ -135,5 +146,5 @@ def cached_design(params: VehicleParams, speeds: Sequence[float], Q: Matrix, R: 
     tuple of GainSchedule and float
         The gain schedule and the surge length [m].
     """
-    return cached(DESIGN_KIND, design_inputs(params, speeds, Q, R, Ts), DESIGN_PACKAGES,
+    return cached(DESIGN_KIND, design_inputs(params, speeds, Q, R, Ts, R_rate), DESIGN_PACKAGES,
                   compute, design_data, lambda data: design_from_data(data, Ts))

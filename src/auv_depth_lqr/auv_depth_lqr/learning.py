@@ -413,6 +413,7 @@ class PlantEstimator:
         gain = min(self.plane_gain(op), 1.0)
         return op._replace(w_e=op.w_e + float(shift[0]), theta_e=op.theta_e + float(shift[2]),
                            bar_e=op.bar_e + float(shift[3]), F=F, P=P, D=D, K=op.K / gain,
+                           K_rate=_rate_gain(op.K_rate, gain),
                            dw_dv=float(F[0, 0]), dtheta_dv=float(F[0, 2]),
                            dbar_dv=float(F[0, 3]), learned=True)
 
@@ -443,3 +444,14 @@ def _plane_matrices(P: Matrix, op: OperatingPoint) -> tuple[Matrix, Matrix]:
     A[3, 1] = 1.0
     A[4, 2] = 1.0
     return A, B
+
+
+def _rate_gain(K_rate: Matrix, gain: float) -> Matrix:
+    """The plane-rate gain (6,) for a plane ``gain`` times as effective as the design's: the
+    plant's response to ``gain BAR`` is the design's to ``BAR``, so the gains on the design
+    state (the first five) are divided by ``gain`` and the plane's own (the last) is kept.
+    Empty stays empty (no plane-rate design)."""
+    if K_rate.size == 0:
+        return K_rate
+    out: Matrix = np.concatenate([K_rate[:-1] / gain, K_rate[-1:]])
+    return out

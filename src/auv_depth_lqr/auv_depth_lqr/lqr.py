@@ -32,6 +32,7 @@ __all__ = [
     'as_matrix',
     'check_controllable',
     'controllability',
+    'input_rate_system',
     'lqrd',
     'uncontrollable_modes',
 ]
@@ -226,6 +227,45 @@ def check_controllable(A: ArrayLike, B: ArrayLike, rtol: float = 1e-9) -> Contro
             f'(A, B) is not controllable: the controllability matrix has rank {ctrb.rank} '
             f'of {n}; uncontrollable mode(s) at eigenvalue(s) {listed}')
     return ctrb
+
+
+def input_rate_system(A: ArrayLike, B: ArrayLike) -> tuple[Matrix, Matrix]:
+    """The plant with its input as a state and the input's rate as the new input.
+
+    ``x_dot = A x + B u`` becomes ``x_a_dot = A_a x_a + B_a r`` with ``x_a = (x, u)`` and
+    ``r = u_dot``::
+
+        A_a = [[A, B],     B_a = [[0],
+               [0, 0]],           [I]]
+
+    A gain designed on it (:func:`lqrd`) feeds the input's rate back on the state and on the
+    input itself, so a weight on ``r`` prices the actuator's rate, and a weight on ``u`` (a
+    diagonal entry of the augmented state weight) its angle.
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        The plant's continuous state matrix [1/s].
+    B : array_like, shape (n, m)
+        The plant's continuous input matrix [state unit / (input unit s)].
+
+    Returns
+    -------
+    tuple of ndarray
+        ``A_a`` (n + m, n + m) [1/s] and ``B_a`` (n + m, m) [1 for the input rows].
+
+    Raises
+    ------
+    DesignError
+        On a wrong shape or non-finite entries.
+    """
+    a, b = _system(A, B)
+    n, m = b.shape
+    a_aug = np.zeros((n + m, n + m))
+    a_aug[:n, :n], a_aug[:n, n:] = a, b
+    b_aug = np.zeros((n + m, m))
+    b_aug[n:, :] = np.eye(m)
+    return a_aug, b_aug
 
 
 def lqrd(

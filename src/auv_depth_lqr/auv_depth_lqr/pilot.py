@@ -36,6 +36,8 @@ import math
 from collections.abc import Sequence
 from typing import NamedTuple
 
+import numpy as np
+
 from auv_depth_lqr.attitude import PitchOffset, PitchOffsetEstimator
 from auv_depth_lqr.authority import Authority, AuthorityMonitor
 from auv_depth_lqr.controller import DepthController, PlaneState
@@ -96,6 +98,14 @@ kinematic one (the pitch limit's) is limited by the plane at the present speed [
 HELD_THRUST_PERIOD = 10.0
 """How long [s of state time] the steadiest climb and dive with the thrust held
 (:meth:`DepthPilot.climb_limits`) are kept before they are solved again [s]."""
+
+PLANE_RATE_SHARE = 1.0
+"""The plane-rate design's rate weight (``plane_rate_design``) is Bryson's rule on a rate
+excursion of this share of the plane's rate limit, ``R_rate = 1 / (share bar_rate)^2``
+[-]: at 1 the acceptable rate is the limit itself (the vehicle's default weights take
+0.2292 ``bar_max`` as the plane's acceptable angle, :func:`~auv_depth_lqr.tuning.derive_tuning`;
+a rate weight in that proportion, ``share`` 0.2292, slowed the REMUS 100's plane-rate loop
+and left more of its porpoise in the head-current case of ``tests/test_model_error.py``)."""
 
 ENVELOPE_REPORT_TIME = 2.0
 """How long [s] after the pitch envelope selector last held a limit the pilot still says so
@@ -174,7 +184,10 @@ class PilotSettings:
     selector (:mod:`auv_depth_lqr.envelope`) keeps the BAR within the commands of a
     pitch-hold law towards the pitch limits (default); off, only the pitch guard of the depth
     loop limits the pitch (to look at the depth loop alone, or to let excitation added to the
-    pilot's command reach the pitch it is meant to).
+    pilot's command reach the pitch it is meant to). ``plane_rate_design``: design the LQR
+    with the plane as a state and its rate as the input (:data:`PLANE_RATE_SHARE`,
+    :meth:`~auv_depth_lqr.controller.DepthController.step`); off (the default), the LQR
+    commands the plane's angle and its rate limit acts after it as a slew.
     """
 
     rate_hz: float = 10.0
@@ -194,6 +207,7 @@ class PilotSettings:
     authority_window: float | None = None
     learn: bool = False
     pitch_envelope: bool = True
+    plane_rate_design: bool = False
 
     def __post_init__(self) -> None:
         for name in ('rate_hz', 'theta_max', 'state_timeout'):
@@ -286,18 +300,20 @@ def build_controller(params: VehicleParams, settings: PilotSettings) -> DepthCon
     else:
         weights = preset(settings.weights)
     Q, R = weights.matrices()
+    R_rate = np.array([[1.0 / (PLANE_RATE_SHARE * bar_rate) ** 2]]) \
+        if settings.plane_rate_design else None
     if settings.safe_bar is not None and not abs(settings.safe_bar) <= bar_max:
         raise DesignError(f'safe_bar = {settings.safe_bar} rad is beyond bar_max = {bar_max}')
 
     def design() -> tuple[GainSchedule, float]:
         speeds = trimmable_speeds(params, settings.speeds)
         schedule = GainSchedule.design(vehicle_linearization(params), speeds=speeds,
-                                       Q=Q, R=R, Ts=settings.Ts)
+                                       Q=Q, R=R, Ts=settings.Ts, R_rate=R_rate)
         return schedule, surge_length(params, speeds)
 
     # the same design as computed afresh, from the disk cache when the vehicle, the settings
     # and the code are those it was made with (auv_depth_lqr.design_cache)
-    schedule, surge = cached_design(params, settings.speeds, Q, R, settings.Ts, design)
+    schedule, surge = cached_design(params, settings.speeds, Q, R, settings.Ts, design, R_rate)
     limits = Limits(bar_max=bar_max, bar_rate_max=bar_rate, theta_max=settings.theta_max)
     governor = dataclasses.replace(tuning.governor, surge_length=surge,
                                    pitch_envelope=settings.pitch_envelope)

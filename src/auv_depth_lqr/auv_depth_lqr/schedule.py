@@ -2,7 +2,10 @@
 
 Frames and units (Fossen): world NED (z down, depth) [m]; body FRD; pitch ``theta`` nose up
 [rad]; heave ``w`` [m/s], pitch rate ``q`` [rad/s], surge ``u`` [m/s]; BAR [rad]. Design
-state ``X = (w, q, z, theta, xi)`` with ``xi = int (z - z_ref) dt`` [m s]. The vehicle model
+state ``X = (w, q, z, theta, xi)`` with ``xi = int (z - z_ref) dt`` [m s]. With a plane-rate
+design (``R_rate`` of :meth:`GainSchedule.design`) a second gain is designed on the state
+augmented by the plane, ``(w, q, z, theta, xi, BAR)``, whose input is the plane's rate
+``BAR_dot`` [rad/s] (:func:`~auv_depth_lqr.lqr.input_rate_system`). The vehicle model
 supplies ``linearize(u0) -> (x_e, u_e, A, B)``: trim state ``x_e = (w_e, 0, z_any, theta_e,
 0)``, trim input ``u_e = BAR_e`` and the Jacobians ``A`` (5, 5), ``B`` (5, 1) at that trim.
 """
@@ -18,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from auv_depth_lqr.errors import DesignError
 from auv_depth_lqr.limits import Limits
-from auv_depth_lqr.lqr import as_matrix, check_controllable, lqrd
+from auv_depth_lqr.lqr import as_matrix, check_controllable, input_rate_system, lqrd
 from auv_depth_lqr.validate import finite
 from auv_depth_lqr.weights import DEFAULT_WEIGHTS
 
@@ -91,6 +94,10 @@ class OperatingPoint(NamedTuple):
     """Whether the model was corrected by what the pilot learned of its plant
     (:meth:`auv_depth_lqr.learning.PlantEstimator.correct`): its series is then not the
     design's interpolated between grid speeds."""
+    K_rate: Matrix = np.zeros(0)
+    """Plane-rate gain (6,) on ``(X - X_ref, BAR - BAR_ff)``: the plane's rate command is
+    ``BAR_ff_dot - K_rate (X - X_ref, BAR - BAR_ff)`` [rad/s]; empty without a plane-rate
+    design."""
 
 
 def steady_matrix(A: Matrix, B: Matrix, u0: float) -> Matrix:
@@ -179,6 +186,11 @@ class GainSchedule:
     """State weight used in the design (5, 5)."""
     R: Matrix = field(repr=False, default_factory=lambda: np.zeros((0, 0)))
     """Input weight used in the design (1, 1)."""
+    K_rate: Matrix = field(repr=False, default_factory=lambda: np.zeros((0, N_STATES + 1)))
+    """Plane-rate gains (g, 6) on ``(X - X_ref, BAR - BAR_ff)``, see
+    :class:`OperatingPoint`; no rows without a plane-rate design."""
+    R_rate: Matrix = field(repr=False, default_factory=lambda: np.zeros((0, 0)))
+    """Weight of the plane's rate used in the plane-rate design (1, 1); empty without."""
 
     @property
     def dw_dv(self) -> Matrix:
@@ -203,6 +215,7 @@ class GainSchedule:
         Q: ArrayLike | None = None,
         R: ArrayLike | None = None,
         Ts: float = 0.1,
+        R_rate: ArrayLike | None = None,
     ) -> GainSchedule:
         """Design one discrete LQR (:func:`~auv_depth_lqr.lqr.lqrd`) per surge speed.
 
@@ -217,6 +230,11 @@ class GainSchedule:
             default to :data:`DEFAULT_WEIGHTS`. Use e.g. ``*PRESETS['report_5'].matrices()``.
         Ts : float
             Sample period of the controller [s].
+        R_rate : array_like, optional
+            Weight (1, 1) of the plane's rate [1 / ((rad/s)^2 s)]. When given, a second gain
+            per speed (:attr:`K_rate`) is designed on the state augmented by the plane
+            (:func:`~auv_depth_lqr.lqr.input_rate_system`), its input the plane's rate, with
+            the weights ``diag(Q, R)`` on ``(X, BAR)`` and ``R_rate`` on the rate.
 
         Raises
         ------
@@ -236,6 +254,10 @@ class GainSchedule:
                 f'speeds must be a non-empty, strictly increasing list of m/s, got {list(speeds)}')
         q_mat = as_matrix('Q', Q, (N_STATES, N_STATES), '(5, 5)')
         r_mat = as_matrix('R', R, (1, 1), '(1, 1)')
+        r_rate = None if R_rate is None else as_matrix('R_rate', R_rate, (1, 1), '(1, 1)')
+        q_aug = np.zeros((N_STATES + 1, N_STATES + 1))
+        q_aug[:N_STATES, :N_STATES], q_aug[N_STATES, N_STATES] = q_mat, r_mat[0, 0]
+        rate_gains: list[Matrix] = []
         rows: list[list[float]] = []
         gains: list[Matrix] = []
         series: list[Matrix] = []
@@ -250,12 +272,16 @@ class GainSchedule:
             series.append(feedforward_series(A, B, float(u0)))
             maps.append(disturbance_map(A, B, float(u0)))
             gains.append(result.K[0])
+            if r_rate is not None:
+                rate_gains.append(lqrd(*input_rate_system(A, B), q_aug, r_rate, ts).K[0])
             rows.append([float(x_e[0]), float(x_e[3]), float(u_e)])
         table = np.array(rows)
         return cls(speeds=grid, K=np.array(gains), w_e=table[:, 0], theta_e=table[:, 1],
                    bar_e=table[:, 2], F=np.array(series), Ts=ts,
                    P=np.array([m[0] for m in maps]), D=np.array([m[1] for m in maps]),
-                   Q=q_mat, R=r_mat)
+                   Q=q_mat, R=r_mat,
+                   K_rate=np.array(rate_gains).reshape(-1, N_STATES + 1),
+                   R_rate=np.zeros((0, 0)) if r_rate is None else r_rate)
 
     def weights(self, u: float) -> tuple[float, int, int, float]:
         """``(u_c, i, j, s)``: ``u`` [m/s] clamped to the grid and the interpolation between
@@ -279,10 +305,13 @@ class GainSchedule:
         known = self.P.shape[0] == self.speeds.size
         P = interp(self.P) if known else np.zeros((2, 4))
         D = interp(self.D) if known else np.zeros((4, 2))
+        K_rate = interp(self.K_rate) if self.K_rate.shape[0] == self.speeds.size \
+            else np.zeros(0)
         return OperatingPoint(
             u0=uc, K=interp(self.K), w_e=float(interp(self.w_e)),
             theta_e=float(interp(self.theta_e)), bar_e=float(interp(self.bar_e)),
-            dw_dv=float(F[0, 0]), dtheta_dv=float(F[0, 2]), dbar_dv=float(F[0, 3]), F=F, P=P, D=D)
+            dw_dv=float(F[0, 0]), dtheta_dv=float(F[0, 2]), dbar_dv=float(F[0, 3]), F=F, P=P, D=D,
+            K_rate=K_rate)
 
     @staticmethod
     def climb_speed(op: OperatingPoint, u: float, v_lin: float) -> float:
