@@ -476,6 +476,7 @@ def run_join(env: dict[str, str], repeats: int = 10, rounds: int = 2) -> dict[st
                      'unanswered': len(values) - len(ok)}
     return out
 
+
 def _env() -> tuple[dict[str, str], Any]:
     """The environment of the measured graphs: a DDS domain id reserved as the tests reserve
     theirs (tests/conftest.py), localhost discovery."""

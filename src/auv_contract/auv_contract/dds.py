@@ -13,6 +13,8 @@ from __future__ import annotations
 import os
 from collections.abc import MutableMapping
 
+from auv_contract.files import config_path
+
 __all__ = ['PROFILE_VARIABLES', 'dds_profile', 'use_dds_profile']
 
 PROFILE_VARIABLES = ('FASTDDS_DEFAULT_PROFILES_FILE', 'FASTRTPS_DEFAULT_PROFILES_FILE')
@@ -22,8 +24,6 @@ PROFILE_VARIABLES = ('FASTDDS_DEFAULT_PROFILES_FILE', 'FASTRTPS_DEFAULT_PROFILES
 def dds_profile() -> str | None:
     """Path of the toolkit's profile file, None where the shipped configuration is not found
     (no workspace set up: the command says so where it needs the configuration)."""
-    from auv_contract.files import config_path
-
     try:
         return str(config_path('dds', 'fastdds.xml'))
     except FileNotFoundError:

@@ -113,9 +113,9 @@ def design_from_data(data: dict[str, Any], Ts: float) -> Design:
     if float(data['Ts']) != float(Ts):
         raise ValueError('another sample period')
     surge = float(data['surge_length'])
-    rated = len(data['K_rate']) > 0
     if not math.isfinite(surge):
         raise ValueError('surge_length: not finite')
+    rated = len(data['K_rate']) > 0  # a plane-rate design's gains, or none
     schedule = GainSchedule(
         speeds=speeds, K=_array(data, 'K', (g, N_STATES)), w_e=_array(data, 'w_e', (g,)),
         theta_e=_array(data, 'theta_e', (g,)), bar_e=_array(data, 'bar_e', (g,)),
