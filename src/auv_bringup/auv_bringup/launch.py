@@ -62,6 +62,7 @@ from auv_bringup.errors import LaunchError
 from auv_bringup.options import check_number
 from auv_bringup.topics import DEFAULT_TOPICS
 from auv_contract import config_path, topic_basename
+from auv_contract.blas import use_one_blas_thread
 from auv_contract.dds import use_dds_profile
 
 STOP_DEADLINE = 10.0  # s a node gets to exit after its signal
@@ -458,7 +459,7 @@ def run_graph(cfg: GraphConfig, duration: float | None = None,
     # The nodes' matrices are small (6 x 6 to 12 x 12): OpenBLAS's worker threads only cost
     # there, and on a busy machine they spin against other jobs (the pilot's design took 1.4 s
     # of CPU instead of 0.4 s at load 14, 4.2 s of wall time instead of 1.2 s).
-    env.setdefault('OPENBLAS_NUM_THREADS', '1')
+    use_one_blas_thread(env)
     check_before_start(cfg)
     with namespace_lock(env, cfg.namespace):
         log_dir = pathlib.Path(cfg.log_dir) if cfg.log_dir else default_log_dir(cfg)

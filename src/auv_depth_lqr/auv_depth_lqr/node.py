@@ -125,6 +125,7 @@ from rclpy.timer import Timer, TimerInfo
 from std_msgs.msg import Float64
 
 from auv_contract import DEPTH_ANSWER_TOPIC, topic_basename
+from auv_contract.blas import use_one_blas_thread
 from auv_contract.dds import use_dds_profile
 from auv_contract.lockstep import NS_PER_S, control_instant
 from auv_depth_lqr.authority import LOW, UNKNOWN
@@ -746,6 +747,7 @@ def run(args: argparse.Namespace) -> int:
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv if argv is None else argv
     use_dds_profile()  # before the first participant (auv_contract.dds)
+    use_one_blas_thread()  # small matrices: one BLAS thread (auv_contract.blas)
     rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
     stop: list[int] = []
     previous = {sig: signal.signal(sig, lambda signum, _frame: stop.append(signum))

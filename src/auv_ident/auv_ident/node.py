@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from auv_contract import COMMAND_TOPICS, FORCES_TOPIC, STATE_FIELDS, STATE_TOPIC
+from auv_contract.blas import use_one_blas_thread
 from auv_contract.dds import use_dds_profile
 from auv_contract.jsonout import dumps
 from auv_ident.errors import IdentError
@@ -372,6 +373,7 @@ def run(args: argparse.Namespace, ros_args: Sequence[str] | None = None) -> int:
 
     previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     use_dds_profile()  # before the first participant (auv_contract.dds)
+    use_one_blas_thread()  # small matrices: one BLAS thread (auv_contract.blas)
     rclpy.init(args=['--ros-args', *ros_args] if ros_args else None,
                signal_handler_options=SignalHandlerOptions.NO)
     status = 0

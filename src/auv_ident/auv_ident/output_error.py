@@ -41,7 +41,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from scipy import optimize, sparse
 
-from auv_ident.blas import one_blas_thread
+from auv_contract.blas import one_blas_thread
 from auv_ident.freerun import (
     FreeRuns,
     Window,

@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 from scipy import optimize
 
-from auv_ident.blas import one_blas_thread
+from auv_contract.blas import one_blas_thread
 from auv_ident.freerun import FreeRuns, Window, parameter_vector
 from auv_ident.identify.records import LoggedRun
 from auv_ident.output_error import (

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from auv_ident.blas import one_blas_thread
+from auv_contract.blas import one_blas_thread
 from auv_ident.errors import NotIdentifiableError
 from auv_ident.freerun import Window, split_windows, use_masks, window_length
 from auv_ident.identify import (

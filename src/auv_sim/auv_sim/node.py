@@ -128,6 +128,7 @@ from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 
 from auv_contract import CHANNELS
+from auv_contract.blas import use_one_blas_thread
 from auv_contract.dds import use_dds_profile
 from auv_contract.lockstep import LOCKSTEP_TOLERANCE_NS, NS_PER_S
 from auv_msgs.msg import ActuatorSetpoint, HydrodynamicForces, VehicleState
@@ -694,6 +695,7 @@ def run(args: argparse.Namespace) -> int:
     if ros_argv is None:
         ros_argv = ['auv-sim'] + (['--ros-args', *args.ros_args] if args.ros_args else [])
     use_dds_profile()  # before the first participant (auv_contract.dds)
+    use_one_blas_thread()  # small matrices: one BLAS thread (auv_contract.blas)
     context = Context()
     rclpy.init(args=list(ros_argv), context=context,
                signal_handler_options=SignalHandlerOptions.NO)

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from auv_ident.blas import one_blas_thread
+from auv_contract.blas import one_blas_thread
 from auv_ident.errors import IdentificationError, NotIdentifiableError
 from auv_ident.identify.covariance import (
     ERROR_METHODS,
