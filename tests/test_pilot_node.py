@@ -228,3 +228,40 @@ def test_auv_pilot_takes_ros_arguments_as_the_docs_show(ros_env) -> None:
     assert bad.returncode == 1
     assert bad.stderr.count('\n') == 1 and bad.stderr.startswith('error: '), bad.stderr
     assert 'depth_min' in bad.stderr
+
+
+def test_first_state_is_answered_at_once(ros_env) -> None:
+    """On simulated time with no ``/clock`` yet the timer never fires (ROS time stays 0): the
+    one command that comes is the answer to the first state, stamped with its stamp."""
+    pilot = PilotProcess(ros_env, '-p', 'use_sim_time:=true')
+    pilot.wait_ready()
+    rclpy.init()
+    node = rclpy.create_node('first_state_probe')
+    stamps: list[int] = []
+    node.create_subscription(
+        ActuatorSetpoint, '/auv/bar_command',
+        lambda m: stamps.append(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec), 50)
+    state_pub = node.create_publisher(VehicleState, '/auv/state', 50)
+    try:
+        deadline = time.monotonic() + DEADLINE_S
+        while state_pub.get_subscription_count() == 0 or node.count_publishers(
+                '/auv/bar_command') == 0:
+            assert time.monotonic() < deadline, 'the pilot did not match the probe'
+            rclpy.spin_once(node, timeout_sec=0.05)
+        time.sleep(0.5)  # the pilot's bar_command publisher matches the probe's subscription
+        for k in range(25):  # 0.5 s of states stamped 5.00, 5.02, ... s, no /clock
+            msg = VehicleState()
+            msg.header.stamp.sec, msg.header.stamp.nanosec = 5, 20_000_000 * k
+            msg.z, msg.u, msg.theta, msg.w = 20.0, 2.0, 0.00689, 0.01377
+            state_pub.publish(msg)
+            end = time.monotonic() + 0.02
+            while time.monotonic() < end:
+                rclpy.spin_once(node, timeout_sec=0.005)
+        end = time.monotonic() + 1.0
+        while time.monotonic() < end:
+            rclpy.spin_once(node, timeout_sec=0.05)
+        assert stamps == [5_000_000_000], pilot.output
+    finally:
+        node.destroy_node()
+        rclpy.shutdown()
+        pilot.stop()

@@ -27,7 +27,9 @@ each topic also with ``-r state:=/nav/state`` etc.):
   :mod:`auv_depth_lqr.state_input`); reliable by default, best effort with
   ``state_reliability:=best_effort`` (an incompatible publisher is reported in a warning).
 * publishes ``bar_command`` (auv_msgs/ActuatorSetpoint, rad) at a fixed rate (``rate``,
-  default 10 Hz) from a timer, whether or not new state arrived, and ``/diagnostics``
+  default 10 Hz) from a timer, whether or not new state arrived (and once more at the first
+  state after its start, stamped with that state's stamp, so that the vehicle gets its
+  first command without waiting up to a period for the timer), and ``/diagnostics``
   (diagnostic_msgs/DiagnosticArray, absolute as the ROS convention has it) every
   ``diagnostics_period`` seconds and at once when the pilot's mode, its plane authority or
   its pitch envelope changes: two statuses, ``<node>: depth control`` (mode, command,
@@ -485,6 +487,10 @@ class DepthPilotNode(Node):
             return
         if self._pending_timer and self.lockstep:
             self._configure_timer()
+        if not self.lockstep and self.first_command_time is None:
+            # the first command answers at once (after publish_delay from its arrival)
+            self._publish(stamp, self._now(),
+                          self._wall_out_ns(self.get_clock().now().nanoseconds))
         if self.lockstep:
             stamp_ns = stamp.sec * NS_PER_S + stamp.nanosec
             if control_instant(stamp_ns, self.control_ns) is not None:
@@ -503,10 +509,15 @@ class DepthPilotNode(Node):
         if self._pending_timer:
             self._configure_timer()
         due = info.expected_call_time
+        self._publish(due.to_msg(), self._now(), self._wall_out_ns(due.nanoseconds))
+
+    def _wall_out_ns(self, due_ns: int) -> int | None:
+        """The system-clock instant [ns] a command due at ``due_ns`` goes out, after
+        ``publish_delay``; None on simulated time (``/clock``), where it goes out at once."""
         clock = self.get_clock()  # ROS time: on the system clock unless /clock drives it
-        wall = not (isinstance(clock, ROSClock) and clock.ros_time_is_active)
-        out_ns = due.nanoseconds + int(self.pilot.settings.publish_delay * NS_PER_S)
-        self._publish(due.to_msg(), self._now(), out_ns if wall else None)
+        if isinstance(clock, ROSClock) and clock.ros_time_is_active:
+            return None
+        return due_ns + int(self.pilot.settings.publish_delay * NS_PER_S)
 
     def _publish(self, stamp: Any, t: float, out_ns: int | None = None) -> None:
         """Compute the command for ``t`` [s] and publish it stamped ``stamp``; with ``out_ns``

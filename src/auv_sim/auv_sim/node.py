@@ -573,12 +573,12 @@ class SimulatorNode(Node):
     def run_loop(self, executor: SingleThreadedExecutor) -> None:
         """Step, publish and serve callbacks until :meth:`stop`. DivergenceError and
         GraphConflictError propagate."""
-        self.sim.warm_up()  # the compiled kernels loaded while the other nodes start
         self._wait_for_graph(executor)
         self.check_no_other_graph()
         watch_until = time.monotonic() + CONFLICT_WATCH
         next_pub = next_ctrl = self.sim.k
         anchor_wall, anchor_k = time.monotonic(), self.sim.k
+        warm = False
         next_poll = 0.0
         while not self._stop.is_set():
             s, k = self.settings, self.sim.k
@@ -602,6 +602,12 @@ class SimulatorNode(Node):
                 self._expect_command()
             if k == next_pub or control_instant:
                 self._publish()
+                if not warm:
+                    # The compiled kernels load after the first state went out (its forces
+                    # load the first): the controller answers it meanwhile. Not lag.
+                    self.sim.warm_up()
+                    warm = True
+                    anchor_wall = time.monotonic()
                 if s.real_time_factor <= 0.0 and s.use_sim_clock:
                     self._pace_recorder(executor)
             if s.stop_time > 0.0 and self.sim.t >= s.stop_time - 0.5 * self.setup.dt:

@@ -151,7 +151,8 @@ class Simulator:
         A process's first call of a compiled function initialises numba's target and loads
         the function from its cache (~0.3-0.5 s of CPU); one step is integrated and the forces
         evaluated on copies of the state and the commands, so that this happens here (in a
-        node: while the other nodes start) and not at ``t = 0``.
+        node: once the state at ``t = 0`` went out, while the controller answers it) and not
+        in the first step, whose lateness would count as lag.
         """
         x, cmd = self.x.copy(), self.cmd.copy()
         rk4_steps(self.t, x, cmd, self._p, self._env, self._prof, self.dt, 1)
