@@ -81,6 +81,12 @@ export LD_LIBRARY_PATH="$ROOT/install/auv_msgs/lib\${LD_LIBRARY_PATH:+:\$LD_LIBR
 export PATH="$VENV/bin:\$PATH"
 export AUV_ROOT="$ROOT"
 export MPLBACKEND=Agg
+# The toolkit's Fast DDS profile (auv_contract.dds) for every process started from here (a
+# script, ros2 topic echo), unless the user names one: found within ~0.5 s by a graph
+# started after it, not only at Fast DDS's 3 s announcements.
+if [ -z "\${FASTDDS_DEFAULT_PROFILES_FILE:-}\${FASTRTPS_DEFAULT_PROFILES_FILE:-}" ]; then
+  export FASTDDS_DEFAULT_PROFILES_FILE="$ROOT/install/auv_contract/share/auv_contract/config/dds/fastdds.xml"
+fi
 SH
 cat > "$VENV/bin/auv" <<SH
 #!/usr/bin/env bash
