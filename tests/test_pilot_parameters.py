@@ -8,6 +8,7 @@ import re
 import time
 from typing import Any
 
+import numpy as np
 import pytest
 
 from auv_depth_lqr.errors import DesignError
@@ -63,7 +64,7 @@ def edges(spec: ParameterSpec) -> list[tuple[float | int, float | int]]:
 
 # -- the schema -------------------------------------------------------------------------------
 def test_every_parameter_has_a_one_line_description_with_its_unit_or_none_declared() -> None:
-    assert len(PARAMETERS) == 32
+    assert len(PARAMETERS) == 33
     for spec in PARAMETERS.values():
         assert spec.description and '\n' not in spec.description, spec.name
         if spec.unit:
@@ -90,7 +91,7 @@ def test_defaults_pass_the_checks_and_match_the_declared_ranges_and_choices() ->
     assert set(START_ONLY) == {
         'realtime_priority', 'state_source', 'state_reliability', 'diagnostics_period',
         'start_subscribers', 'startup_timeout', 'diagnostics_subscribers', 'report_file',
-        'learn', 'pitch_envelope'}
+        'learn', 'pitch_envelope', 'plane_rate_design'}
 
 
 @pytest.mark.parametrize('spec', RANGED, ids=[s.name for s in RANGED])
@@ -258,3 +259,14 @@ def test_a_plane_travel_too_small_to_weigh_is_a_design_error(bar_max: float) -> 
     vehicle = load_vehicle(config_path('a18m.yaml'))
     with pytest.raises(DesignError, match=r'^bar_max = .* rad must be finite and at least '):
         DepthPilot.for_vehicle(vehicle, PilotSettings(bar_max=bar_max))
+
+
+def test_plane_rate_design_parameter_designs_the_rate_gains() -> None:
+    """``plane_rate_design`` reaches the design: a plane-rate gain per scheduled speed with
+    it, none without (docs/pilot-design.md, 4b)."""
+    off = pilot_from_values(checked_values(DEFAULTS)).controller.design
+    on = pilot_from_values(checked_values(with_value('plane_rate_design', True))
+                           ).controller.design
+    assert off.K_rate.shape == (0, 6)
+    assert on.K_rate.shape == (on.speeds.size, 6)
+    assert np.array_equal(on.K, off.K)  # the angle design's gains are the same

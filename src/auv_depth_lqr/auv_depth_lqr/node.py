@@ -64,8 +64,10 @@ fallback ``recovery`` (bool), ``recovery_pitch_margin`` [rad],
 ``recovery_rate_residual`` [m/s], ``recovery_rate_window`` [s], ``recovery_resume_time``
 [s], ``recovery_gain``, ``recovery_bar_fraction`` (see :mod:`auv_depth_lqr.recovery`),
 at start only: ``pitch_envelope`` (bool, the pitch envelope selector,
-:mod:`auv_depth_lqr.envelope`), ``diagnostics_period`` [s], ``state_source`` (``vehicle_state`` or
-``odometry``), ``state_reliability``, ``realtime_priority`` (0-99; 0 = normal scheduling),
+:mod:`auv_depth_lqr.envelope`), ``plane_rate_design`` (bool, the LQR designed on the plane's
+rate: :class:`auv_depth_lqr.pilot.PilotSettings`), ``diagnostics_period`` [s],
+``state_source`` (``vehicle_state`` or ``odometry``), ``state_reliability``,
+``realtime_priority`` (0-99; 0 = normal scheduling),
 ``start_subscribers`` (before its first command the node waits, at most ``startup_timeout``
 [s], until ``bar_command`` has this many matched subscriptions, so that a recorder started
 with the graph misses none of the first commands; 0 = do not wait),

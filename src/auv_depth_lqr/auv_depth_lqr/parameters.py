@@ -125,6 +125,8 @@ _SPECS = (
     ParameterSpec('recovery', True, 'envelope fallback to the recovery law'),
     ParameterSpec('pitch_envelope', True, 'keep the BAR within the commands of a pitch-hold '
                   'law towards the pitch limits (auv_depth_lqr.envelope)', start_only=True),
+    ParameterSpec('plane_rate_design', False, 'design the LQR on the plane\'s rate, the plane a '
+                  'state (docs/pilot-design.md, 4b; not the default)', start_only=True),
     ParameterSpec('learn', False, 'learn what the vehicle file gets wrong while flying and fly '
                   'the learned model (docs/pilot-design.md)', start_only=True),
     ParameterSpec('realtime_priority', 0, 'SCHED_FIFO priority of the node\'s threads; '
@@ -256,7 +258,8 @@ def pilot_from_values(v: Mapping[str, Any]) -> DepthPilot:
         safe_bar=None if math.isnan(v['safe_bar']) else v['safe_bar'],
         water_speed=v['water_speed'] or None, publish_delay=v['publish_delay'],
         recovery=recovery, learn=bool(v['learn']),
-        pitch_envelope=bool(v['pitch_envelope']))
+        pitch_envelope=bool(v['pitch_envelope']),
+        plane_rate_design=bool(v['plane_rate_design']))
     return DepthPilot.for_vehicle(
         params, settings,
         depth_min=None if math.isnan(v['depth_min']) else v['depth_min'],
