@@ -6,6 +6,7 @@ import math
 import subprocess
 import sys
 import time
+from typing import Any
 
 import pytest
 import rclpy
@@ -131,16 +132,23 @@ def test_bad_parameter_at_start_exits_with_one_line_error(ros_env, ros_args: lis
         proc.stderr
 
 
-def test_parameter_changes_are_validated_and_applied(pilot_process) -> None:
-    from rcl_interfaces.srv import SetParameters
-
-    proc = pilot_process.proc
+def _stamp_probe(name: str) -> tuple[Any, list[int]]:
+    """rclpy initialised and a node ``name`` whose list gets the stamp [ns] of every
+    ``/auv/bar_command`` it receives."""
     rclpy.init()
-    node = rclpy.create_node('pilot_param_probe')
+    node = rclpy.create_node(name)
     stamps: list[int] = []
     node.create_subscription(
         ActuatorSetpoint, '/auv/bar_command',
         lambda m: stamps.append(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec), 50)
+    return node, stamps
+
+
+def test_parameter_changes_are_validated_and_applied(pilot_process) -> None:
+    from rcl_interfaces.srv import SetParameters
+
+    proc = pilot_process.proc
+    node, stamps = _stamp_probe('pilot_param_probe')
     client = node.create_client(SetParameters, '/auv/depth_pilot/set_parameters')
 
     def set_parameter(name: str, value: object) -> tuple[bool, str]:
@@ -235,12 +243,7 @@ def test_first_state_is_answered_at_once(ros_env) -> None:
     one command that comes is the answer to the first state, stamped with its stamp."""
     pilot = PilotProcess(ros_env, '-p', 'use_sim_time:=true')
     pilot.wait_ready()
-    rclpy.init()
-    node = rclpy.create_node('first_state_probe')
-    stamps: list[int] = []
-    node.create_subscription(
-        ActuatorSetpoint, '/auv/bar_command',
-        lambda m: stamps.append(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec), 50)
+    node, stamps = _stamp_probe('first_state_probe')
     state_pub = node.create_publisher(VehicleState, '/auv/state', 50)
     try:
         deadline = time.monotonic() + DEADLINE_S
