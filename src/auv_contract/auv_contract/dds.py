@@ -6,7 +6,8 @@ running graph finds every node within about 0.5 s, and reliable writers send a h
 100 ms instead of 3 s, so that a lost sample is sent again within about 0.1 s. Fast DDS reads the
 profile file named by ``FASTDDS_DEFAULT_PROFILES_FILE`` (or the older
 ``FASTRTPS_DEFAULT_PROFILES_FILE``) when a process creates its first participant; a user's
-file in either variable is left as it is.
+file in either variable is left as it is. ``.venv/bin/auv-env`` names the same file for every
+process started from it (``tools/bootstrap.sh``), under the same rule.
 """
 from __future__ import annotations
 
