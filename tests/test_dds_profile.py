@@ -63,3 +63,28 @@ def test_without_the_configuration_nothing_is_named(monkeypatch: pytest.MonkeyPa
     env: dict[str, str] = {}
     assert use_dds_profile(env) is None
     assert env == {}
+
+
+@pytest.mark.parametrize('user', [None, *PROFILE_VARIABLES])
+def test_the_workspace_environment_names_the_profile_unless_the_user_did(
+        user: str | None) -> None:
+    """``.venv/bin/auv-env`` (written by tools/bootstrap.sh) names the shipped profile for the
+    processes started from it, and leaves a profile the user named."""
+    env_file = pathlib.Path(__file__).resolve().parents[1] / '.venv' / 'bin' / 'auv-env'
+    env = {'PATH': '/usr/bin:/bin', 'HOME': '/tmp'}
+    if user is not None:
+        env[user] = '/home/me/my_profile.xml'
+    out = subprocess.run(['bash', '-c', f'. "{env_file}" && printf "%s|%s" '
+                          '"${FASTDDS_DEFAULT_PROFILES_FILE:-}" '
+                          '"${FASTRTPS_DEFAULT_PROFILES_FILE:-}"'],
+                         env=env, capture_output=True, text=True, timeout=30, check=True)
+    fastdds, fastrtps = out.stdout.split('|')
+    if user is None:
+        assert fastrtps == ''
+        assert pathlib.Path(fastdds).read_text() == \
+            pathlib.Path(dds_profile() or '').read_text()
+    else:
+        assert {'FASTDDS_DEFAULT_PROFILES_FILE': fastdds,
+                'FASTRTPS_DEFAULT_PROFILES_FILE': fastrtps}[user] == '/home/me/my_profile.xml'
+        other = fastrtps if user == 'FASTDDS_DEFAULT_PROFILES_FILE' else fastdds
+        assert other == ''
