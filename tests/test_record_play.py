@@ -66,12 +66,13 @@ rclpy.shutdown()
 '''
 
 SUBSCRIBER = r'''
-import json, sys, time
+import faulthandler, json, sys, time
 import rclpy
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from auv_msgs.msg import VehicleState
 
 n, timeout = int(sys.argv[1]), float(sys.argv[2])
+faulthandler.dump_traceback_later(timeout + 20.0, exit=True)  # a hang says where (stderr)
 rclpy.init()
 node = rclpy.create_node('test_state_subscriber')
 got = []
@@ -199,7 +200,10 @@ def _play(ros_env: dict[str, str], bag: pathlib.Path, rate: float,
                                    '--wait-for-subscribers', *extra),
                               env=ros_env, capture_output=True, text=True, timeout=90)
         assert play.returncode == 0, play.stderr
-        outs = [proc.communicate(timeout=LISTEN_S + 30)[0] for proc in subs]
+        done = [proc.communicate(timeout=LISTEN_S + 30) for proc in subs]
+        outs = [out for out, _ in done]
+        for (out, err), proc in zip(done, subs):
+            assert proc.returncode == 0 and out.strip(), f'listener: {out[-500:]} {err[-3000:]}'
     finally:
         for proc in subs:
             if proc.poll() is None:
@@ -287,11 +291,12 @@ def test_record_bad_await_option_is_one_line_error(ros_env: dict[str, str],
     assert not (tmp_path / 'bag').exists()
 
 LISTENER = r'''
-import importlib, json, sys, time
+import faulthandler, importlib, json, sys, time
 import rclpy
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 topic, typename, expr, n, timeout = sys.argv[1:6]
+faulthandler.dump_traceback_later(float(timeout) + 20.0, exit=True)  # a hang says where
 last_value = eval(sys.argv[6]) if len(sys.argv) > 6 else None
 module, name = typename.rsplit('.', 1)
 cls = getattr(importlib.import_module(module), name)
