@@ -103,7 +103,7 @@ from typing import Any
 import rclpy
 import rclpy.exceptions
 import rclpy.executors
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ROSClock
@@ -143,6 +143,13 @@ from auv_depth_lqr.command_intake import (
 )
 from auv_depth_lqr.controller import PlaneState
 from auv_depth_lqr.errors import AuvLqrError, InvalidInputError
+from auv_depth_lqr.node_status import (
+    answer_status,
+    authority_status,
+    authority_text,
+    control_status,
+    status_text,
+)
 from auv_depth_lqr.parameters import (
     PARAMETERS,
     RELIABILITIES,
@@ -190,8 +197,6 @@ ANSWER_TOPIC = topic_basename(DEPTH_ANSWER_TOPIC)  # relative: /auv/depth_comman
 ANSWER_QOS = QoSProfile(depth=20, reliability=ReliabilityPolicy.RELIABLE,
                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
 ACK_TIMEOUT = 2.0  # wall s, longest wait at exit for the subscribers' acknowledgements
-_LEVELS = {'ok': DiagnosticStatus.OK, 'recovery': DiagnosticStatus.WARN,
-           'no_state': DiagnosticStatus.WARN, 'stale': DiagnosticStatus.ERROR}
 
 class DepthPilotNode(Node):
     """Thin ROS wrapper of :class:`DepthPilot` (see module docstring)."""
@@ -373,14 +378,9 @@ class DepthPilotNode(Node):
             self._command_warning = answer.text()
         elif answer.result == ACCEPTED:
             self._command_warning = ''
-        status = DiagnosticStatus()
-        status.level = DiagnosticStatus.OK if answer.result == ACCEPTED else DiagnosticStatus.WARN
-        status.name = f'{self.get_fully_qualified_name()}: depth command'
-        status.message = answer.text()
-        status.hardware_id = self.get_namespace()
-        status.values = [KeyValue(key=k, value=v) for k, v in _answer_values(answer).items()]
         self._count(self.pub_answer)
-        self.pub_answer.publish(status)
+        self.pub_answer.publish(answer_status(answer, self.get_fully_qualified_name(),
+                                              self.get_namespace()))
         self._publish_diagnostics()
 
     def _lost(self, text: str) -> None:
@@ -529,13 +529,13 @@ class DepthPilotNode(Node):
         changed = status != self._reported
         if changed:
             if status == 'ok':
-                self.get_logger().info(self._status_text(status))
+                self.get_logger().info(status_text(self.pilot, status))
             else:
-                self.get_logger().warning(self._status_text(status))
+                self.get_logger().warning(status_text(self.pilot, status))
             self._reported = status
         authority = self.pilot.authority
         if authority.level != self._authority_reported and authority.level != UNKNOWN:
-            text = f'plane authority {authority.level}: {self._authority_text()}'
+            text = f'plane authority {authority.level}: {authority_text(self.pilot)}'
             if authority.level == LOW:
                 self.get_logger().warning(text)
             elif self._authority_reported == LOW:
@@ -590,96 +590,20 @@ class DepthPilotNode(Node):
                 return
             time.sleep(0.005)
 
-    def _status_text(self, status: str) -> str:
-        settings = self.pilot.settings
-        if status == 'ok':
-            verdict = self.pilot.verdict
-            if verdict is not None and verdict.changed and verdict.mode == 'normal':
-                return verdict.reason
-            return 'state received: depth control active'
-        if status == 'recovery':
-            reason = self.pilot.verdict.reason if self.pilot.verdict else ''
-            return f'envelope left ({reason}): recovery law, levelling the vehicle'
-        if status == 'stale':
-            return (f'no state for more than {settings.state_timeout} s: publishing safe BAR '
-                    f'{settings.safe_bar:.3f} rad')
-        if status == 'no_state':
-            return 'no state yet: publishing safe BAR'
-        return status
-
-    def _authority_text(self) -> str:
-        monitor = self.pilot.authority_monitor
-        return self.pilot.authority.message(monitor.share_max, monitor.saturated_max)
-
-    def _authority_status(self) -> DiagnosticStatus:
-        """The plane authority (:mod:`auv_depth_lqr.authority`) as a DiagnosticStatus: WARN
-        when low."""
-        a, monitor = self.pilot.authority, self.pilot.authority_monitor
-        out = DiagnosticStatus()
-        out.level = DiagnosticStatus.WARN if a.level == LOW else DiagnosticStatus.OK
-        out.name = f'{self.get_fully_qualified_name()}: plane authority'
-        out.message = self._authority_text()
-        out.hardware_id = self.get_namespace()
-
-        def number(value: float, scale: float = 1.0, digits: int = 2) -> str:
-            return f'{value * scale:.{digits}f}' if math.isfinite(value) else 'none'
-
-        values = {
-            'level': a.level,
-            'hold_bar_deg': number(a.hold_bar, 180.0 / math.pi),
-            'hold_share_of_travel': number(a.share, digits=3),
-            'hold_share_at_stop': number(a.saturated, digits=3),
-            'hold_time_s': number(a.hold_time, digits=1),
-            'window_share_at_stop': number(a.at_stop, digits=3),
-            'window_s': number(monitor.window, digits=1),
-            'bar_max_deg': number(monitor.bar_max, 180.0 / math.pi),
-        }
-        out.values = [KeyValue(key=k, value=v) for k, v in values.items()]
-        return out
-
     def _publish_diagnostics(self) -> None:
         """The pilot's DiagnosticStatus (depth control) and its plane authority on
-        ``/diagnostics`` (ROS convention)."""
+        ``/diagnostics`` (ROS convention; :mod:`auv_depth_lqr.node_status`)."""
         if not self._diagnostics_awaited:
             # before the first status: the subscribers of the graph (a recorder) matched
             self._diagnostics_awaited = True
             self._await_matched(self.pub_diagnostics, self.diagnostics_subscribers)
-        pilot = self.pilot
-        status = pilot.status
-        verdict = pilot.verdict
-        out = DiagnosticStatus()
-        out.level = _LEVELS.get(status, DiagnosticStatus.ERROR)
-        out.name = f'{self.get_fully_qualified_name()}: depth control'
-        out.message = self._status_text(status)
-        if self._command_warning:
-            out.level = max(out.level, DiagnosticStatus.WARN)
-            out.message = f'{out.message}; {self._command_warning}'
-        envelope = pilot.envelope_warning(self._t_command)
-        if envelope:
-            out.level = max(out.level, DiagnosticStatus.WARN)
-            out.message = f'{out.message}; {envelope}'
-        out.hardware_id = self.get_namespace()
-        values = {
-            'status': status,
-            'mode': verdict.mode if verdict else 'normal',
-            'reason': verdict.reason if verdict else '',
-            'depth_command_m': 'none' if pilot.z_ref is None else f'{pilot.z_ref:.3f}',
-            'depth_min_m': f'{pilot.depth_min:g}', 'depth_max_m': f'{pilot.depth_max:g}',
-            'last_rejected_command': self._last_refusal,
-            'pitch_deg': 'none' if verdict is None else f'{math.degrees(verdict.pitch):.2f}',
-            'pitch_limit_deg': f'{math.degrees(pilot.controller.limits.theta_max):g}',
-            'pitch_envelope': 'holding' if envelope else 'clear',
-            'depth_rate_residual_mps': ('none' if verdict is None or verdict.residual is None
-                                        else f'{verdict.residual:+.3f}'),
-            **pilot.learning_diagnostics(),
-        }
-        if self.last_answer is not None:
-            values.update({f'last_command_{k}': v
-                           for k, v in _answer_values(self.last_answer).items()})
-        out.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+        name, namespace = self.get_fully_qualified_name(), self.get_namespace()
         array = DiagnosticArray()
         array.header.stamp = self.get_clock().now().to_msg()
-        array.status = [out, self._authority_status()]
+        array.status = [control_status(self.pilot, name, namespace, self._t_command,
+                                       self._command_warning, self._last_refusal,
+                                       self.last_answer),
+                        authority_status(self.pilot, name, namespace)]
         self._count(self.pub_diagnostics)
         self.pub_diagnostics.publish(array)
 
@@ -710,14 +634,6 @@ def _sample_identity(info: Any) -> tuple[bytes | None, int | None]:
     gid_bytes = bytes(gid['data']) if isinstance(gid, dict) and 'data' in gid else None
     seq = info.get('publication_sequence_number')
     return gid_bytes, seq if isinstance(seq, int) else None
-
-
-def _answer_values(answer: CommandAnswer) -> dict[str, str]:
-    """The answer's fields as diagnostic key/values (see the module docstring)."""
-    return {'value_m': f'{answer.value:g}', 'result': answer.result,
-            'depth_m': 'none' if answer.depth is None else f'{answer.depth:g}',
-            'reason': answer.reason, 'publisher': answer.publisher,
-            'sequence': str(answer.sequence)}
 
 
 def _policy_name(kind: int) -> str:
