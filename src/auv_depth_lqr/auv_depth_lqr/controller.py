@@ -403,7 +403,9 @@ class DepthController:
         nominal = self.design.at(u)
         self._observe(nominal, w, q, theta, u)
         ref = self.reference.reference
-        if self.learner is not None and (ref is None or (ref.v == 0.0 and ref.z == z_cmd)):
+        if self.learner is not None and (
+                ref is None or abs(ref.z - z_cmd) <= settings.landing_distance):
+            # at rest or on the landing (the stop is flown): the latest estimate from now on
             self.learner.fly_latest()
         op = self.trimmed(nominal)
 

@@ -27,6 +27,12 @@ regression is a Kalman filter on random-walk parameters: it learns in every phas
 (a climb excites the plane terms, a hold the offsets), from a prior about the vehicle file
 (:class:`LearningSettings`), never forgets faster than ``drift_time`` and keeps what it
 cannot see (a direction the data does not excite keeps its estimate; its uncertainty grows).
+Its noise per sample is the scatter it measures in the residual (half the mean square of
+its change from one sample to the next), at least a share of the plane's own force and
+moment; the prior of the moment offset is the plane's moment at full travel. Both are
+sized by the plane, not by ``W`` and ``W L``: what tells the plane's effectiveness from an
+offset is the difference between the plane's two ends, a climb and a stop, and a noise or
+an offset prior many planes wide drowns it (on the A18M, 1 % of ``W L`` is 7 full planes).
 Because the residual is taken against the nonlinear model, neither the unstable modes nor
 the quadratic cross-flow drag of a steep climb are mistaken for a plant error, and an
 open-loop-unstable vehicle (the REMUS 100) learns like any other.
@@ -83,19 +89,31 @@ class LearningSettings:
     buoyancy: float = 0.05
     """Prior of ``p1``: a heave force offset of 5 % of the weight (a vehicle ballasted with
     ~1 % of its weight is typical) [-]."""
-    moment: float = 0.01
-    """Prior of ``p4``: a pitch moment offset of 1 % of ``W L`` (on the REMUS 100 a 9 deg
-    plane offset is 0.5 %) [-]."""
+    moment: float = 1.0
+    """Prior of ``p4``: a pitch moment offset as large as the plane's moment at full travel
+    ``|M_bar(u)| bar_max`` at the speed ``u`` of the first sample learned from, in shares of
+    that moment [-] (a larger offset is one the plane cannot trim out). The estimate ``p4``
+    itself stays in shares of ``W L``; a prior in shares of ``W L`` would be ~7 full planes
+    on the A18M and one on the REMUS 100, and so wide a prior lets the offset explain what
+    is the plane's effectiveness."""
     plane: float = 0.5
     """Prior of ``p2``, ``p5``: the plane's force and moment within about +-50 % of the
     file's [-]."""
     hull: float = 0.5
     """Prior of ``p3``, ``p6``, ``p7``, as a share of the coefficient's size on the model
     (for ``p6`` the hull's ``CMuw`` plus the Munk moment the model computes) [-]."""
-    noise: float = 0.01
-    """Standard deviation of the unexplained wrench per sample, in shares of ``W`` (heave)
-    and ``W L`` (pitch) [-]: the sample-to-sample error of finite differences, sensor
-    noise, unmodelled fast dynamics."""
+    noise: float = 0.2
+    """Smallest standard deviation of the unexplained heave force and pitch moment per
+    sample, in shares of the plane's force and moment at full travel at the sample's speed
+    (``|Z_bar(u)| bar_max``, ``|M_bar(u)| bar_max``) [-]. Above it, the filter takes the
+    scatter it measures (:attr:`noise_time`): the sample-to-sample error of finite
+    differences, sensor noise, unmodelled fast dynamics."""
+    noise_time: float = 10.0
+    """Time [s] over which the measured scatter of the residual is averaged: half the mean
+    square of its change from one sample to the next (the successive-difference estimate
+    of a variance, which a slowly varying model error does not inflate), weighted
+    exponentially and normalised by its weights (so it is a mean from the second sample
+    on)."""
     drift_time: float = 60.0
     """Time [s] over which a parameter may drift by one prior standard deviation: the
     random walk of the Kalman filter (a vehicle changes its ballast or speed, the estimate
@@ -169,7 +187,7 @@ class PlantEstimator:
         self._prior = np.array([s.buoyancy, s.plane, s.hull * max(abs(params.CZuw), 1e-3),
                                 s.moment, s.plane, s.hull * cmuw,
                                 s.hull * max(abs(params.CMuq), 1e-3)])
-        self._noise = np.array([s.noise * self.weight, s.noise * self.weight * self.length])
+        self.bar_max = float(params.bar_max)
         self._drift = self._prior ** 2 * self.ts / s.drift_time
         self.reset()
 
@@ -181,6 +199,10 @@ class PlantEstimator:
         self._cov: Matrix = np.diag(self._prior ** 2)
         self._samples = 0
         self._thrust: float | None = None
+        self._residual: Matrix | None = None
+        self._scatter: Matrix = np.zeros(2)
+        self._scatter_weight = 0.0
+        self._noise: Matrix = np.full(2, math.nan)
         self.forget_plane()
 
     def forget_plane(self) -> None:
@@ -189,6 +211,43 @@ class PlantEstimator:
         :attr:`plane_settling` seconds."""
         self._plane_angle: float | None = None
         self._unsure = self.plane_settling
+        self._residual = None
+
+    @property
+    def noise(self) -> tuple[float, float]:
+        """Standard deviation of the unexplained heave force [N] and pitch moment [N m] per
+        sample the last sample was learned with (``LearningSettings.noise``, ``noise_time``);
+        nan before the first."""
+        return float(self._noise[0]), float(self._noise[1])
+
+    def _sample_noise(self, y: Matrix, z_bar: float, m_bar: float) -> Matrix:
+        """The noise standard deviations [N, N m] for a sample whose residual is ``y``:
+        the measured scatter (``noise_time``), at least ``noise`` of the plane's force and
+        moment at full travel (``z_bar``, ``m_bar`` [N/rad, N m/rad] at the sample's
+        speed)."""
+        s = self.settings
+        if self._residual is not None:
+            decay = math.exp(-self.ts / s.noise_time)
+            change = 0.5 * (y - self._residual) ** 2
+            self._scatter = decay * self._scatter + (1.0 - decay) * change
+            self._scatter_weight = decay * self._scatter_weight + (1.0 - decay)
+        self._residual = y.copy()
+        floor = s.noise * self.bar_max * np.array([abs(z_bar), abs(m_bar)])
+        if self._scatter_weight > 0.0:
+            return np.maximum(np.sqrt(self._scatter / self._scatter_weight), floor)
+        return floor
+
+    def _set_moment_prior(self, m_bar: float) -> None:
+        """The prior of ``p4`` from the plane's moment per radian ``m_bar`` [N m/rad] at the
+        first sample's speed (``LearningSettings.moment``), its drift with it."""
+        prior = self.settings.moment * abs(m_bar) * self.bar_max / (self.weight * self.length)
+        if not prior > 0.0:
+            return
+        self._prior[3] = prior
+        self._drift[3] = prior ** 2 * self.ts / self.settings.drift_time
+        self._cov[3, :] = 0.0
+        self._cov[:, 3] = 0.0
+        self._cov[3, 3] = prior ** 2
 
     def plane_over(self, bar: float) -> float:
         """The mean plane angle [rad] over a sample commanded ``bar`` [rad], on the vehicle
@@ -342,6 +401,9 @@ class PlantEstimator:
         self._thrust = thrust if self._thrust is None else \
             self._thrust + alpha * (thrust - self._thrust)
         y = felt - np.array([z_m, m_m])
+        if self._samples == 0:
+            self._set_moment_prior(m_bar)
+        self._noise = self._sample_noise(y, z_bar, m_bar)
         H = self.regressors(u, w, q, bar, z_bar, m_bar, theta)
         cov = self._cov + np.diag(self._drift)
         S = H @ cov @ H.T + np.diag(self._noise ** 2)
@@ -360,8 +422,9 @@ class PlantEstimator:
 
     @property
     def flying(self) -> bool:
-        """Whether a learned model is flown: one was taken at rest by :meth:`fly_latest`
-        after at least one sample was learned."""
+        """Whether a learned model is flown: one was taken by :meth:`fly_latest` (the
+        controller takes it at rest and on a stop's landing) after at least one sample was
+        learned."""
         return self._flying
 
     def plane_gain(self, op: OperatingPoint) -> float:
