@@ -18,6 +18,7 @@ from auv_depth_lqr.closed_loop import foreign_plant, model_error_plant, run_clos
 from auv_depth_lqr.errors import DesignError
 from auv_depth_lqr.glide import Glide, glide_cap, steady_glide
 from auv_depth_lqr.learning import PARAMETERS, PlantEstimator
+from auv_depth_lqr.metrics import step_metrics
 from auv_depth_lqr.pilot import DepthPilot, PilotSettings
 from auv_sim.params import VehicleParams, load_vehicle, mass_matrix
 from auv_sim.trim import VerticalPlane
@@ -226,3 +227,63 @@ def test_an_assumed_estimate_needs_one_finite_value_per_parameter(
     with pytest.raises(DesignError, match='7 finite values needed'):
         est.assume(values)
     assert est.estimate.values == (0.0,) * 7
+
+
+def test_the_braking_of_a_stop_is_the_planes_times_its_room_about_the_trim() -> None:
+    """Hand-worked from the stop of ``ReferenceGovernor.limits_toward`` (dynamic stop, the
+    A18M): braking input ``-sign(F[1, 3]) share - travel bar_e`` with ``share =
+    brake_bar_share bar_margin bar_max``, times ``|P[1, 3]|``. A plane 0.6 times as strong
+    brakes 0.6 times as hard; a trim moved towards the braking end leaves less room."""
+    pilot = DepthPilot.for_vehicle(load_vehicle(A18M), PilotSettings(learn=True))
+    ctl = pilot.controller
+    gov, op = ctl.reference, ctl.design.at(1.5)
+    assert not gov.kinematic_stop
+    s = ctl.governor
+    share = s.brake_bar_share * s.bar_margin * ctl.limits.bar_max
+    sign = math.copysign(1.0, float(op.F[1, 3]))
+    for travel in (-1.0, 1.0):
+        hand = abs(float(op.P[1, 3])) * abs(-sign * share - travel * op.bar_e)
+        assert gov.braking(op, travel) == pytest.approx(hand, rel=1e-12)
+        weak = op._replace(P=op.P * np.array([[1.0], [0.6]]))
+        assert gov.braking(weak, travel) == pytest.approx(0.6 * hand, rel=1e-12)
+    # the braking plane of a climb (travel -1) is BAR = bar_e + travel U = sign share
+    # (nose down, positive BAR on this vehicle); a trim 9 deg towards it leaves 9 deg less
+    assert sign * share > 0.0
+    towards = op._replace(bar_e=op.bar_e + math.radians(9.0))
+    hand = abs(float(op.P[1, 3])) * (share - op.bar_e - math.radians(9.0))
+    assert gov.braking(towards, -1.0) == pytest.approx(hand, rel=1e-12)
+    assert gov.braking(towards, -1.0) < gov.braking(op, -1.0)
+
+
+def test_a_stop_is_planned_on_the_weaker_of_the_model_flown_and_the_latest_estimate() -> None:
+    """The NPS AUV II's foreign plant, first 20 -> 10 m with learning: the file's braking
+    (the model flown through the first change) is 2.5 to 3 times the plant's; the latest
+    estimate, learning from the climb, brakes less, and the stop planned on it overshoots
+    less (measured 0.37 m, against 0.80 m on the file's braking) and settles sooner
+    (40.3 s against 43.8 s); on the file's own model nothing changes (30.7 s, no
+    overshoot, both ways)."""
+    design = load_vehicle(ROOT / 'config' / 'npsauv2.yaml')
+    plant = foreign_plant(design, 1.5)
+    out = {}
+    for name, real in (('foreign', plant), ('own', design)):
+        pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=True))
+        ctl = pilot.controller
+        chosen = []
+        weaker = ctl._weaker_brake
+
+        def spy(*args: object, weaker: object = weaker, chosen: list[bool] = chosen) -> object:
+            op = weaker(*args)  # type: ignore[operator]
+            chosen.append(op is not None)
+            return op
+
+        ctl._weaker_brake = spy  # type: ignore[method-assign]
+        run = run_closed_loop(real, [(0.0, 10.0)], 80.0, z0=20.0, u0=1.5, pilot=pilot)
+        r = run.record
+        out[name] = (step_metrics(r.t, r.x[:, 2], r.x[:, 4], r.x[:, 10], r.cmd[:, 0], 10.0,
+                                  u0=1.5, theta_max=math.radians(25.0)), sum(chosen))
+    foreign, picked = out['foreign']
+    assert picked > 0
+    assert foreign.overshoot < 0.6, foreign
+    assert foreign.settling_time < 43.0, foreign
+    own, _ = out['own']
+    assert own.overshoot < 0.01 and own.settling_time < 33.0, own

@@ -340,7 +340,7 @@ class ReferenceGovernor:
         v_land = settings.landing_distance / landing
         share = settings.brake_bar_share * budget
         sign = 1.0 if float(b[1]) >= 0.0 else -1.0
-        u_brake = -sign * share - travel * op.bar_e
+        u_brake = self._brake_input(op, travel)
         u_other = sign * share - travel * op.bar_e
         b0, b1 = float(b[0]), float(b[1])
         u_land = b0 * v_land - b1 * v_land / landing  # the landing's input at its start
@@ -351,10 +351,7 @@ class ReferenceGovernor:
             # the jerk limit. The stop brakes at the deceleration that the braking share of
             # the plane's room (about the trim, on the side where b_1 (-travel a) lies) holds,
             # at most accel_max.
-            side = -travel * (1.0 if b1 >= 0.0 else -1.0)
-            room = max(budget - side * op.bar_e, 0.0)
-            a_stop = settings.accel_max if b1 == 0.0 else min(
-                settings.accel_max, settings.brake_bar_share * room / abs(b1))
+            a_stop = self._stop_deceleration(op, travel)
             u_brake, u_other = -a_stop, a_stop
             u_land = -v_land / landing
             u_release = u_land + settings.release_bar_share * (u_other - u_land)
@@ -377,14 +374,46 @@ class ReferenceGovernor:
         return v_cap, jerk, brake
 
 
+    def _brake_input(self, op: OperatingPoint, travel: float) -> float:
+        """The stop's braking input ``U`` [rad] of :meth:`limits_toward` (dynamic stop): the
+        braking end of ``brake_bar_share * bar_margin * bar_max``, in the travel frame about
+        the trim ``op.bar_e``."""
+        share = self.settings.brake_bar_share * self.settings.bar_margin * self.limits.bar_max
+        sign = 1.0 if float(op.F[1, 3]) >= 0.0 else -1.0
+        return -sign * share - travel * op.bar_e
+
+    def _stop_deceleration(self, op: OperatingPoint, travel: float) -> float:
+        """The deceleration [m/s^2] a kinematic stop of :meth:`limits_toward` brakes at: what
+        the braking share of the plane's room about the trim holds, at most ``accel_max``."""
+        settings = self.settings
+        budget = settings.bar_margin * self.limits.bar_max
+        b1 = float(op.F[1, 3])
+        side = -travel * (1.0 if b1 >= 0.0 else -1.0)
+        room = max(budget - side * op.bar_e, 0.0)
+        return settings.accel_max if b1 == 0.0 else min(
+            settings.accel_max, settings.brake_bar_share * room / abs(b1))
+
+    def braking(self, op: OperatingPoint, travel: float) -> float:
+        """How hard the stop of :meth:`limits_toward` planned on ``op`` brakes a motion in
+        ``travel`` (+1 down, -1 up), to compare operating points at one speed: for a
+        kinematic stop its deceleration [m/s^2]; else the braking input's distance from the
+        trim times the plane's pitch acceleration per radian ``|P[1, 3]|`` [rad/s^2] (the
+        stop's map takes its input column times the plane's effectiveness)."""
+        if self.kinematic_stop:
+            return self._stop_deceleration(op, travel)
+        return abs(float(op.P[1, 3])) * abs(self._brake_input(op, travel))
+
     def advance(self, op: OperatingPoint, u: float, z_cmd: float,
                 stop: tuple[OperatingPoint, float] | None = None,
-                v_limit: float = math.inf) -> Reference:
+                v_limit: float = math.inf, brake_on: OperatingPoint | None = None
+                ) -> Reference:
         """The governed reference one sample on (:class:`Reference`); not stored (see
         :meth:`accept`). ``stop``, if given, is the operating point and surge speed [m/s] the
         stop is planned at (the speed the vehicle is heading for); else ``op`` and ``u``.
         ``v_limit`` [m/s, >= 0] caps the steady climb or dive further (the steadiest one the
-        plane holds with the thrust held, :mod:`auv_depth_lqr.glide`).
+        plane holds with the thrust held, :mod:`auv_depth_lqr.glide`). ``brake_on``, if
+        given, is an operating point at the stop's speed whose braking the stop is planned on
+        instead (its steady climb or dive and its jerk stay those of ``op`` and ``stop``).
 
         A time-optimal point-to-point motion, re-planned at every sample (so it follows a
         new command, a new speed or a reference held back by the vehicle). The snap ``s_r``
@@ -434,6 +463,9 @@ class ReferenceGovernor:
             plane_lo, plane_hi = GainSchedule.vertical_speed_bounds(
                 stop[0], stop[1], self._plane_only, settings.margin)
             v_cap = min(v_cap, plane_hi if travel > 0.0 else -plane_lo)
+        if brake_on is not None:
+            _, _, brake = self.limits_toward(brake_on, u if stop is None else stop[1], travel,
+                                             self._landing[1])
         v_cap = min(v_cap, v_limit)
         landing, v_land = brake.landing, brake.v_land
         if 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E:

@@ -427,30 +427,32 @@ class PlantEstimator:
         learned."""
         return self._flying
 
-    def plane_gain(self, op: OperatingPoint) -> float:
+    def plane_gain(self, op: OperatingPoint, latest: bool = False) -> float:
         """The plane's estimated effectiveness on the pitch acceleration at ``op``, relative
-        to the model's, within ``gain_range`` [-]."""
-        corrected = self._plane_rows(op)
+        to the model's, within ``gain_range`` [-] (of the flown estimate, or with ``latest``
+        of the latest one)."""
+        corrected = self._plane_rows(op, latest)
         nominal = float(op.P[1, 3])
         ratio = float(corrected[1]) / nominal if nominal != 0.0 else 1.0
         lo, hi = self.settings.gain_range
         return min(max(ratio, lo), hi)
 
-    def _plane_rows(self, op: OperatingPoint) -> Matrix:
+    def _plane_rows(self, op: OperatingPoint, latest: bool = False) -> Matrix:
         """The heave and pitch accelerations per radian of BAR of the learned model at
-        ``op`` [m/s^2/rad, rad/s^2/rad]."""
+        ``op`` [m/s^2/rad, rad/s^2/rad] (the flown estimate, or with ``latest`` the latest)."""
         z_bar, m_bar = self.m_wq @ op.P[:, 3]
-        p = self._flown
+        p = self._p if latest else self._flown
         out: Matrix = op.P[:, 3] + self.m_wq_inv @ np.array([p[1] * z_bar, p[4] * m_bar])
         return out
 
-    def correct(self, op: OperatingPoint) -> OperatingPoint:
+    def correct(self, op: OperatingPoint, latest: bool = False) -> OperatingPoint:
         """The pilot's linear model at ``op`` with the estimate applied (module docstring):
         heave and pitch rows ``P``, level trim ``(w_e, theta_e, BAR_e)``, series ``F``,
         disturbance map ``D`` and gain ``K`` (over the plane's learned effectiveness when
         that is below 1, :meth:`plane_gain`). ``op`` itself if the learned model has no
-        steady climb (an estimate far off: the design model is kept)."""
-        p, u = self._flown, op.u0
+        steady climb (an estimate far off: the design model is kept). With ``latest``, the
+        latest estimate instead of the one flown (:meth:`fly_latest`)."""
+        p, u = (self._p if latest else self._flown), op.u0
         if not np.any(p):
             return op
         qs, ln, wt = self.qs, self.length, self.weight
@@ -473,7 +475,7 @@ class PlantEstimator:
         # not a much weaker one, so the gain is raised for a weaker plane and never lowered
         # (an unmodelled plane delay is learned as a stronger plane, and a lowered gain
         # widens the hold's limit cycle behind it)
-        gain = min(self.plane_gain(op), 1.0)
+        gain = min(self.plane_gain(op, latest), 1.0)
         return op._replace(w_e=op.w_e + float(shift[0]), theta_e=op.theta_e + float(shift[2]),
                            bar_e=op.bar_e + float(shift[3]), F=F, P=P, D=D, K=op.K / gain,
                            K_rate=_rate_gain(op.K_rate, gain),
