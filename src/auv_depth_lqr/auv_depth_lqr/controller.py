@@ -396,7 +396,7 @@ class DepthController:
         its fins 0.7 times as strong from 21.3 s to 35.1 s."""
         ref = self.reference.reference
         if self.learner is None or ref is None or abs(ref.z - z_cmd) <= \
-                self.governor.landing_distance:
+                self.governor.landing_distance or self.learner.implausible:
             return None
         s_op, s_u = (op, u) if stop is None else stop
         latest = self.trimmed(self.design.at(s_u), latest=True)
@@ -439,8 +439,10 @@ class DepthController:
         self._observe(nominal, w, q, theta, u)
         ref = self.reference.reference
         if self.learner is not None and (
-                ref is None or abs(ref.z - z_cmd) <= settings.landing_distance):
-            # at rest or on the landing (the stop is flown): the latest estimate from now on
+                ref is None or abs(ref.z - z_cmd) <= settings.landing_distance
+                or (self.learner.flying and self.learner.implausible)):
+            # at rest or on the landing (the stop is flown): the latest estimate from now on;
+            # at any time, the file's model once the estimate is past what physics allows
             self.learner.fly_latest()
         op = self.trimmed(nominal)
 

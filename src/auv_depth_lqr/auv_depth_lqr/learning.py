@@ -49,8 +49,10 @@ rate, its plane budget and its stop, then rests on the plane the plant has.
 Limits: the estimate is a regression on the model's own terms. A plant error of another form
 (a plane delay, a lag) is explained by them as well as they can (behind a 0.3 s plane delay
 the REMUS 100 learns a hull lift seven times its own), so on such a plant the learned model
-is not the plant; in a steady climb the data hold one operating point and cannot split the
-error between an offset, the plane's effectiveness and the Munk term.
+is not the plant; where that puts it past what physics allows
+(:attr:`PlantEstimator.implausible`), it is not flown; in a steady climb the data hold one
+operating point and cannot split the error between an offset, the plane's effectiveness and
+the Munk term.
 """
 from __future__ import annotations
 
@@ -118,6 +120,13 @@ class LearningSettings:
     """Time [s] over which a parameter may drift by one prior standard deviation: the
     random walk of the Kalman filter (a vehicle changes its ballast or speed, the estimate
     follows)."""
+    plausible: float = 3.0
+    """An estimate is flown only while every parameter is within this many prior standard
+    deviations of the vehicle file [-] (:attr:`PlantEstimator.implausible`): further off,
+    the error is not of the model's form (a plane delay or lag is explained by a hull lift
+    several times the file's and a weaker plane, whose model flown drove an A18M with a
+    0.18 s plane delay and a 0.33 s lag 30 m past its command), and the pilot keeps the
+    file's model."""
     gain_range: tuple[float, float] = (0.25, 4.0)
     """Range of the plane effectiveness ``1 + p`` used to scale the LQR gain [-]."""
     thrust_time: float = 2.0
@@ -188,6 +197,8 @@ class PlantEstimator:
                                 s.moment, s.plane, s.hull * cmuw,
                                 s.hull * max(abs(params.CMuq), 1e-3)])
         self.bar_max = float(params.bar_max)
+        self.czuw, self.cmuq = float(params.CZuw), float(params.CMuq)
+        """The file's hull lift and pitch damping coefficients [-] (:attr:`implausible`)."""
         self._drift = self._prior ** 2 * self.ts / s.drift_time
         self.reset()
 
@@ -416,9 +427,38 @@ class PlantEstimator:
 
     def fly_latest(self) -> None:
         """Fly the latest estimate from now on (:meth:`correct`, :meth:`plane_gain`,
-        :meth:`force`, :meth:`offset_acceleration` use the estimate of the last call)."""
+        :meth:`force`, :meth:`offset_acceleration` use the estimate of the last call), or,
+        while it is not plausible (:attr:`implausible`), the vehicle file's model."""
+        if self.implausible:
+            self._flown = np.zeros(N_PARAMS)
+            self._flying = False
+            return
         self._flown = self._p.copy()
         self._flying = self._flying or self._samples > 0
+
+    @property
+    def implausible(self) -> str | None:
+        """Why the latest estimate is not what physics allows, or None if it is: a plane
+        that no longer gives force or moment (``1 + p2``, ``1 + p5`` <= 0), a hull lift
+        ``CZuw + p3`` or a pitch damping ``CMuq + p7`` of the other sign than the file's (a
+        hull that lifts against its incidence, a damping that feeds the rotation), or a
+        parameter further than ``LearningSettings.plausible`` prior standard deviations from
+        the file."""
+        p = self._p
+        for name, value in (('plane_force', 1.0 + p[1]), ('plane_moment', 1.0 + p[4])):
+            if value <= 0.0:
+                return f'{name}: the plane would give {value:+.2f} of the file\'s'
+        for name, file_value, learned in (('hull_lift', self.czuw, self.czuw + p[2]),
+                                          ('pitch_damping', self.cmuq, self.cmuq + p[6])):
+            if file_value * learned <= 0.0:
+                return (f'{name}: {learned:+.3g} against the file\'s {file_value:+.3g}, '
+                        f'of the other sign')
+        distance = np.abs(p) / self._prior
+        worst = int(np.argmax(distance))
+        if distance[worst] > self.settings.plausible:
+            return (f'{PARAMETERS[worst]}: {distance[worst]:.1f} prior deviations from the '
+                    f'file')
+        return None
 
     @property
     def flying(self) -> bool:

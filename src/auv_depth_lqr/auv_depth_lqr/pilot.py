@@ -417,7 +417,9 @@ class DepthPilot:
     def learning_diagnostics(self) -> dict[str, str]:
         """What the pilot has learned of its plant and what it can fly, as diagnostic
         key/values (``learned_*`` the estimate's parameters and standard deviations
-        (:mod:`auv_depth_lqr.learning`), ``climb_limit_*``, ``depth_change_limited``)."""
+        (:mod:`auv_depth_lqr.learning`), ``learned_model`` whether the learned model is flown
+        or why not, ``learning_noise`` the noise learned with, ``climb_limit_*``,
+        ``depth_change_limited``)."""
         out: dict[str, str] = {}
         learner = self.controller.learner
         if learner is None:
@@ -425,6 +427,12 @@ class DepthPilot:
         else:
             est = learner.estimate
             out['learning'] = f'{est.samples} samples'
+            reason = learner.implausible
+            out['learned_model'] = 'flown' if learner.flying else \
+                ('the file\'s: nothing learned at rest or on a landing yet' if reason is None
+                 else f'the file\'s: the estimate is not physical ({reason})')
+            noise = learner.noise
+            out['learning_noise'] = f'{noise[0]:.3g} N, {noise[1]:.3g} N m per sample'
             for name, value, sigma in zip(PARAMETERS, est.values, est.sigma):
                 out[f'learned_{name}'] = f'{value:+.4f} +- {sigma:.4f}'
             if self.controller.state_speed is not None:
