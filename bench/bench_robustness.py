@@ -45,7 +45,9 @@ Criteria (:class:`Criteria`): settled within 2x the time-optimal bound of the de
 (no tumble), pitch limit exceeded by at most 2 deg, ``|mean depth error|`` over the last 10 s
 below 0.1 m. Each flight also records the pilot's plane-authority level at its end
 (:mod:`auv_depth_lqr.authority`); each share group counts the flights it called ``low``, among
-all and among the failed. Runs in a process pool (``--workers``, default 2). Run:
+all and among the failed. With ``--learn`` the Monte Carlo's pilot learns its plant
+(``PilotSettings(learn=True)``), written under ``monte_carlo_learning``
+(``monte_carlo_ident_learning``). Runs in a process pool (``--workers``, default 2). Run:
 ``. .venv/bin/auv-env && python bench/bench_robustness.py --plants 1000``
 (writes ``bench/results/robustness.json``).
 """
@@ -53,6 +55,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import json
 import math
 import multiprocessing
@@ -67,6 +70,7 @@ import numpy as np
 from timing import save_figures
 
 from auv_depth_lqr.bound import settling_bound
+from auv_depth_lqr.pilot import PilotSettings
 from auv_depth_lqr.robustness import (
     MODEL_PARAMETERS,
     Distribution,
@@ -175,10 +179,19 @@ def identify_truth(truth: VehicleParams, base_path: pathlib.Path, workdir: pathl
     return load_vehicle(out / 'vehicle.yaml'), report['coefficients']
 
 
-def _fly(job: tuple[VehicleParams, Plant, Manoeuvre, float]) -> dict[str, Any]:
+def mc_key(family: str, learn: bool) -> str:
+    """Results key of a Monte-Carlo family, flown with learning (``learn``) or without."""
+    return MC_KEYS[family] + ('_learning' if learn else '')
+
+
+ALL_MC_KEYS = tuple(mc_key(f, learn) for f in MC_KEYS for learn in (False, True))
+
+
+def _fly(job: tuple[VehicleParams, Plant, Manoeuvre, float], learn: bool = False
+         ) -> dict[str, Any]:
     design, plant, manoeuvre, bound = job
     t0 = time.perf_counter()
-    outcome, _ = fly(design, plant, manoeuvre, bound)
+    outcome, _ = fly(design, plant, manoeuvre, bound, PilotSettings(learn=learn))
     figures = outcome.as_dict()
     figures['wall_s'] = round(time.perf_counter() - t0, 2)
     return figures
@@ -288,11 +301,13 @@ def without(plant: Plant, group: str) -> Plant:
 
 def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
         table: bool = True, mc: bool = True, own_bound: int = 0,
-        family: str = 'uniform', attribute: int = 0) -> dict[str, Any]:
+        family: str = 'uniform', attribute: int = 0, learn: bool = False) -> dict[str, Any]:
     """Per-effect table, identified-model case (``table``) and Monte Carlo (``mc``; its
     first ``own_bound`` flights also judged against their plants' own bounds; ``family``
     ``uniform`` or ``ident``, see the module docstring; its first ``attribute`` failed
-    plants flown again without each group of :data:`ATTRIBUTION`); returns the figures."""
+    plants flown again without each group of :data:`ATTRIBUTION`; with ``learn``, the
+    Monte Carlo's pilot learns its plant, ``PilotSettings(learn=True)``); returns the
+    figures."""
     design = load_vehicle(VEHICLE)
     truth = ident_truth(design)
     if table or (mc and family == 'ident'):  # one identification for both
@@ -351,7 +366,7 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
             plant = draw_plant(design, rng, f'mc{i:04d}', dist)
             manoeuvre = _draw_manoeuvre(rng)
             jobs.append((design, plant, manoeuvre, bound_of(manoeuvre)))
-        rows = pool.map(_fly, jobs, chunksize=4)
+        rows = pool.map(functools.partial(_fly, learn=learn), jobs, chunksize=4)
         mc_wall = time.perf_counter() - t0
         t0 = time.perf_counter()
         own = pool.map(plant_bound, [(design, plant, m) for _, plant, m, _b in
@@ -361,7 +376,8 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
         failed_jobs = [job for job, row in zip(jobs, rows) if not row['pass']][:attribute]
         refly = [(name, (d, without(plant, name), m, b))
                  for name in ATTRIBUTION for (d, plant, m, b) in failed_jobs]
-        reflown = pool.map(_fly, [job for _, job in refly], chunksize=2)
+        reflown = pool.map(functools.partial(_fly, learn=learn), [job for _, job in refly],
+                           chunksize=2)
         attribution_wall = time.perf_counter() - t0
     monte_carlo: dict[str, Any] | None = None
     if mc:
@@ -373,6 +389,7 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
         monte_carlo = {
             'seed': seed,
             'family': family,
+            'learning': learn,
             'distribution': dataclasses.asdict(dist),
             'changes_m': list(MC_CHANGES),
             'all': _shares(rows),
@@ -409,7 +426,7 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
                                   for (dz, u0), b in bounds.items()},
         'bounds_wall_s': round(bounds_wall, 1),
         **results,
-        **({MC_KEYS[family]: monte_carlo} if monte_carlo is not None else {}),
+        **({mc_key(family, learn): monte_carlo} if monte_carlo is not None else {}),
         'workers': workers,
         'total_wall_s': round(time.perf_counter() - wall0, 1),
         'python': platform.python_version(), 'machine': platform.machine(),
@@ -435,6 +452,9 @@ def main() -> None:
                         help='fly the first N failed Monte-Carlo plants again without each '
                              'group of errors (coefficients one by one, plane delay and lag, '
                              'buoyancy, current, biases): the share that then passes')
+    parser.add_argument('--learn', action='store_true',
+                        help='the Monte Carlo with the pilot learning its plant (learn: '
+                             'true), written under the family\'s key with "_learning"')
     parser.add_argument('--no-mc', action='store_true',
                         help='per-effect table and identified model only; the Monte-Carlo '
                              'figures already in the results file are kept')
@@ -443,18 +463,18 @@ def main() -> None:
         parser.error('--no-table and --no-mc leave nothing to run')
     figures = run(args.plants, args.workers, args.seed, table=not args.no_table,
                   mc=not args.no_mc, own_bound=args.own_bound, family=args.family,
-                  attribute=args.attribute)
+                  attribute=args.attribute, learn=args.learn)
     previous = pathlib.Path(__file__).resolve().parent / 'results' / 'robustness.json'
     kept = json.loads(previous.read_text()) if previous.exists() else {}
     keys = (('per_effect', 'per_effect_all_pass', 'per_effect_wall_s', 'identified_model')
             if args.no_table else ())
-    keys += tuple(k for k in MC_KEYS.values() if args.no_mc or k != MC_KEYS[args.family])
+    keys += tuple(k for k in ALL_MC_KEYS if args.no_mc or k != mc_key(args.family, args.learn))
     for key in keys:
         if key in kept:
             figures[key] = kept[key]
     save_figures('robustness', figures)
     summary = {k: v for k, v in figures.items() if k not in ('per_effect',)}
-    for key in MC_KEYS.values():
+    for key in ALL_MC_KEYS:
         if key in figures:
             summary[key] = {k: v for k, v in figures[key].items() if k != 'failures'}
     print(json.dumps(summary, indent=2))

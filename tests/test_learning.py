@@ -269,14 +269,14 @@ def test_a_stop_is_planned_on_the_weaker_of_the_model_flown_and_the_latest_estim
         pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=True))
         ctl = pilot.controller
         chosen = []
-        weaker = ctl._weaker_brake
+        weaker = ctl.weaker_brake
 
         def spy(*args: object, weaker: object = weaker, chosen: list[bool] = chosen) -> object:
             op = weaker(*args)  # type: ignore[operator]
             chosen.append(op is not None)
             return op
 
-        ctl._weaker_brake = spy  # type: ignore[method-assign]
+        ctl.weaker_brake = spy  # type: ignore[method-assign]
         run = run_closed_loop(real, [(0.0, 10.0)], 80.0, z0=20.0, u0=1.5, pilot=pilot)
         r = run.record
         out[name] = (step_metrics(r.t, r.x[:, 2], r.x[:, 4], r.x[:, 10], r.cmd[:, 0], 10.0,
@@ -310,9 +310,10 @@ def test_an_estimate_past_what_physics_allows_is_not_flown(remus: VehicleParams)
     values[4] = -0.4
     est.assume(values)
     assert est.implausible is None
-    est.update((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.5, 0.0)  # one sample: something learned
-    est._unsure = 0.0
-    est.update((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.5, 0.0)
+    # samples past the plane's settling after a start: something learned
+    for _ in range(int(est.plane_settling / 0.1) + 2):
+        est.update((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.5, 0.0)
+    assert est.estimate.samples > 0
     est.assume(values)
     est.fly_latest()
     assert est.flying

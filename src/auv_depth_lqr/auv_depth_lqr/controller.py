@@ -377,7 +377,7 @@ class DepthController:
         self._glide = (z_cmd, travel, self.governor.glide_period - self.Ts, cap)
         return cap
 
-    def _weaker_brake(self, op: OperatingPoint, u: float,
+    def weaker_brake(self, op: OperatingPoint, u: float,
                       stop: tuple[OperatingPoint, float] | None, z_cmd: float
                       ) -> OperatingPoint | None:
         """The operating point whose braking the stop is planned on, if not the model flown:
@@ -459,7 +459,7 @@ class DepthController:
         u_heading = min(u, min(self._headings))
         self._stop_speed = u_heading
         stop = None if u_heading >= u else (self.trimmed(self.design.at(u_heading)), u_heading)
-        brake_on = self._weaker_brake(op, u, stop, z_cmd)
+        brake_on = self.weaker_brake(op, u, stop, z_cmd)
         glide = self._glide_cap(z_cmd, z, u)
         z_r, v_r, a_r, j_r, s_r = self.reference.advance(op, u, z_cmd, stop, glide, brake_on)
         slowest = op if stop is None else stop[0]
