@@ -207,6 +207,13 @@ ROWS: list[tuple[str, str, str]] = [
      '{robustness:monte_carlo.all.share_pitch_limit_exceeded_by_more_than_2deg:.2%}; '
      '{robustness:monte_carlo.all.worst_steady_error_m:.1f} m',
      '1000; >= 99 %; 0; 0; < 0.1 m'),
+    ('the same plants with the pilot learning its plant (`learn: true`, '
+     '`--learn`): settled within 2x the bound; pitch limit exceeded by > 2 deg; worst steady '
+     'depth error',
+     '{robustness:monte_carlo_learning.all.share_settled_within_2x_bound:.1%}; '
+     '{robustness:monte_carlo_learning.all.share_pitch_limit_exceeded_by_more_than_2deg:.2%}; '
+     '{robustness:monte_carlo_learning.all.worst_steady_error_m:.1f} m',
+     '>= 99 %; 0; < 0.1 m'),
     ('the same, first plants also against their own time-optimal bound (their coefficients, '
      'buoyancy and lag; no delay, bias or current: optimistic): plants; settled within 2x the '
      'design bound / 2x their own; own bound over the design\'s, median (range)',
