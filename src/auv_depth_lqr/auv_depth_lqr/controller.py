@@ -242,15 +242,11 @@ class DepthController:
         model (:meth:`~auv_depth_lqr.learning.PlantEstimator.correct`), its trim shift
         bounded the same way; with ``latest``, the learner's latest estimate rather than the
         one flown (``op`` itself before anything is learned)."""
-        if self.learner is not None and latest:
-            if self.learner.estimate.samples == 0:
-                return op
-            learned = self.learner.correct(op, latest=True)
-            shift = np.array([learned.w_e - op.w_e, 0.0, learned.theta_e - op.theta_e,
-                              learned.bar_e - op.bar_e])
-            base = learned._replace(w_e=op.w_e, theta_e=op.theta_e, bar_e=op.bar_e)
-        elif self.learner is not None and self.learner.flying:
-            learned = self.learner.correct(op)
+        learner = self.learner
+        if learner is not None and latest and learner.estimate.samples == 0:
+            return op
+        if learner is not None and (latest or learner.flying):
+            learned = learner.correct(op, latest=latest)
             shift = np.array([learned.w_e - op.w_e, 0.0, learned.theta_e - op.theta_e,
                               learned.bar_e - op.bar_e])
             base = learned._replace(w_e=op.w_e, theta_e=op.theta_e, bar_e=op.bar_e)
