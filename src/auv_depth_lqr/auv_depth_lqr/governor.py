@@ -458,14 +458,14 @@ class ReferenceGovernor:
             # the climb or dive is capped, and the stop planned, at the speed the vehicle is
             # heading for: with its thrust held it slows down in a dive (a buoyant one) or a
             # climb, and its plane's authority with it
-            _, _, brake = self.limits_toward(stop[0], stop[1], travel, self._landing[1])
-            # the plane's bound only: the pitch limit's follows the measured speed
+            # (the plane's bound only: the pitch limit's follows the measured speed)
             plane_lo, plane_hi = GainSchedule.vertical_speed_bounds(
                 stop[0], stop[1], self._plane_only, settings.margin)
             v_cap = min(v_cap, plane_hi if travel > 0.0 else -plane_lo)
-        if brake_on is not None:
-            _, _, brake = self.limits_toward(brake_on, u if stop is None else stop[1], travel,
-                                             self._landing[1])
+        if stop is not None or brake_on is not None:
+            stop_op, stop_u = (op, u) if stop is None else stop
+            _, _, brake = self.limits_toward(stop_op if brake_on is None else brake_on,
+                                             stop_u, travel, self._landing[1])
         v_cap = min(v_cap, v_limit)
         landing, v_land = brake.landing, brake.v_land
         if 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E:
