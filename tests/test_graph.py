@@ -54,6 +54,21 @@ def test_depth_change_through_the_graph_settles(tmp_path: pathlib.Path, ros_env,
     assert np.all(np.abs(bar['value']) <= params.bar_max + 1e-12)
 
 
+def test_the_simulator_waits_for_a_pilot_on_odometry() -> None:
+    """A pilot on ``nav_msgs/Odometry`` is an ``odom`` subscriber the simulator waits for
+    before t = 0, as a pilot on ``VehicleState`` is a ``state`` one: counted from the graph's
+    configuration, beside the recorder and the Foxglove bridge."""
+    from auv_bringup.launch import odom_subscribers, state_subscribers
+    on_odom = GraphConfig(vehicle=str(A18M), pilot_state='odometry')
+    assert (odom_subscribers(on_odom), state_subscribers(on_odom)) == (1, 0)
+    recorded = GraphConfig(vehicle=str(A18M), pilot_state='odometry', record='bag')
+    assert (odom_subscribers(recorded), state_subscribers(recorded)) == (2, 1)
+    on_state = GraphConfig(vehicle=str(A18M), record='bag', foxglove=8765)
+    assert (odom_subscribers(on_state), state_subscribers(on_state)) == (2, 3)
+    mission = GraphConfig(vehicle=str(A18M), pilot_state='odometry', mission='pitch')
+    assert odom_subscribers(mission) == 0
+
+
 def test_the_pilot_waits_for_every_command_subscriber_of_the_graph() -> None:
     """The pilot's first command goes out once the simulator, the recorder (if it records
     the command) and the Foxglove bridge have matched it: counted from the graph's

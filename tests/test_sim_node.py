@@ -477,6 +477,53 @@ def test_lockstep_takes_answers_stamped_in_floating_point_and_reports(
                                 '/auv/hydrodynamic_forces': 451, '/clock': 451}
 
 
+def test_lockstep_waits_for_a_controller_on_odom_besides_the_recorder(
+        rclpy_context: tuple[Context, dict[str, str]], tmp_path: pathlib.Path) -> None:
+    """A controller on ``odom`` that subscribes after a recorder has: with
+    ``start_odom_subscribers`` 2 the simulator starts only once both are matched, so the
+    controller gets the state of t = 0 and answers every instant (the race a lockstep graph
+    with its pilot on odometry lost one run in many: the recorder alone released the start,
+    the pilot never saw t = 0 and the simulator waited for its answer in vain)."""
+    import json
+
+    context, env = rclpy_context
+    log = tmp_path / 'node.log'
+    report = tmp_path / 'report.json'
+    node, executor = probe(context, 'sim_odom_controller_test')
+    first_state: list[float] = []
+    node.create_subscription(  # the recorder's odom, there from the start
+        Odometry, '/auv/odom',
+        lambda m: first_state.append(time.monotonic()) if not first_state else None, QOS)
+    bar_pub = node.create_publisher(ActuatorSetpoint, '/auv/bar_command', QOS)
+    pending: list[int] = []
+    seen: list[int] = []
+
+    def on_odom(msg: Odometry) -> None:
+        ns = stamp_to_ns(msg.header.stamp)
+        seen.append(ns)
+        if ns % round(CONTROL_PERIOD * NS) == 0:
+            pending.append(ns)
+
+    trim_bar = float(build_setup(SimSettings()).x0[12])
+    proc = start_node(env, ['--lockstep', '--real-time-factor', '0', '--control-period',
+                            str(CONTROL_PERIOD), '--lockstep-timeout', '30',
+                            '--lockstep-startup-timeout', '60', '--stop-time', '2',
+                            '--start-odom-subscribers', '2', '--report-file', str(report)],
+                     log)
+    late = time.monotonic() + 3.0  # the controller subscribes 3 wall s after the recorder
+    while time.monotonic() < late:
+        executor.spin_once(timeout_sec=0.05)
+    subscribed = time.monotonic()
+    node.create_subscription(Odometry, '/auv/odom', on_odom, QOS)
+    answered = answer_until_exit(proc, log, node, executor, bar_pub, pending, stamp_from_ns,
+                                 trim_bar, 120.0)
+    text = log.read_text()
+    assert proc.returncode == 0, text
+    assert first_state and first_state[0] > subscribed, (first_state, subscribed)
+    assert seen[0] == 0 and len(answered) == 21, (seen[:3], len(answered))  # 0 .. 2 s
+    assert json.loads(report.read_text())['lockstep_missed'] == 0
+
+
 def test_another_simulator_on_the_namespace_is_refused(
         rclpy_context: tuple[Context, dict[str, str]], tmp_path: pathlib.Path) -> None:
     """A node already publishing /auv/state (another graph's simulator): the simulator ends

@@ -33,9 +33,9 @@ def test_every_field_is_a_parameter_with_a_one_line_description_and_its_unit() -
                 or f'[wall {spec.unit}]' in spec.description, spec.name
         else:
             assert '[' not in spec.description, spec.name
-    # the unitless floats are the two subscriber counts
+    # the unitless floats are the three subscriber counts
     assert {n for n in FLOAT_FIELDS if not PARAMETERS[n].unit} \
-        == {'start_subscribers', 'start_stream_subscribers'}
+        == {'start_subscribers', 'start_stream_subscribers', 'start_odom_subscribers'}
     assert {n for n, s in PARAMETERS.items() if not s.start_only} == set(RUNTIME_FIELDS)
 
 
@@ -46,7 +46,8 @@ def test_the_ranges_are_the_ones_the_code_checked_before() -> None:
         'lockstep_timeout': '(0, inf)', 'lockstep_startup_timeout': '(0, inf)',
         'recorder_timeout': '(0, inf)', 'dt': '[0, inf)', 'real_time_factor': '[0, inf)',
         'initial_depth': '[0, inf)', 'stop_time': '[0, inf)', 'start_subscribers': '[0, inf)',
-        'start_stream_subscribers': '[0, inf)', 'initial_pitch': '(-1.5708, 1.5708)'}
+        'start_stream_subscribers': '[0, inf)', 'start_odom_subscribers': '[0, inf)',
+        'initial_pitch': '(-1.5708, 1.5708)'}
 
 
 @pytest.mark.parametrize('spec', RANGED, ids=[s.name for s in RANGED])

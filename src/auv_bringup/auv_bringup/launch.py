@@ -284,6 +284,17 @@ def stream_subscribers(cfg: GraphConfig) -> int:
     return int(recorder) + int(cfg.foxglove is not None)
 
 
+def odom_subscribers(cfg: GraphConfig) -> int:
+    """The ``odom`` subscribers of the graph ``cfg`` the simulator waits for before t = 0: a
+    pilot on ``nav_msgs/Odometry``, the recorder (when it records ``odom``) and the Foxglove
+    bridge. Without the pilot's, a lockstep run could publish its first state before the
+    pilot's subscription was matched: the pilot never saw it, and the simulator waited its
+    ``lockstep_timeout`` for an answer that could not come."""
+    pilot_on_odom = cfg.pilot and not cfg.mission and cfg.pilot_state == 'odometry'
+    return (int(bool(pilot_on_odom)) + int(records(cfg, 'odom'))
+            + int(cfg.foxglove is not None))
+
+
 def bar_subscribers(cfg: GraphConfig) -> int:
     """The ``bar_command`` subscribers of the graph ``cfg`` the pilot waits for before its
     first command: the simulator, the recorder (unless its ``--topics`` leave the command
@@ -355,6 +366,7 @@ def graph_nodes(cfg: GraphConfig, log_dir: pathlib.Path) -> list[NodeProcess]:
         initial_speed=cfg.initial_speed, stop_time=cfg.stop_time,
         start_subscribers=float(state_subscribers(cfg)),
         start_stream_subscribers=float(stream_subscribers(cfg)),
+        start_odom_subscribers=float(odom_subscribers(cfg)),
         await_recorder=bool(cfg.record) and cfg.real_time_factor == 0.0 and cfg.sim_clock,
         recorder_timeout=RECORDER_TIMEOUT, report_file=report('simulator'),
         control_period=1.0 / cfg.pilot_rate), *remaps(cfg)], log('simulator')))

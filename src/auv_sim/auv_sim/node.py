@@ -14,13 +14,14 @@ refused with a reason and changes nothing, a good one applied once ROS has store
 ``initial_trim``, ``initial_depth`` [m], ``initial_speed`` [m/s], ``initial_pitch`` [rad],
 ``initial_heading`` [rad], ``lockstep``, ``control_period`` [s], ``lockstep_timeout`` and
 ``lockstep_startup_timeout`` [wall s], ``lockstep_channels`` (``bar``; ``bar,helm,thrust`` for
-a mission), ``start_subscribers`` (``state``) and ``start_stream_subscribers`` (``odom``,
-``hydrodynamic_forces``, ``/clock``): subscribers to wait for before t = 0, ``await_recorder``
-(wait for a recorder's progress before t = 0), ``recorder_timeout`` [wall s], ``stop_time`` [s
-of simulated time; 0: run until stopped], ``report_file`` (JSON written at exit: messages
-published per topic, control instants that went on without their answer, whether the recorder
-pacing gave up). Only ``publish_rate``, ``real_time_factor`` and ``lockstep_timeout`` may
-change while it runs.
+a mission), ``start_subscribers`` (``state``), ``start_stream_subscribers`` (``odom``,
+``hydrodynamic_forces``, ``/clock``) and ``start_odom_subscribers`` (``odom`` alone, when more:
+a controller on ``odom`` besides the recorders): subscribers to wait for before t = 0,
+``await_recorder`` (wait for a recorder's progress before t = 0), ``recorder_timeout`` [wall
+s], ``stop_time`` [s of simulated time; 0: run until stopped], ``report_file`` (JSON written
+at exit: messages published per topic, control instants that went on without their answer,
+whether the recorder pacing gave up). Only ``publish_rate``, ``real_time_factor`` and
+``lockstep_timeout`` may change while it runs.
 
 Topics (namespace ``/auv`` by default, remappable with ``-r __ns:=...``):
 
@@ -507,13 +508,14 @@ class SimulatorNode(Node):
             waits.append((f'{wanted} subscriber(s) of {self._pub_state.topic_name}',
                           lambda: self._pub_state.get_subscription_count() >= wanted))
         streams = int(s.start_stream_subscribers)
-        if streams > 0:
-            pubs = [self._pub_odom, self._pub_forces]
-            if self._pub_clock is not None:
-                pubs.append(self._pub_clock)
-            for pub in pubs:
-                waits.append((f'{streams} subscriber(s) of {pub.topic_name}',
-                              functools.partial(_has_subscribers, pub, streams)))
+        counts = [(self._pub_odom, max(streams, int(s.start_odom_subscribers))),
+                  (self._pub_forces, streams)]
+        if self._pub_clock is not None:
+            counts.append((self._pub_clock, streams))
+        for pub, count in counts:
+            if count > 0:
+                waits.append((f'{count} subscriber(s) of {pub.topic_name}',
+                              functools.partial(_has_subscribers, pub, count)))
         if s.await_recorder:
             waits.append((f'a recorder on {self._sub_progress.topic_name}',
                           lambda: self._sub_progress.get_publisher_count() > 0))

@@ -62,6 +62,7 @@ class SimSettings:
     lockstep_channels: str = 'bar'      # comma-separated channels answered at each instant
     start_subscribers: float = 0.0      # state subscribers to wait for before t = 0
     start_stream_subscribers: float = 0.0  # the same for odom, forces and /clock (recorders)
+    start_odom_subscribers: float = 0.0  # odom alone, when more (a controller on odom too)
     await_recorder: bool = False        # before t = 0, wait for a recorder's progress
     recorder_timeout: float = 5.0       # wall s without recorder progress before giving up
     stop_time: float = 0.0              # s of simulated time at which the node ends; 0: never
@@ -128,6 +129,11 @@ _SPECS = (
                   'before t = 0, wait (lockstep_startup_timeout) until odom, '
                   'hydrodynamic_forces and /clock each have this many subscribers, e.g. '
                   'recorder and viewer (0: do not wait)', range=NON_NEGATIVE),
+    ParameterSpec('start_odom_subscribers', _D.start_odom_subscribers,
+                  'before t = 0, wait (lockstep_startup_timeout) until odom has this many '
+                  'subscribers when that is more than start_stream_subscribers, e.g. a '
+                  'controller on odom besides recorder and viewer (0: do not wait)',
+                  range=NON_NEGATIVE),
     ParameterSpec('await_recorder', _D.await_recorder,
                   "before t = 0, wait (lockstep_startup_timeout) for a recorder's progress "
                   '(real_time_factor 0: the recorder paces the run from t = 0)'),
