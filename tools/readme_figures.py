@@ -239,6 +239,13 @@ ROWS: list[tuple[str, str, str]] = [
      '{robustness:monte_carlo_ident.all.share_pitch_limit_exceeded_by_more_than_2deg:.2%}; '
      '{robustness:monte_carlo_ident.all.worst_steady_error_m:.3f} m',
      'none; 1000; >= 99 %; 0; 0; < 0.1 m'),
+    ('the same plants with the pilot learning its plant (`--family ident --learn`): '
+     'settled within 2x the bound; pitch limit exceeded by > 2 deg; worst steady depth error',
+     '{robustness:monte_carlo_ident_learning.all.share_settled_within_2x_bound:.1%}; '
+     '{robustness:monte_carlo_ident_learning.all'
+     '.share_pitch_limit_exceeded_by_more_than_2deg:.2%}; '
+     '{robustness:monte_carlo_ident_learning.all.worst_steady_error_m:.1f} m',
+     '>= 99 %; 0; < 0.1 m'),
     ('Foxglove live view, 50 Hz state: delivered share; latency p95; bridge CPU',
      '{foxglove:summary./auv/state.delivered.median:.3f}; '
      '{foxglove:summary./auv/state.latency_ms_p95.median:.1f} ms; '
