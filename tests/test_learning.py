@@ -310,8 +310,8 @@ def test_an_estimate_past_what_physics_allows_is_not_flown(remus: VehicleParams)
     values[4] = -0.4
     est.assume(values)
     assert est.implausible is None
-    # samples past the plane's settling after a start: something learned
-    for _ in range(int(est.plane_settling / 0.1) + 2):
+    # samples past the plane's settling and the longest delay after a start: something learned
+    for _ in range(int((est.plane_settling + est.settings.delays) / 0.1) + 2):
         est.update((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.5, 0.0)
     assert est.estimate.samples > 0
     est.assume(values)
@@ -337,6 +337,25 @@ def test_a_plane_delay_learned_as_a_weak_hull_is_not_flown() -> None:
                  PilotSettings(learn=True), Criteria())
     assert out.steady_error < 0.1, out
     assert math.degrees(out.pitch_excess) < 2.0, out
+
+
+@pytest.mark.parametrize('delay', [0.0, 0.1, 0.3])
+def test_the_plane_delay_is_learned(delay: float) -> None:
+    """An A18M whose plane answers ``delay`` s late and has no other error dives 30 m with
+    learning on: the filter that gives the estimate is the one of that delay (the oracle is
+    the delay put into the simulated plant; the filters are 0, 0.1, 0.2 and 0.3 s)."""
+    from auv_depth_lqr.robustness import Plant
+
+    design = load_vehicle(A18M)
+    plant = Plant('late', effects={'actuator_delay': {'bar': delay}} if delay else {})
+    settings = PilotSettings(learn=True)
+    pilot = DepthPilot.for_vehicle(design, settings)
+    run_closed_loop(plant.vehicle(design), [(0.0, 40.0)], 60.0, z0=10.0, u0=2.0,
+                    environment=plant.environment(), settings=settings, pilot=pilot)
+    learner = pilot.controller.learner
+    assert learner is not None
+    assert learner.plane_delay == pytest.approx(delay)
+    assert pilot.learning_diagnostics()['learned_plane_delay'] == f'{delay:.1f} s'
 
 
 def test_diagnostics_say_why_the_learned_model_is_not_flown(remus: VehicleParams) -> None:

@@ -46,19 +46,28 @@ input weight ``k^2`` times as large is the design gain over ``k``; a stronger pl
 design gain, within the LQR's gain margin). Everything the pilot plans, the reference's climb
 rate, its plane budget and its stop, then rests on the plane the plant has.
 
+A plane that acts later than the file's actuator says is learned too, to a sample: one
+filter runs per plane delay from 0 to ``LearningSettings.delays`` (0.3 s: 0, 1, 2, 3 samples
+at 10 Hz), each fed the commands that much later; each sample adds the log-likelihood of each
+filter's prediction of it to that filter's fit (forgotten over ``delay_time``, 120 s), and the
+filter giving the estimate hands over to one that fits better by ``delay_margin`` (3). On
+an A18M whose plane answers 0, 0.1, 0.2 or 0.3 s late, one 30 m dive picks that delay.
+
 Limits: the estimate is a regression on the model's own terms. A plant error of another form
-(a plane delay, a lag) is explained by them as well as they can (behind a 0.3 s plane delay
-the REMUS 100 learns a hull lift seven times its own), so on such a plant the learned model
-is not the plant; where that puts it past what physics allows
+(a plane lag other than the file's, a delay beyond ``delays`` or between two samples) is
+explained by them as well as they can (behind a 0.3 s plane delay the REMUS 100 learned a
+hull lift seven times its own before the delay filters), so on such a plant the learned
+model is not the plant; where that puts it past what physics allows
 (:attr:`PlantEstimator.implausible`), it is not flown; in a steady climb the data hold one
 operating point and cannot split the error between an offset, the plane's effectiveness and
 the Munk term.
 """
 from __future__ import annotations
 
+import collections
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
@@ -127,6 +136,18 @@ class LearningSettings:
     several times the file's and a weaker plane, whose model flown drove an A18M with a
     0.18 s plane delay and a 0.33 s lag 30 m past its command), and the pilot keeps the
     file's model."""
+    delays: float = 0.3
+    """Longest plane delay [s] the estimator considers: one filter per whole number of
+    samples from 0 to it, each fed the commands that much later through the vehicle file's
+    actuator; the filter whose predictions fit the data best gives the estimate
+    (:attr:`delay_time`, :attr:`delay_margin`). A plane that acts later than its model says
+    is otherwise explained by the model's own terms, and the estimate is biased."""
+    delay_time: float = 120.0
+    """Time [s] over which the filters' fits are compared: the log-likelihoods of their
+    predictions of each sample, forgotten exponentially."""
+    delay_margin: float = 3.0
+    """Log-likelihood [-] by which another filter must fit the data better than the one
+    giving the estimate before it takes over (no switching on noise)."""
     gain_range: tuple[float, float] = (0.25, 4.0)
     """Range of the plane effectiveness ``1 + p`` used to scale the LQR gain [-]."""
     thrust_time: float = 2.0
@@ -144,6 +165,32 @@ class PlantEstimate(NamedTuple):
     """Their standard deviations [-]."""
     samples: int
     """Samples learned from since the pilot started."""
+
+
+@dataclass
+class _Filter:
+    """One plane delay's Kalman filter: its commands, its plane's angle and its estimate."""
+
+    delay: int
+    """Samples by which the commands reach the plane later [-]."""
+    p: Matrix
+    """The parameters ``p1..p7`` (module docstring)."""
+    cov: Matrix
+    """Their covariance."""
+    commands: collections.deque[float] = field(default_factory=collections.deque)
+    """The last ``delay + 1`` commands [rad], oldest first."""
+    plane_angle: float | None = None
+    """The plane's angle at the end of the last sample [rad] (None: not known)."""
+    unsure: float = 0.0
+    """Time [s] still to wait before learning (the plane's angle is not known)."""
+    samples: int = 0
+    thrust: float | None = None
+    residual: Matrix | None = None
+    scatter: Matrix = field(default_factory=lambda: np.zeros(2))
+    scatter_weight: float = 0.0
+    noise: Matrix = field(default_factory=lambda: np.full(2, math.nan))
+    fit: float = 0.0
+    """Log-likelihood of the filter's predictions, forgotten over ``delay_time`` [-]."""
 
 
 class PlantEstimator:
@@ -204,48 +251,57 @@ class PlantEstimator:
 
     def reset(self) -> None:
         """Forget everything learned (back to the vehicle file)."""
-        self._p: Matrix = np.zeros(N_PARAMS)
         self._flown: Matrix = np.zeros(N_PARAMS)
         self._flying = False
-        self._cov: Matrix = np.diag(self._prior ** 2)
-        self._samples = 0
-        self._thrust: float | None = None
-        self._residual: Matrix | None = None
-        self._scatter: Matrix = np.zeros(2)
-        self._scatter_weight = 0.0
-        self._noise: Matrix = np.full(2, math.nan)
+        self._moment_prior_set = False
+        delays = int(math.floor(self.settings.delays / self.ts + 1e-9))
+        self._filters = [_Filter(k, np.zeros(N_PARAMS), np.diag(self._prior ** 2))
+                         for k in range(max(delays, 0) + 1)]
+        self._h = self._filters[0]
+        """The filter giving the estimate."""
         self.forget_plane()
 
     def forget_plane(self) -> None:
         """The plane's angle is not known (a start, a gap in the commands): the actuator
         model starts again from the next command, and nothing is learned for
         :attr:`plane_settling` seconds."""
-        self._plane_angle: float | None = None
-        self._unsure = self.plane_settling
-        self._residual = None
+        # every filter waits as long as the longest delay's: their fits are compared on the
+        # same samples
+        wait = self.plane_settling + self._filters[-1].delay * self.ts
+        for h in self._filters:
+            h.plane_angle = None
+            h.unsure = wait
+            h.residual = None
+            h.commands.clear()
 
     @property
     def noise(self) -> tuple[float, float]:
         """Standard deviation of the unexplained heave force [N] and pitch moment [N m] per
         sample the last sample was learned with (``LearningSettings.noise``, ``noise_time``);
         nan before the first."""
-        return float(self._noise[0]), float(self._noise[1])
+        return float(self._h.noise[0]), float(self._h.noise[1])
 
-    def _sample_noise(self, y: Matrix, z_bar: float, m_bar: float) -> Matrix:
+    @property
+    def plane_delay(self) -> float:
+        """The plane delay [s] of the filter giving the estimate (``LearningSettings.
+        delays``): how much later than its model the plane acts, to a sample."""
+        return self._h.delay * self.ts
+
+    def _sample_noise(self, h: _Filter, y: Matrix, z_bar: float, m_bar: float) -> Matrix:
         """The noise standard deviations [N, N m] for a sample whose residual is ``y``:
         the measured scatter (``noise_time``), at least ``noise`` of the plane's force and
         moment at full travel (``z_bar``, ``m_bar`` [N/rad, N m/rad] at the sample's
         speed)."""
         s = self.settings
-        if self._residual is not None:
+        if h.residual is not None:
             decay = math.exp(-self.ts / s.noise_time)
-            change = 0.5 * (y - self._residual) ** 2
-            self._scatter = decay * self._scatter + (1.0 - decay) * change
-            self._scatter_weight = decay * self._scatter_weight + (1.0 - decay)
-        self._residual = y.copy()
+            change = 0.5 * (y - h.residual) ** 2
+            h.scatter = decay * h.scatter + (1.0 - decay) * change
+            h.scatter_weight = decay * h.scatter_weight + (1.0 - decay)
+        h.residual = y.copy()
         floor = s.noise * self.bar_max * np.array([abs(z_bar), abs(m_bar)])
-        if self._scatter_weight > 0.0:
-            return np.maximum(np.sqrt(self._scatter / self._scatter_weight), floor)
+        if h.scatter_weight > 0.0:
+            return np.maximum(np.sqrt(h.scatter / h.scatter_weight), floor)
         return floor
 
     def _set_moment_prior(self, m_bar: float) -> None:
@@ -256,16 +312,25 @@ class PlantEstimator:
             return
         self._prior[3] = prior
         self._drift[3] = prior ** 2 * self.ts / self.settings.drift_time
-        self._cov[3, :] = 0.0
-        self._cov[:, 3] = 0.0
-        self._cov[3, 3] = prior ** 2
+        for h in self._filters:
+            h.cov[3, :] = 0.0
+            h.cov[:, 3] = 0.0
+            h.cov[3, 3] = prior ** 2
 
     def plane_over(self, bar: float) -> float:
         """The mean plane angle [rad] over a sample commanded ``bar`` [rad], on the vehicle
         file's actuator (``BAR_dot = clip((bar - BAR) / bar_tau, +-bar_rate)``, solved
-        exactly: at the rate limit while ``|bar - BAR| > bar_rate bar_tau``, then the lag);
-        the plane is then where it ends the sample."""
-        start = bar if self._plane_angle is None else self._plane_angle
+        exactly: at the rate limit while ``|bar - BAR| > bar_rate bar_tau``, then the lag)
+        reached by the command :attr:`plane_delay` later; the plane is then where it ends
+        the sample."""
+        return self._plane_over(self._h, bar)
+
+    def _plane_over(self, h: _Filter, bar: float) -> float:
+        """:meth:`plane_over` on the filter ``h``'s plane and delay."""
+        h.commands.append(bar)
+        # the command of `delay` samples ago (the oldest known, just after a start)
+        bar = h.commands.popleft() if len(h.commands) > h.delay else h.commands[0]
+        start = bar if h.plane_angle is None else h.plane_angle
         ts, tau, rate = self.ts, self.bar_tau, self.bar_rate
         gap = bar - start
         sign = 1.0 if gap >= 0.0 else -1.0
@@ -284,14 +349,14 @@ class PlantEstimator:
                 area += bar * t2
         else:
             end = mid
-        self._plane_angle = end
+        h.plane_angle = end
         return area / ts
 
     @property
     def plane_angle(self) -> float | None:
         """The plane's angle [rad] at the end of the last sample on the vehicle file's
         actuator (:meth:`plane_over`), None while it is not known."""
-        return self._plane_angle
+        return self._h.plane_angle
 
     def assume(self, values: Sequence[float]) -> None:
         """Take ``values`` (one per :data:`PARAMETERS`, in their units) as the present
@@ -306,14 +371,16 @@ class PlantEstimator:
         if p.size != N_PARAMS or not np.all(np.isfinite(p)):
             raise DesignError(f'plant estimator: {N_PARAMS} finite values needed, got '
                               f'{list(values)!r}')
-        self._p = p
+        for h in self._filters:
+            h.p = p.copy()
 
     @property
     def estimate(self) -> PlantEstimate:
         """The present estimate (:class:`PlantEstimate`)."""
-        return PlantEstimate(tuple(float(x) for x in self._p),
-                             tuple(float(math.sqrt(max(x, 0.0))) for x in np.diag(self._cov)),
-                             self._samples)
+        h = self._h
+        return PlantEstimate(tuple(float(x) for x in h.p),
+                             tuple(float(math.sqrt(max(x, 0.0))) for x in np.diag(h.cov)),
+                             h.samples)
 
     def _wrench(self, u: float, w: float, q: float, theta: float, bar: float
                 ) -> tuple[tuple[float, float], tuple[float, float], float]:
@@ -330,7 +397,7 @@ class PlantEstimator:
         """The thrust the vehicle flies with [N], low-passed over ``thrust_time``: the
         surge force that the measured surge, heave and pitch accelerations need beyond the
         model's (``m_u nu_dot - X``); None before it is known."""
-        return self._thrust
+        return self._h.thrust
 
     def force(self, u: float, w: float, theta: float, bar: float
               ) -> tuple[float, float, float]:
@@ -339,8 +406,9 @@ class PlantEstimator:
         heave ``w`` [m/s], pitch ``theta`` and BAR ``bar`` [rad] (a
         :data:`auv_depth_lqr.glide.Force`)."""
         (z_m, m_m), (z_bar, m_bar), x_m = self._wrench(u, w, 0.0, theta, bar)
-        dz, dm = self.regressors(u, w, 0.0, bar, z_bar, m_bar, theta) @ self._p
-        x_m -= self._p[0] * self.weight * math.sin(theta)
+        p = self._h.p
+        dz, dm = self.regressors(u, w, 0.0, bar, z_bar, m_bar, theta) @ p
+        x_m -= p[0] * self.weight * math.sin(theta)
         return x_m, z_m + float(dz), m_m + float(dm)
 
     def glide_cap(self, travel: float, theta_limit: float, bar_limit: float, u: float
@@ -349,13 +417,14 @@ class PlantEstimator:
         model with the present :attr:`thrust` held whose BAR stays within ``bar_limit``
         [rad], ``inf`` if the one at ``theta_limit`` [rad] does or the thrust is not known
         (:func:`auv_depth_lqr.glide.glide_cap`, from the level trim at ``u`` [m/s])."""
-        if self._thrust is None or not u > 0.0:
+        thrust = self._h.thrust
+        if thrust is None or not u > 0.0:
             return math.inf
         try:
             trim = self.plane.trim(u)
         except TrimError:
             return math.inf
-        return glide_cap(self.force, self._thrust, travel, theta_limit, bar_limit,
+        return glide_cap(self.force, thrust, travel, theta_limit, bar_limit,
                          Glide(trim.u0, trim.w, 0.0, trim.bar))
 
     def regressors(self, u: float, w: float, q: float, bar: float, z_bar: float,
@@ -382,7 +451,8 @@ class PlantEstimator:
             Surge speed over the sample [m/s].
         bar : float
             BAR commanded over the sample [rad]; the plane's own angle over it is that of
-            the vehicle file's actuator (:meth:`plane_over`).
+            the vehicle file's actuator reached by the command each filter's delay later
+            (:meth:`plane_over`).
         du : float, optional
             Change of the surge speed over the sample [m/s] (its share of the wrench through
             the mass matrix's surge column, :attr:`m_wq_u`).
@@ -396,34 +466,52 @@ class PlantEstimator:
         values = (*start, *end, u, bar, du)
         if not all(math.isfinite(v) for v in values) or u <= 0.0:
             return self.estimate
-        bar = self.plane_over(bar)
-        if self._unsure > 0.0:
-            self._unsure -= self.ts
-            return self.estimate
         w, q, theta = (0.5 * (a + b) for a, b in zip(start, end))
-        (z_m, m_m), (z_bar, m_bar), x_m = self._wrench(u, w, q, theta, bar)
         dw, dq = (end[0] - start[0]) / self.ts, (end[1] - start[1]) / self.ts
-        felt = self.m_wq @ np.array([dw, dq]) + self.m_wq_u * du / self.ts
+        for h in self._filters:
+            self._learn(h, (w, q, theta), (dw, dq), u, bar, du)
+        best = max(self._filters, key=lambda h: h.fit)
+        if best.fit > self._h.fit + self.settings.delay_margin:
+            self._h = best
+        return self.estimate
+
+    def _learn(self, h: _Filter, mean: tuple[float, float, float],
+               rates: tuple[float, float], u: float, bar: float, du: float) -> None:
+        """One sample into the filter ``h``: ``mean`` ``(w, q, theta)`` over it [m/s,
+        rad/s, rad], ``rates`` ``(w_dot, q_dot)`` measured [m/s^2, rad/s^2], surge ``u``
+        [m/s], command ``bar`` [rad], surge change ``du`` [m/s]; its fit gains the
+        log-likelihood of its prediction of the sample."""
+        w, q, theta = mean
+        plane = self._plane_over(h, bar)
+        if h.unsure > 0.0:
+            h.unsure -= self.ts
+            return
+        (z_m, m_m), (z_bar, m_bar), x_m = self._wrench(u, w, q, theta, plane)
+        felt = self.m_wq @ np.array(rates) + self.m_wq_u * du / self.ts
         # the thrust: the surge force the accelerations need beyond the model's, the learned
         # heave offset's share along the axis included (a buoyancy slows a dive)
-        x_m -= self._p[0] * self.weight * math.sin(theta)
-        thrust = float(self.m_u @ np.array([du / self.ts, dw, dq])) - x_m
+        x_m -= h.p[0] * self.weight * math.sin(theta)
+        thrust = float(self.m_u @ np.array([du / self.ts, *rates])) - x_m
         alpha = self.ts / (self.settings.thrust_time + self.ts)
-        self._thrust = thrust if self._thrust is None else \
-            self._thrust + alpha * (thrust - self._thrust)
+        h.thrust = thrust if h.thrust is None else h.thrust + alpha * (thrust - h.thrust)
         y = felt - np.array([z_m, m_m])
-        if self._samples == 0:
+        if not self._moment_prior_set:
+            self._moment_prior_set = True
             self._set_moment_prior(m_bar)
-        self._noise = self._sample_noise(y, z_bar, m_bar)
-        H = self.regressors(u, w, q, bar, z_bar, m_bar, theta)
-        cov = self._cov + np.diag(self._drift)
-        S = H @ cov @ H.T + np.diag(self._noise ** 2)
+        h.noise = self._sample_noise(h, y, z_bar, m_bar)
+        H = self.regressors(u, w, q, plane, z_bar, m_bar, theta)
+        cov = h.cov + np.diag(self._drift)
+        S = H @ cov @ H.T + np.diag(h.noise ** 2)
+        innovation = y - H @ h.p
+        _, logdet = np.linalg.slogdet(S)
+        loglik = -0.5 * (float(innovation @ np.linalg.solve(S, innovation)) + float(logdet))
+        decay = math.exp(-self.ts / self.settings.delay_time)
+        h.fit = decay * h.fit + loglik
         gain = np.linalg.solve(S, H @ cov).T
-        self._p = self._p + gain @ (y - H @ self._p)
+        h.p = h.p + gain @ innovation
         cov = cov - gain @ H @ cov
-        self._cov = 0.5 * (cov + cov.T)
-        self._samples += 1
-        return self.estimate
+        h.cov = 0.5 * (cov + cov.T)
+        h.samples += 1
 
     def fly_latest(self) -> None:
         """Fly the latest estimate from now on (:meth:`correct`, :meth:`plane_gain`,
@@ -433,8 +521,8 @@ class PlantEstimator:
             self._flown = np.zeros(N_PARAMS)
             self._flying = False
             return
-        self._flown = self._p.copy()
-        self._flying = self._flying or self._samples > 0
+        self._flown = self._h.p.copy()
+        self._flying = self._flying or self._h.samples > 0
 
     @property
     def implausible(self) -> str | None:
@@ -444,7 +532,7 @@ class PlantEstimator:
         hull that lifts against its incidence, a damping that feeds the rotation), or a
         parameter further than ``LearningSettings.plausible`` prior standard deviations from
         the file."""
-        p = self._p
+        p = self._h.p
         for name, value in (('plane_force', 1.0 + p[1]), ('plane_moment', 1.0 + p[4])):
             if value <= 0.0:
                 return f'{name}: the plane would give {value:+.2f} of the file\'s'
@@ -481,7 +569,7 @@ class PlantEstimator:
         """The heave and pitch accelerations per radian of BAR of the learned model at
         ``op`` [m/s^2/rad, rad/s^2/rad] (the flown estimate, or with ``latest`` the latest)."""
         z_bar, m_bar = self.m_wq @ op.P[:, 3]
-        p = self._p if latest else self._flown
+        p = self._h.p if latest else self._flown
         out: Matrix = op.P[:, 3] + self.m_wq_inv @ np.array([p[1] * z_bar, p[4] * m_bar])
         return out
 
@@ -492,7 +580,7 @@ class PlantEstimator:
         that is below 1, :meth:`plane_gain`). ``op`` itself if the learned model has no
         steady climb (an estimate far off: the design model is kept). With ``latest``, the
         latest estimate instead of the one flown (:meth:`fly_latest`)."""
-        p, u = (self._p if latest else self._flown), op.u0
+        p, u = (self._h.p if latest else self._flown), op.u0
         if not np.any(p):
             return op
         qs, ln, wt = self.qs, self.length, self.weight

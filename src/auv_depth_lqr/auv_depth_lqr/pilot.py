@@ -418,7 +418,8 @@ class DepthPilot:
         """What the pilot has learned of its plant and what it can fly, as diagnostic
         key/values (``learned_*`` the estimate's parameters and standard deviations
         (:mod:`auv_depth_lqr.learning`), ``learned_model`` whether the learned model is flown
-        or why not, ``learning_noise`` the noise learned with, ``climb_limit_*``,
+        or why not, ``learning_noise`` the noise learned with, ``learned_plane_delay`` how
+        much later than its model the plane acts, ``climb_limit_*``,
         ``depth_change_limited``)."""
         out: dict[str, str] = {}
         learner = self.controller.learner
@@ -433,6 +434,7 @@ class DepthPilot:
                  else f'the file\'s: the estimate is not physical ({reason})')
             noise = learner.noise
             out['learning_noise'] = f'{noise[0]:.3g} N, {noise[1]:.3g} N m per sample'
+            out['learned_plane_delay'] = f'{learner.plane_delay:.1f} s'
             for name, value, sigma in zip(PARAMETERS, est.values, est.sigma):
                 out[f'learned_{name}'] = f'{value:+.4f} +- {sigma:.4f}'
             if self.controller.state_speed is not None:
