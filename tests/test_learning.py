@@ -358,6 +358,17 @@ def test_the_plane_delay_is_learned(delay: float) -> None:
     assert pilot.learning_diagnostics()['learned_plane_delay'] == f'{delay:.1f} s'
 
 
+@pytest.mark.parametrize('field, value', [('delays', -0.1), ('delays', math.nan),
+                                          ('delay_time', 0.0), ('delay_margin', -1.0)])
+def test_bad_delay_settings_are_refused(remus: VehicleParams, field: str, value: float) -> None:
+    from dataclasses import replace
+
+    from auv_depth_lqr.learning import LearningSettings
+
+    with pytest.raises(DesignError, match=field):
+        PlantEstimator(remus, 0.1, replace(LearningSettings(), **{field: value}))
+
+
 def test_diagnostics_say_why_the_learned_model_is_not_flown(remus: VehicleParams) -> None:
     """``/diagnostics`` keys of the depth-control status: the model flown and why not."""
     pilot = DepthPilot.for_vehicle(remus, PilotSettings(learn=True))

@@ -214,6 +214,12 @@ class PlantEstimator:
         from auv_sim.trim import VerticalPlane
 
         self.settings = settings if settings is not None else LearningSettings()
+        s = self.settings
+        for name, value, low in (('delays', s.delays, 0.0), ('delay_time', s.delay_time, None),
+                                 ('delay_margin', s.delay_margin, 0.0)):
+            if not (math.isfinite(value) and (value >= low if low is not None else value > 0)):
+                raise DesignError(f'plant estimator: {name} = {value!r} must be finite and '
+                                  + (f'>= {low:g}' if low is not None else '> 0'))
         self.plane = VerticalPlane(params)
         self.plane.warm_up()  # at start, not in the first control step that learns or trims
         self.ts = float(ts)
