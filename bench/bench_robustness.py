@@ -45,9 +45,10 @@ Criteria (:class:`Criteria`): settled within 2x the time-optimal bound of the de
 (no tumble), pitch limit exceeded by at most 2 deg, ``|mean depth error|`` over the last 10 s
 below 0.1 m. Each flight also records the pilot's plane-authority level at its end
 (:mod:`auv_depth_lqr.authority`); each share group counts the flights it called ``low``, among
-all and among the failed. With ``--learn`` the Monte Carlo's pilot learns its plant
-(``PilotSettings(learn=True)``), written under ``monte_carlo_learning``
-(``monte_carlo_ident_learning``). Runs in a process pool (``--workers``, default 2). Run:
+all and among the failed. With ``--learn`` the per-effect table's and the Monte Carlo's
+pilot learns its plant (``PilotSettings(learn=True)``), written under
+``per_effect_learning`` and ``monte_carlo_learning`` (``monte_carlo_ident_learning``); the
+identified-model case is flown without. Runs in a process pool (``--workers``, default 2). Run:
 ``. .venv/bin/auv-env && python bench/bench_robustness.py --plants 1000``
 (writes ``bench/results/robustness.json``).
 """
@@ -185,6 +186,13 @@ def mc_key(family: str, learn: bool) -> str:
 
 
 ALL_MC_KEYS = tuple(mc_key(f, learn) for f in MC_KEYS for learn in (False, True))
+
+
+def table_keys(learn: bool) -> tuple[str, str, str]:
+    """Results keys of the per-effect table, its all-pass flag and its wall time, flown with
+    learning (``learn``: ``per_effect_learning...``) or without (``per_effect...``)."""
+    name = 'per_effect_learning' if learn else 'per_effect'
+    return name, f'{name}_all_pass', f'{name}_wall_s'
 
 
 def _fly(job: tuple[VehicleParams, Plant, Manoeuvre, float], learn: bool = False
@@ -334,15 +342,16 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
             plants_table = catalogue(design)
             jobs = [(design, p, m, bound_of(m)) for p in plants_table.values()
                     for m in TABLE_MANOEUVRES.values()]
-            rows = pool.map(_fly, jobs)
+            rows = pool.map(functools.partial(_fly, learn=learn), jobs)
             per_effect: dict[str, dict[str, Any]] = {}
             for (_, plant, manoeuvre, _b), row in zip(jobs, rows):
                 label = next(k for k, v in TABLE_MANOEUVRES.items() if v == manoeuvre)
                 per_effect.setdefault(plant.name, {})[label] = row
-            results['per_effect'] = per_effect
-            results['per_effect_all_pass'] = all(r['pass'] for v in per_effect.values()
-                                                 for r in v.values())
-            results['per_effect_wall_s'] = round(time.perf_counter() - t0, 1)
+            table_key, all_pass_key, wall_key = table_keys(learn)
+            results[table_key] = per_effect
+            results[all_pass_key] = all(r['pass'] for v in per_effect.values()
+                                        for r in v.values())
+            results[wall_key] = round(time.perf_counter() - t0, 1)
 
             t0 = time.perf_counter() - ident_wall  # the identification counts in its wall time
             plant = Plant('identified_model', base=truth)
@@ -453,8 +462,10 @@ def main() -> None:
                              'group of errors (coefficients one by one, plane delay and lag, '
                              'buoyancy, current, biases): the share that then passes')
     parser.add_argument('--learn', action='store_true',
-                        help='the Monte Carlo with the pilot learning its plant (learn: '
-                             'true), written under the family\'s key with "_learning"')
+                        help='the per-effect table and the Monte Carlo with the pilot '
+                             'learning its plant (learn: true), written under '
+                             '"per_effect_learning" and the family\'s key with "_learning" '
+                             '(the identified-model case is flown without)')
     parser.add_argument('--no-mc', action='store_true',
                         help='per-effect table and identified model only; the Monte-Carlo '
                              'figures already in the results file are kept')
@@ -466,14 +477,15 @@ def main() -> None:
                   attribute=args.attribute, learn=args.learn)
     previous = pathlib.Path(__file__).resolve().parent / 'results' / 'robustness.json'
     kept = json.loads(previous.read_text()) if previous.exists() else {}
-    keys = (('per_effect', 'per_effect_all_pass', 'per_effect_wall_s', 'identified_model')
-            if args.no_table else ())
+    keys = ((*table_keys(False), *table_keys(True), 'identified_model') if args.no_table
+            else table_keys(not args.learn))
     keys += tuple(k for k in ALL_MC_KEYS if args.no_mc or k != mc_key(args.family, args.learn))
     for key in keys:
         if key in kept:
             figures[key] = kept[key]
     save_figures('robustness', figures)
-    summary = {k: v for k, v in figures.items() if k not in ('per_effect',)}
+    summary = {k: v for k, v in figures.items()
+               if k not in ('per_effect', 'per_effect_learning')}
     for key in ALL_MC_KEYS:
         if key in figures:
             summary[key] = {k: v for k, v in figures[key].items() if k != 'failures'}
