@@ -215,11 +215,12 @@ class PlantEstimator:
 
         self.settings = settings if settings is not None else LearningSettings()
         s = self.settings
-        for name, value, low in (('delays', s.delays, 0.0), ('delay_time', s.delay_time, None),
-                                 ('delay_margin', s.delay_margin, 0.0)):
-            if not (math.isfinite(value) and (value >= low if low is not None else value > 0)):
-                raise DesignError(f'plant estimator: {name} = {value!r} must be finite and '
-                                  + (f'>= {low:g}' if low is not None else '> 0'))
+        for name, value in (('delays', s.delays), ('delay_margin', s.delay_margin)):
+            if not (math.isfinite(value) and value >= 0.0):
+                raise DesignError(f'plant estimator: {name} = {value!r} must be finite and >= 0')
+        if not (math.isfinite(s.delay_time) and s.delay_time > 0.0):
+            raise DesignError(f'plant estimator: delay_time = {s.delay_time!r} s must be finite '
+                              'and > 0')
         self.plane = VerticalPlane(params)
         self.plane.warm_up()  # at start, not in the first control step that learns or trims
         self.ts = float(ts)
@@ -473,31 +474,34 @@ class PlantEstimator:
         if not all(math.isfinite(v) for v in values) or u <= 0.0:
             return self.estimate
         w, q, theta = (0.5 * (a + b) for a, b in zip(start, end))
-        dw, dq = (end[0] - start[0]) / self.ts, (end[1] - start[1]) / self.ts
+        accel = np.array([du, end[0] - start[0], end[1] - start[1]]) / self.ts
+        # what the measured accelerations take, the same for every filter: the heave and
+        # pitch wrench, and the surge force
+        felt = self.m_wq @ accel[1:] + self.m_wq_u * accel[0]
+        surge = float(self.m_u @ accel)
         for h in self._filters:
-            self._learn(h, (w, q, theta), (dw, dq), u, bar, du)
+            self._learn(h, (w, q, theta), felt, surge, u, bar)
         best = max(self._filters, key=lambda h: h.fit)
         if best.fit > self._h.fit + self.settings.delay_margin:
             self._h = best
         return self.estimate
 
-    def _learn(self, h: _Filter, mean: tuple[float, float, float],
-               rates: tuple[float, float], u: float, bar: float, du: float) -> None:
+    def _learn(self, h: _Filter, mean: tuple[float, float, float], felt: Matrix,
+               surge: float, u: float, bar: float) -> None:
         """One sample into the filter ``h``: ``mean`` ``(w, q, theta)`` over it [m/s,
-        rad/s, rad], ``rates`` ``(w_dot, q_dot)`` measured [m/s^2, rad/s^2], surge ``u``
-        [m/s], command ``bar`` [rad], surge change ``du`` [m/s]; its fit gains the
-        log-likelihood of its prediction of the sample."""
+        rad/s, rad], the heave force and pitch moment ``felt`` [N, N m] and the surge force
+        ``surge`` [N] the measured accelerations take, surge ``u`` [m/s], command ``bar``
+        [rad]; its fit gains the log-likelihood of its prediction of the sample."""
         w, q, theta = mean
         plane = self._plane_over(h, bar)
         if h.unsure > 0.0:
             h.unsure -= self.ts
             return
         (z_m, m_m), (z_bar, m_bar), x_m = self._wrench(u, w, q, theta, plane)
-        felt = self.m_wq @ np.array(rates) + self.m_wq_u * du / self.ts
         # the thrust: the surge force the accelerations need beyond the model's, the learned
         # heave offset's share along the axis included (a buoyancy slows a dive)
         x_m -= h.p[0] * self.weight * math.sin(theta)
-        thrust = float(self.m_u @ np.array([du / self.ts, *rates])) - x_m
+        thrust = surge - x_m
         alpha = self.ts / (self.settings.thrust_time + self.ts)
         h.thrust = thrust if h.thrust is None else h.thrust + alpha * (thrust - h.thrust)
         y = felt - np.array([z_m, m_m])
@@ -509,11 +513,13 @@ class PlantEstimator:
         cov = h.cov + np.diag(self._drift)
         S = H @ cov @ H.T + np.diag(h.noise ** 2)
         innovation = y - H @ h.p
+        # one solve for the likelihood's and the gain's S^-1
+        solved = np.linalg.solve(S, np.column_stack([innovation, H @ cov]))
         _, logdet = np.linalg.slogdet(S)
-        loglik = -0.5 * (float(innovation @ np.linalg.solve(S, innovation)) + float(logdet))
+        loglik = -0.5 * (float(innovation @ solved[:, 0]) + float(logdet))
         decay = math.exp(-self.ts / self.settings.delay_time)
         h.fit = decay * h.fit + loglik
-        gain = np.linalg.solve(S, H @ cov).T
+        gain = solved[:, 1:].T
         h.p = h.p + gain @ innovation
         cov = cov - gain @ H @ cov
         h.cov = 0.5 * (cov + cov.T)
