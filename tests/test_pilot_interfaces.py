@@ -308,9 +308,10 @@ def test_odometry_input_gives_the_vehicle_state_commands_on_remapped_topics(
     """Two lockstep pilots: one on VehicleState in /vs, one on Odometry (ENU/FLU) with its
     topics remapped onto a vehicle's (/nav/odometry in, /fins/bar out); the same hand-made
     state sequence, stamped at the control instants, gives the same BAR commands (the pitch
-    envelope selector off, as in ``tests/test_state_input.py``)."""
+    envelope selector off, as in ``tests/test_state_input.py``, and learning off: the
+    hand-made sequence is no vehicle's motion, and the learned model would be nothing's)."""
     common = ['-p', 'lockstep:=true', '-p', 'recovery:=false', '-p', 'state_timeout:=5.0',
-              '-p', 'pitch_envelope:=false']
+              '-p', 'pitch_envelope:=false', '-p', 'learn:=false']
     by_state = PilotProcess(ros_env, *common, '-r', '__ns:=/vs')
     by_odom = PilotProcess(ros_env, *common, '-p', 'state_source:=odometry',
                            '-r', 'odom:=/nav/odometry', '-r', 'bar_command:=/fins/bar')

@@ -68,21 +68,31 @@ def test_hold_law_sits_on_the_limit_whatever_the_offset(plane_scale: float) -> N
     assert bar == pytest.approx(d / (plane_scale * -m_bar), abs=0.01)
 
 
+@pytest.mark.parametrize('learn', [False, True])
 @pytest.mark.parametrize('z0, z1', [(10.0, 30.0), (5.0, 40.0)])
-def test_a18m_buoyant_held_thrust_dive_keeps_its_pitch_limit(z0: float, z1: float) -> None:
+def test_a18m_buoyant_held_thrust_dive_keeps_its_pitch_limit(z0: float, z1: float,
+                                                             learn: bool) -> None:
     """The A18M 1 % of its weight buoyant, propeller held at its level trim rpm (no speed
-    loop), no learning: 30.9 deg of pitch before the selector (the dive slowed it until no
-    plane could hold the nose). Holding depth alone takes about 22 of its 25 deg of plane
-    there, so the depth change cannot be flown at the limit: the pilot says so."""
+    loop): 30.9 deg of pitch before the selector, without learning (the dive slowed it until
+    no plane could hold the nose). Holding depth alone takes about 22 of its 25 deg of plane
+    there, so the depth change cannot be flown at the limit: the pilot says so. Without
+    learning its selector holds the limit and says that; learning, it plans the dive on
+    the buoyancy it learned (the glide cap) and says that its held thrust allows no steady
+    dive (``depth_change_limited``)."""
     design = load_vehicle(config_path('a18m.yaml'))
     real, environment = model_error_plant(design, 'buoyancy+1%')
-    pilot = DepthPilot.for_vehicle(design, PilotSettings())
+    pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=learn))
     run = run_closed_loop(real, [(0.0, z1)], 120.0, z0=z0, u0=1.5, environment=environment,
                           pilot=pilot)
     pitch = run.record.x[:, 4]
     assert float(np.max(np.abs(pitch))) <= LIMIT + MARGIN
     assert float(np.min(run.record.x[:, 6])) > 1.0  # the speed did not collapse [m/s]
-    assert pilot.envelope_warning(float(run.record.t[-1])).startswith('pitch limit held')
+    if not learn:
+        assert pilot.envelope_warning(float(run.record.t[-1])).startswith('pitch limit held')
+    else:
+        limits = pilot.climb_limits()
+        assert limits.limited and limits.held_dive < 0.05  # [m/s]
+        assert 'dive at most' in limits.message()
 
 
 def _kick(params: VehicleParams, rate_deg: float, duration: float = 60.0,

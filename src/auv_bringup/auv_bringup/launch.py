@@ -606,8 +606,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "vehicle's navigation solution")
     parser.add_argument('--learn', action='store_true',
                         help='the pilot learns what its vehicle file gets wrong while flying '
-                             '(trim, plane effectiveness, buoyancy) and flies the learned '
-                             'model after its first rest (docs/pilot-design.md)')
+                             '(trim, plane effectiveness, buoyancy, plane delay) in its depth '
+                             'changes and flies the learned model (docs/pilot-design.md; off '
+                             'by default)')
 
     from auv_bringup.foxglove_node import DEFAULT_PORT
 

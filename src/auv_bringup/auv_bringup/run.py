@@ -1,7 +1,8 @@
 """``auv run``: offline batch run (no ROS graph) written as a bag.
 
 Either a scripted open-loop mission (``--mission surge|pitch|yaw|FILE``) or the closed loop of
-the depth pilot (``--depth Z``: from a trim at ``--initial-depth``, fly to Z metres; the
+the depth pilot (``--depth Z``: from a trim at ``--initial-depth``, fly to Z metres, the pilot
+learning its plant with ``--learn``; the
 thrust held at its trim value, or with ``--speed-hold TAU`` [s] the vehicle's own speed loop
 holding ``--speed``). The bag
 has the topics the graph records (``/auv/state`` measured, ``/auv/hydrodynamic_forces``, the
@@ -44,6 +45,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='[s] the vehicle\'s own speed loop holds --speed with this time '
                              'constant (closed loop; default: thrust held at its trim value, '
                              'so a buoyant vehicle slows down in a dive)')
+    parser.add_argument('--learn', action='store_true',
+                        help='the pilot learns what its vehicle file gets wrong while flying '
+                             '(closed loop; the pilot node\'s parameter learn; off by default)')
     parser.add_argument('--noise', action='store_true',
                         help='add realistic sensor noise to the logged state')
     parser.add_argument('--seed', type=int, default=0,
@@ -80,7 +84,8 @@ def run(args: argparse.Namespace) -> int:
                 raise RunError(f'{option} {z:g} m is outside the vehicle envelope '
                                f'[{params.depth_min:g}, {params.depth_max:g}] m')
         hold = args.speed_hold
-        settings = PilotSettings(weights=args.weights, water_speed=args.water_speed)
+        settings = PilotSettings(weights=args.weights, water_speed=args.water_speed,
+                                 learn=args.learn)
         cl = run_closed_loop(params, [(0.0, args.depth)], args.duration,
                              z0=args.initial_depth, u0=args.speed, environment=env,
                              settings=settings, speed_time_constant=hold)
@@ -90,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
         m = step_metrics(rec.t, rec.x[:, 2], rec.x[:, 4], rec.x[:, 10], rec.x[:, 12],
                          args.depth, bar_max=params.bar_max, u0=args.speed,
                          theta_max=settings.theta_max)
-        summary = {'bag': args.out, 'messages': n, 'speed_hold_s': hold,
+        summary = {'bag': args.out, 'messages': n, 'speed_hold_s': hold, 'learn': args.learn,
                    'metrics': m.as_dict()}
     print(dumps(summary, indent=2))
     return 0

@@ -110,7 +110,9 @@ def run_closed_loop(params: VehicleParams, depth_commands: Sequence[tuple[float,
                     settings: PilotSettings | None = None, sample_period: float = 0.02,
                     pilot: DepthPilot | None = None,
                     speed_time_constant: float | None = None,
-                    excitation: Sequence[tuple[float, str, float]] = ()) -> ClosedLoopRun:
+                    excitation: Sequence[tuple[float, str, float]] = (),
+                    sensor_noise: Sequence[float] | None = None, seed: int = 0
+                    ) -> ClosedLoopRun:
     """Fly depth commands ``[(t [s], z [m]), ...]`` from a trim at ``z0`` [m], ``u0`` [m/s].
 
     The vehicle starts trimmed for the nominal model in the water it is in (its trim
@@ -128,9 +130,21 @@ def run_closed_loop(params: VehicleParams, depth_commands: Sequence[tuple[float,
     ``thrust`` [N] and ``helm`` [rad] are commanded as given (no speed loop with thrust
     events), ``bar`` [rad] is an offset added to the pilot's BAR until the next ``bar`` event,
     the sum within ``+-bar_max``. ``ClosedLoopRun.bar`` holds the BAR commanded.
+
+    ``sensor_noise``: standard deviations of white noise added to the 12 measured states the
+    pilot gets (``x y z`` [m], ``phi theta psi`` [rad], ``u v w`` [m/s], ``p q r`` [rad/s],
+    e.g. ``auv_logs.simlog.SensorNoise.realistic().sigmas()``), drawn at each control
+    instant from ``numpy.random.default_rng(seed)``; the record keeps the simulator's own
+    measured state.
     """
     settings = settings or PilotSettings()
     pilot = pilot or DepthPilot.for_vehicle(params, settings)
+    sigmas = None if sensor_noise is None else np.asarray(sensor_noise, dtype=float)
+    if sigmas is not None and (sigmas.shape != (12,) or not np.all(np.isfinite(sigmas))
+                               or np.any(sigmas < 0.0)):
+        raise ValueError(f'sensor_noise must be 12 finite standard deviations >= 0, got '
+                         f'{sensor_noise!r}')
+    rng = np.random.default_rng(seed)
     trim = VerticalPlane(params).trim(u0, z=z0)
     sim = Simulator(params, environment, x0=trim.state(environment))
     ts = settings.Ts
@@ -171,6 +185,9 @@ def run_closed_loop(params: VehicleParams, depth_commands: Sequence[tuple[float,
             else:
                 sim.command(channel, float(value))
         x = sim.measured_state()
+        if sigmas is not None:
+            x = x.copy()
+            x[:12] += rng.standard_normal(12) * sigmas
         pilot.on_state(t, z=x[2], theta=x[4], w=x[8], q=x[10], u=x[6])
         bar, _ = pilot.command(t)
         if bar_offset:

@@ -201,6 +201,12 @@ class DepthController:
         self._xi = 0.0
         self._disturbance = np.zeros(2)
         self._observed: tuple[float, float, float] | None = None
+        self._quiet = math.inf
+        """Time [s] since the reference of a depth change at least the learner's
+        ``excitation_change`` long last moved (inf: not since the reset)."""
+        self._change: tuple[float, float] | None = None
+        """The command [m] the reference goes to and the change's length [m] from where the
+        reference was when it was given."""
         self._u_last: float | None = None
         self._caps: tuple[float, float, float] | None = None
         self._glide: tuple[float, float, float, float] | None = None
@@ -277,7 +283,10 @@ class DepthController:
         moves the trim (10 -> 30 m: 27.4 deg peak pitch, against 24.4 deg without), and at
         rest behind a 0.3 s plane delay it widens the hold's limit cycle (1.3 cm against
         0.8 cm); its estimate stays zero and its integrator removes offsets.
-        With a :attr:`learner`, the sample goes to it instead (any vehicle).
+        With a :attr:`learner`, the sample goes to it instead (any vehicle), as excited by
+        a depth change (``LearningSettings.excitation_change``) while the reference moved
+        over it or came to rest less than ``excitation_time`` before (else nothing is learned
+        from it).
 
         A sample over which the BAR was held at its angle limit (``|BAR| = bar_max``) leaves
         the estimate as it is: the estimate is an offset, and an error of the model's plane
@@ -294,7 +303,8 @@ class DepthController:
                 and self._bar_prev is not None and self._u_last is not None \
                 and self.governor.disturbance_estimate:
             self.learner.update(self._observed, (w, q, theta), 0.5 * (u + self._u_last),
-                                self._bar_prev, u - self._u_last)
+                                self._bar_prev, u - self._u_last, excited=self._quiet
+                                < self.learner.settings.excitation_time)
         self._u_last = u
         if self._observed is not None and self._bar_prev is not None \
                 and self.governor.disturbance_estimate and not self.kinematic_stop \
@@ -458,6 +468,14 @@ class DepthController:
         brake_on = self.weaker_brake(op, u, stop, z_cmd)
         glide = self._glide_cap(z_cmd, z, u)
         z_r, v_r, a_r, j_r, s_r = self.reference.advance(op, u, z_cmd, stop, glide, brake_on)
+        # the sample now flown is excited by a depth change while the reference moves and
+        # for LearningSettings.excitation_time after (the learner, _observe)
+        if self.learner is not None:
+            if self._change is None or self._change[0] != z_cmd:
+                self._change = (z_cmd, abs(z_cmd - (z if ref is None else ref.z)))
+            moving = v_r != 0.0 and \
+                self._change[1] >= self.learner.settings.excitation_change
+            self._quiet = 0.0 if moving else self._quiet + ts
         slowest = op if stop is None else stop[0]
         self._caps = (*GainSchedule.vertical_speed_bounds(slowest, u_heading, lim,
                                                           settings.margin),

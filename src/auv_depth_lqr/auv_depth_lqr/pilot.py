@@ -180,8 +180,8 @@ class PilotSettings:
     :data:`AUTHORITY_WINDOW`). ``learn``: estimate what the vehicle file gets wrong while
     flying (:mod:`auv_depth_lqr.learning`) and, once the reference has come within
     ``landing_distance`` of a command (its stop flown), fly the learned model
-    (``docs/pilot-design.md``); off (the default), the vehicle
-    file's model with its disturbance estimate. ``pitch_envelope``: the pitch envelope
+    (``docs/pilot-design.md``); off (the default), the vehicle file's model with its
+    disturbance estimate throughout. ``pitch_envelope``: the pitch envelope
     selector (:mod:`auv_depth_lqr.envelope`) keeps the BAR within the commands of a
     pitch-hold law towards the pitch limits (default); off, only the pitch guard of the depth
     loop limits the pitch (to look at the depth loop alone, or to let excitation added to the

@@ -4,8 +4,10 @@ The "real" vehicle is the simulator of :mod:`auv_sim` with effects from an effec
 (:mod:`auv_sim.environment`), flown by the project's own depth pilot
 (:class:`auv_depth_lqr.pilot.DepthPilot`, the LQR pilot of the node graph) on the noisy
 measured state, with excitation added to its commands (the pilot without its pitch envelope
-selector, :mod:`auv_depth_lqr.envelope`: the excitation is added outside the pilot, where a
-selector would take it for a disturbance and cancel part of it near the pitch limit); the
+selector, :mod:`auv_depth_lqr.envelope`, and without learning its plant,
+:mod:`auv_depth_lqr.learning`: the excitation is added outside the pilot, where a selector
+would take it for a disturbance and cancel part of it near the pitch limit, and a learner,
+which takes the plane to be where the pilot commanded it, for an error of the plane); the
 log is written by the one simulated-log writer (:func:`auv_logs.simlog.write_record`) with
 the sensor noise levels of :class:`auv_logs.simlog.SensorNoise`. The diagnosis never sees
 the effects: it gets the log, as from a vehicle (state and commands as sent; no force
@@ -151,15 +153,16 @@ _DESIGNED: dict[tuple[str, float, bytes], DepthPilot] = {}
 
 def new_pilot(params: VehicleParams, rate_hz: float) -> DepthPilot:
     """A fresh :class:`auv_depth_lqr.pilot.DepthPilot` for ``params`` at ``rate_hz`` [Hz]
-    with the default settings but the pitch envelope selector off (module docstring): a copy
+    with the default settings but the pitch envelope selector and learning off (module
+    docstring): a copy
     of one designed once per vehicle and rate (the gain schedule's design takes seconds; a
     panel flies many logs)."""
     key = (params.name, float(rate_hz), params.as_array().tobytes())
     if key not in _DESIGNED:
         if len(_DESIGNED) >= 8:
             _DESIGNED.pop(next(iter(_DESIGNED)))
-        _DESIGNED[key] = DepthPilot.for_vehicle(params, PilotSettings(rate_hz=rate_hz,
-                                                                       pitch_envelope=False))
+        _DESIGNED[key] = DepthPilot.for_vehicle(params, PilotSettings(
+            rate_hz=rate_hz, pitch_envelope=False, learn=False))
     return copy.deepcopy(_DESIGNED[key])
 
 
