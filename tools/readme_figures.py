@@ -161,6 +161,13 @@ ROWS: list[tuple[str, str, str]] = [
      'plant\'s first of ten alternating 20 <-> 10 m changes over its tenth',
      '{foreign_plants:worst_settling_over_bound:.2f}; '
      '{foreign_plants:sequence.a18m.first_over_tenth:.2f}', '<= 1.3; 1.0'),
+    ('the file\'s own REMUS 100 and A18M on realistic sensor noise (2 cm, 0.1 deg, 1 cm/s, 0.1 '
+     'deg/s), 10 -> 20 and 20 -> 10 m, six seeds each: slowest settling and largest depth error '
+     'over the last 30 s, learning off / on (nothing to learn)',
+     '{noisy_learning:worst.without_learning.settling_s:.1f} / '
+     '{noisy_learning:worst.learning.settling_s:.1f} s; '
+     '{noisy_learning:worst.without_learning.hold_error_m:.2f} / '
+     '{noisy_learning:worst.learning.hold_error_m:.2f} m', 'no target'),
     ('time-optimal settling bound, 8 changes of the three vehicles: largest move when the speed '
      'or every coefficient changes in its twelfth digit',
      '{bound:largest_spread_s:.3f} s', '< 0.1 s'),
