@@ -66,7 +66,7 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
-from auv_depth_lqr.envelope import PitchEnvelope
+from auv_depth_lqr.envelope import Heave, PitchEnvelope
 from auv_depth_lqr.errors import ControllerError, DesignError
 from auv_depth_lqr.governor import GovernorSettings, Reference, ReferenceGovernor
 from auv_depth_lqr.learning import PlantEstimator
@@ -535,14 +535,18 @@ class DepthController:
             # Pitch envelope selector: within the pitch-hold law's commands towards the
             # limits, on the plane's effectiveness at the measured speed (the grid's, times
             # (u / u0)^2 off the grid).
-            m_bar = float(op.P[1, 3]) * (u / op.u0) ** 2
+            speed = u / op.u0
+            m_bar = float(op.P[1, 3]) * speed ** 2
+            heave = Heave(w, float(op.P[0, 0]) * speed, float(op.P[0, 1]) * speed,
+                          float(op.P[0, 3]) * speed ** 2, float(op.P[1, 0]) * speed)
             settles = self.surge.ahead(u)  # the speed the thrust held settles at
             # the hold law's attitude gains are the angle design's, whichever law flies
             bounds = self.envelope.bounds(theta, q, self._bar_prev, m_bar,
-                                          float(op.P[1, 1]) * u / op.u0, float(op.K[3]),
+                                          float(op.P[1, 1]) * speed, float(op.K[3]),
                                           float(op.K[1]),
                                           lim.bar_max, u / settles if settles > 0.0 else 0.0,
-                                          settings.glide_bar_share * lim.bar_max)
+                                          settings.glide_bar_share * lim.bar_max, heave,
+                                          float(x_ref[3]))
             bar_linear = self.envelope.select(bar_linear, bounds)
 
         if not (math.isfinite(bar_linear) and math.isfinite(z_r) and math.isfinite(v_r)):

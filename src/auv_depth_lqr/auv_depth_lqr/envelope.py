@@ -37,18 +37,24 @@ against the propeller (a buoyant vehicle diving), and the plane's authority fall
 square: below some speed no plane holds the limit, and the hydrostatic and Munk moments take
 the pitch beyond it, out of reach of any plane. So a side's limit gives way (set to the
 present pitch, then towards level at ``RELIEF_RATE``) while the pitch is on that side
-(beyond ``RELIEF_BAND``) and the plane that holds the present attitude, ``BAR_prev -
-(q_dot_m - M_q q) / M_bar`` (without the pitch damping ``M_q q``), scaled to the speed the
-vehicle is heading for by ``(u / u_heading)^2``, is more than ``hold_bar``; it comes back at
-the same rate otherwise. A shallower climb or dive lets the speed recover: the pilot flies the
-best it can within the limits.
+(beyond ``RELIEF_BAND``) and the plane that holds the present attitude once the motion has
+settled (:func:`settled_plane`), scaled to the speed the vehicle is heading for by ``(u /
+u_heading)^2``, is more than ``hold_bar``; it comes back at the same rate otherwise. A
+shallower climb or dive lets the speed recover: the pilot flies the best it can within the
+limits. The settled plane, low-passed over ``RELIEF_FILTER``, counts the heave that is still
+settling: in the rotation into a dive the vehicle has not yet bent its path, and the angle
+of attack of that moment (its Munk moment) would ask for a plane the steady dive does not
+need. The plane of the present motion, the settling not counted, gives way too, but only in
+a rotation towards that side past the reference's pitch ``theta_ref``: an overshoot, not a
+manoeuvre the pilot flies, whose swing the hold law then stops (a pitch-rate kick on a small
+vehicle whose plane rate bounds its loop; an unstable vehicle's overshoot in a current).
 """
 from __future__ import annotations
 
 import math
 from typing import NamedTuple
 
-__all__ = ['EnvelopeBounds', 'PitchEnvelope', 'stop_pitch']
+__all__ = ['EnvelopeBounds', 'Heave', 'PitchEnvelope', 'settled_plane', 'stop_pitch']
 
 BRAKE_SHARE = 0.5
 """Share of the plane's full pitch acceleration ``|M_bar| bar_max`` counted on to stop a
@@ -62,6 +68,11 @@ RELIEF_RATE = math.radians(1.0)
 """Rate [rad/s] at which a side's pitch limit gives way while the plane could not hold it at
 the speed the vehicle is heading for, and comes back otherwise (1 deg/s, assumed: slower than
 the pitch dynamics, faster than the speed's)."""
+
+RELIEF_FILTER = 2.0
+"""Time constant [s] of the low-pass on the settled plane of the relief (its heave
+acceleration is differenced from the measured heave, whose noise it carries; 2 s, assumed:
+longer than a sensor's noise, shorter than the speed's fall)."""
 
 RELIEF_BAND = 0.2
 """A side's limit gives way only while the pitch is beyond this share of ``theta_lim`` on
@@ -102,6 +113,47 @@ def stop_pitch(theta: float, q: float, qdot: float, reaction: float, decel: floa
     return theta_b + q_b * abs(q_b) / (2.0 * decel)
 
 
+class Heave(NamedTuple):
+    """The measured heave and the linear model's heave terms at the measured speed (the
+    rows of :attr:`auv_depth_lqr.schedule.OperatingPoint.P`), for :func:`settled_plane`."""
+
+    w: float
+    """Measured heave [m/s, body FRD, down]."""
+    z_w: float
+    """Heave acceleration per heave [1/s]."""
+    z_q: float
+    """Heave acceleration per pitch rate [m/s^2 per rad/s]."""
+    z_bar: float
+    """Heave acceleration per BAR [m/s^2 per rad]."""
+    m_w: float
+    """Pitch acceleration per heave [rad/s^2 per m/s] (the Munk moment's share)."""
+
+
+def settled_plane(bar: float, q: float, qdot: float, wdot: float, m_q: float, m_bar: float,
+                  heave: Heave) -> float:
+    """The BAR [rad] that holds the present pitch once the pitch rate and the heave have
+    settled, from the accelerations measured with ``bar`` [rad] held.
+
+    The linear model's pitch and heave rows, with everything they do not know in the
+    measured accelerations ``qdot`` [rad/s^2] and ``wdot`` [m/s^2]: at the same pitch with
+    ``q`` [rad/s] gone to zero, the heave changed by ``dw`` and the plane by ``db``,
+
+        M_w dw + M_bar db = -(qdot - M_q q)
+        Z_w dw + Z_bar db = -(wdot - Z_q q),
+
+    and the plane is ``bar + db``. ``m_q`` [1/s] and ``m_bar`` [rad/s^2 per rad, < 0] are the
+    pitch row's damping and plane terms. Without heave coupling (``m_w`` 0) this is ``bar -
+    (qdot - M_q q) / M_bar``, the plane of the present motion; so it is too where the two rows
+    leave ``dw`` undetermined (``M_w Z_bar - M_bar Z_w`` zero).
+    """
+    r_q = -(qdot - m_q * q)
+    r_w = -(wdot - heave.z_q * q)
+    det = heave.m_w * heave.z_bar - m_bar * heave.z_w
+    if abs(det) <= 1e-9 * abs(m_bar * heave.z_w):
+        return bar + r_q / m_bar
+    return bar + (heave.m_w * r_w - heave.z_w * r_q) / det
+
+
 class EnvelopeBounds(NamedTuple):
     """The selector's bounds of one sample [rad]."""
 
@@ -136,6 +188,8 @@ class PitchEnvelope:
         """Forget the last pitch rate (the next sample has no measured acceleration) and
         restore the limits."""
         self._q_prev: float | None = None
+        self._w_prev: float | None = None
+        self._settled: float | None = None
         self.up = self.theta_lim
         """Present upper pitch limit [rad] (``theta_lim`` unless it gives way)."""
         self.down = self.theta_lim
@@ -146,7 +200,8 @@ class PitchEnvelope:
 
     def bounds(self, theta: float, q: float, bar_prev: float | None, m_bar: float,
                m_q: float, k_theta: float, k_q: float, bar_max: float, slowing: float = 1.0,
-               hold_bar: float = math.inf) -> EnvelopeBounds | None:
+               hold_bar: float = math.inf, heave: Heave | None = None,
+               theta_ref: float | None = None) -> EnvelopeBounds | None:
         """The bounds ``(BAR_hold(+theta_up), BAR_hold(-theta_down))`` [rad] this sample, or
         None when they cannot be formed (first sample, no previous BAR, ``m_bar`` not < 0).
 
@@ -169,6 +224,11 @@ class PitchEnvelope:
             heading to a standstill).
         hold_bar : float
             Most plane [rad] holding the attitude may take at the speed heading for.
+        heave : Heave or None
+            The measured heave and the model's heave terms: the relief counts the heave
+            still settling (:func:`settled_plane`); None: it does not.
+        theta_ref : float or None
+            The reference's pitch [rad, nose up]; None: no rotation counts as an overshoot.
 
         Returns
         -------
@@ -176,6 +236,7 @@ class PitchEnvelope:
             ``low <= high`` [rad].
         """
         q_prev, self._q_prev = self._q_prev, q
+        w_prev, self._w_prev = self._w_prev, (None if heave is None else heave.w)
         if q_prev is None or bar_prev is None or not m_bar < 0.0:
             return None
         qdot_m = (q - q_prev) / self.Ts
@@ -190,14 +251,28 @@ class PitchEnvelope:
             return bar_prev + HOLD_GAIN * (qdot_d - qdot_m) / m_bar
 
         low, high = hold(up, self.up), hold(down, -self.down)
-        # the plane that holds the present attitude, at the speed the vehicle is heading for
-        need = (bar_prev - (qdot_m - m_q * q) / m_bar) * (
-            slowing ** 2 if slowing > 0.0 else math.inf)
+        # the plane of the present motion and the plane that holds the present attitude once
+        # it has settled, at the speed the vehicle is heading for
+        scale = slowing ** 2 if slowing > 0.0 else math.inf
+        now = bar_prev - (qdot_m - m_q * q) / m_bar
+        settled = now if heave is None or w_prev is None else settled_plane(
+            bar_prev, q, qdot_m, (heave.w - w_prev) / self.Ts, m_q, m_bar, heave)
         band = RELIEF_BAND * self.theta_lim
         step = RELIEF_RATE * self.Ts
-        self.up = self._relieved(self.up, theta, theta > band and need > hold_bar, step)
-        self.down = self._relieved(self.down, -theta, -theta > band and -need > hold_bar,
-                                   step)
+        if self._settled is None:
+            self._settled = settled
+        else:
+            self._settled += self.Ts / (RELIEF_FILTER + self.Ts) * (settled - self._settled)
+        for side in (1.0, -1.0):
+            # a rotation towards this side past the reference's pitch: not one the pilot flies
+            overshoot = side * q > 0.0 and theta_ref is not None and \
+                side * (theta - theta_ref) > 0.0
+            short = side * theta > band and (side * self._settled * scale > hold_bar or (
+                overshoot and side * now * scale > hold_bar))
+            if side > 0.0:
+                self.up = self._relieved(self.up, theta, short, step)
+            else:
+                self.down = self._relieved(self.down, -theta, short, step)
         if low > high:  # a rotation so fast that both cannot hold: the side it runs to wins
             if q > 0.0:
                 high = low
