@@ -48,7 +48,11 @@ below 0.1 m. Each flight also records the pilot's plane-authority level at its e
 all and among the failed. With ``--learn`` the per-effect table's and the Monte Carlo's
 pilot learns its plant (``PilotSettings(learn=True)``), written under
 ``per_effect_learning`` and ``monte_carlo_learning`` (``monte_carlo_ident_learning``); the
-identified-model case is flown without. Runs in a process pool (``--workers``, default 2). Run:
+identified-model case is flown without. With ``--told`` every Monte-Carlo pilot is told its
+surge speed through the water (``PilotSettings.water_speed``; as drawn, about half are not and
+schedule on the speed over ground, which a current offsets), the same plants and changes
+otherwise, written under the family's key with ``_told``. Runs in a process pool
+(``--workers``, default 2). Run:
 ``. .venv/bin/auv-env && python bench/bench_robustness.py --plants 1000``
 (writes ``bench/results/robustness.json``).
 """
@@ -180,12 +184,14 @@ def identify_truth(truth: VehicleParams, base_path: pathlib.Path, workdir: pathl
     return load_vehicle(out / 'vehicle.yaml'), report['coefficients']
 
 
-def mc_key(family: str, learn: bool) -> str:
-    """Results key of a Monte-Carlo family, flown with learning (``learn``) or without."""
-    return MC_KEYS[family] + ('_learning' if learn else '')
+def mc_key(family: str, learn: bool, told: bool = False) -> str:
+    """Results key of a Monte-Carlo family, flown with learning (``learn``) or without, with
+    every pilot told its water speed (``told``) or as drawn."""
+    return MC_KEYS[family] + ('_learning' if learn else '') + ('_told' if told else '')
 
 
-ALL_MC_KEYS = tuple(mc_key(f, learn) for f in MC_KEYS for learn in (False, True))
+ALL_MC_KEYS = tuple(mc_key(f, learn, told) for f in MC_KEYS for learn in (False, True)
+                    for told in (False, True))
 
 
 def table_keys(learn: bool) -> tuple[str, str, str]:
@@ -309,13 +315,14 @@ def without(plant: Plant, group: str) -> Plant:
 
 def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
         table: bool = True, mc: bool = True, own_bound: int = 0,
-        family: str = 'uniform', attribute: int = 0, learn: bool = False) -> dict[str, Any]:
+        family: str = 'uniform', attribute: int = 0, learn: bool = False,
+        told: bool = False) -> dict[str, Any]:
     """Per-effect table, identified-model case (``table``) and Monte Carlo (``mc``; its
     first ``own_bound`` flights also judged against their plants' own bounds; ``family``
     ``uniform`` or ``ident``, see the module docstring; its first ``attribute`` failed
     plants flown again without each group of :data:`ATTRIBUTION`; with ``learn``, the
-    Monte Carlo's pilot learns its plant, ``PilotSettings(learn=True)``); returns the
-    figures."""
+    Monte Carlo's pilot learns its plant, ``PilotSettings(learn=True)``; with ``told``,
+    every Monte-Carlo pilot is told its water speed); returns the figures."""
     design = load_vehicle(VEHICLE)
     truth = ident_truth(design)
     if table or (mc and family == 'ident'):  # one identification for both
@@ -371,8 +378,12 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
         t0 = time.perf_counter()
         rng = np.random.default_rng(seed)
         jobs = []
+        drawn_told = []  # whether each pilot is told its water speed as drawn
         for i in range(plants if mc else 0):
             plant = draw_plant(design, rng, f'mc{i:04d}', dist)
+            drawn_told.append(plant.water_speed_told)
+            if told:
+                plant = dataclasses.replace(plant, water_speed_told=True)
             manoeuvre = _draw_manoeuvre(rng)
             jobs.append((design, plant, manoeuvre, bound_of(manoeuvre)))
         rows = pool.map(functools.partial(_fly, learn=learn), jobs, chunksize=4)
@@ -399,11 +410,15 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
             'seed': seed,
             'family': family,
             'learning': learn,
+            'water_speed': 'told to every pilot' if told else 'as drawn',
             'distribution': dataclasses.asdict(dist),
             'changes_m': list(MC_CHANGES),
             'all': _shares(rows),
-            'pilot_told_water_speed': _shares([r for r in rows if r['water_speed_told']]),
-            'pilot_not_told_water_speed': _shares([r for r in rows if not r['water_speed_told']]),
+            **{key: _shares(group) for key, group in (
+                ('pilot_told_water_speed', [r for r in rows if r['water_speed_told']]),
+                ('pilot_not_told_water_speed', [r for r in rows if not r['water_speed_told']]),
+                ('drawn_not_told_water_speed',  # the plants whose pilots were told for --told
+                 [r for r, d in zip(rows, drawn_told) if told and not d])) if group},
             'by_change': {f'{dz:+g} m': _shares([r for r in rows
                                                  if round(r['z1_m'] - r['z0_m'], 6) == dz])
                           for dz in MC_CHANGES},
@@ -435,7 +450,7 @@ def run(plants: int = 1000, workers: int = 2, seed: int = 2026,
                                   for (dz, u0), b in bounds.items()},
         'bounds_wall_s': round(bounds_wall, 1),
         **results,
-        **({mc_key(family, learn): monte_carlo} if monte_carlo is not None else {}),
+        **({mc_key(family, learn, told): monte_carlo} if monte_carlo is not None else {}),
         'workers': workers,
         'total_wall_s': round(time.perf_counter() - wall0, 1),
         'python': platform.python_version(), 'machine': platform.machine(),
@@ -466,6 +481,10 @@ def main() -> None:
                              'learning its plant (learn: true), written under '
                              '"per_effect_learning" and the family\'s key with "_learning" '
                              '(the identified-model case is flown without)')
+    parser.add_argument('--told', action='store_true',
+                        help='every Monte-Carlo pilot told its surge speed through the water '
+                             '(as drawn, about half schedule on the speed over ground), written '
+                             'under the family\'s key with "_told"')
     parser.add_argument('--no-mc', action='store_true',
                         help='per-effect table and identified model only; the Monte-Carlo '
                              'figures already in the results file are kept')
@@ -474,12 +493,13 @@ def main() -> None:
         parser.error('--no-table and --no-mc leave nothing to run')
     figures = run(args.plants, args.workers, args.seed, table=not args.no_table,
                   mc=not args.no_mc, own_bound=args.own_bound, family=args.family,
-                  attribute=args.attribute, learn=args.learn)
+                  attribute=args.attribute, learn=args.learn, told=args.told)
     previous = pathlib.Path(__file__).resolve().parent / 'results' / 'robustness.json'
     kept = json.loads(previous.read_text()) if previous.exists() else {}
     keys = ((*table_keys(False), *table_keys(True), 'identified_model') if args.no_table
             else table_keys(not args.learn))
-    keys += tuple(k for k in ALL_MC_KEYS if args.no_mc or k != mc_key(args.family, args.learn))
+    keys += tuple(k for k in ALL_MC_KEYS
+                  if args.no_mc or k != mc_key(args.family, args.learn, args.told))
     for key in keys:
         if key in kept:
             figures[key] = kept[key]
