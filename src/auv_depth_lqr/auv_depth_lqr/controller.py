@@ -533,16 +533,15 @@ class DepthController:
             bar_linear = bar_ff - attitude_terms - depth_terms
         if settings.pitch_envelope:
             # Pitch envelope selector: within the pitch-hold law's commands towards the
-            # limits, on the plane's effectiveness at the measured speed (the grid's, times
-            # (u / u0)^2 off the grid).
-            speed = u / op.u0
-            m_bar = float(op.P[1, 3]) * speed ** 2
-            heave = Heave(w, float(op.P[0, 0]) * speed, float(op.P[0, 1]) * speed,
-                          float(op.P[0, 3]) * speed ** 2, float(op.P[1, 0]) * speed)
+            # limits, on the model's rows at the measured speed (OperatingPoint.rows_at).
+            rows = op.rows_at(u)
+            m_bar = float(rows[1, 3])
+            heave = Heave(w, float(rows[0, 0]), float(rows[0, 1]), float(rows[0, 3]),
+                          float(rows[1, 0]))
             settles = self.surge.ahead(u)  # the speed the thrust held settles at
             # the hold law's attitude gains are the angle design's, whichever law flies
             bounds = self.envelope.bounds(theta, q, self._bar_prev, m_bar,
-                                          float(op.P[1, 1]) * speed, float(op.K[3]),
+                                          float(rows[1, 1]), float(op.K[3]),
                                           float(op.K[1]),
                                           lim.bar_max, u / settles if settles > 0.0 else 0.0,
                                           settings.glide_bar_share * lim.bar_max, heave,

@@ -99,6 +99,14 @@ class OperatingPoint(NamedTuple):
     ``BAR_ff_dot - K_rate (X - X_ref, BAR - BAR_ff)`` [rad/s]; empty without a plane-rate
     design."""
 
+    def rows_at(self, u: float) -> Matrix:
+        """:attr:`P` at the measured surge ``u`` [m/s] off this point's ``u0``: the heave and
+        pitch terms scale with the speed, the plane's with its square, the hydrostatic
+        ``theta`` column not at all (2, 4) [same units as :attr:`P`]."""
+        speed = u / self.u0
+        rows: Matrix = self.P * np.array([speed, speed, 1.0, speed ** 2])
+        return rows
+
 
 def steady_matrix(A: Matrix, B: Matrix, u0: float) -> Matrix:
     """The steady-motion rows of the linear model (4, 4) over ``(w, q, theta, BAR)``:

@@ -18,7 +18,7 @@ from auv_depth_lqr.errors import DesignError, InvalidInputError, NotControllable
 from auv_depth_lqr.governor import GovernorSettings
 from auv_depth_lqr.limits import THETA_MAX_DEFAULT, Limits
 from auv_depth_lqr.lqr import lqrd
-from auv_depth_lqr.schedule import GainSchedule
+from auv_depth_lqr.schedule import GainSchedule, OperatingPoint
 from auv_depth_lqr.summary import design_summary
 from auv_depth_lqr.weights import DEFAULT_WEIGHTS, PRESETS, preset
 
@@ -326,3 +326,13 @@ def test_design_summary_with_report_weights() -> None:
 def test_design_summary_rejects_a_bad_speed() -> None:
     with pytest.raises(DesignError, match=r'u0 must be finite and > 0 m/s, got -1'):
         design_summary(linearize, -1.0)
+
+
+def test_rows_at_scales_with_the_speed() -> None:
+    """At twice the design speed the heave and pitch terms double, the plane's quadruple and
+    the hydrostatic column stays (hand-worked)."""
+    P = np.array([[1.0, 2.0, 3.0, 4.0], [5.0, 6.0, 7.0, 8.0]])
+    op = OperatingPoint(u0=1.5, K=np.zeros(5), w_e=0.0, theta_e=0.0, bar_e=0.0, dw_dv=0.0,
+                        dtheta_dv=0.0, dbar_dv=0.0, F=np.zeros((4, 4)), P=P)
+    assert op.rows_at(3.0) == pytest.approx(
+        np.array([[2.0, 4.0, 3.0, 16.0], [10.0, 12.0, 7.0, 32.0]]), abs=1e-12)
