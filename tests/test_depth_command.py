@@ -119,6 +119,9 @@ def test_auv_depth_waits_for_the_answer_and_the_recorder_gets_it_all(
     assert values['last_command_result'] == 'refused'
     assert values['last_command_value_m'] == '-5'
     assert values['depth_command_m'] == '12.000'  # the command in force is kept
+    # not told its water speed (the default), it says it schedules on the speed over ground
+    assert values['speed_basis'] == 'over ground'
+    assert values['current_along_heading_mps'] == 'unknown'
 
 
 def test_auv_depth_started_before_the_pilot_is_delivered_and_answered(

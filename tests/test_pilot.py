@@ -223,6 +223,27 @@ def test_water_relative_velocities_undo_a_horizontal_current() -> None:
         assert water_relative(u, w, theta, u_r) == pytest.approx((u_r, w_r), abs=1e-12)
 
 
+def test_the_pilot_says_which_speed_it_schedules_on() -> None:
+    """Hand-worked: told 1.5 m/s through the water, a level state measuring 1.8 m/s over
+    ground is a 0.3 m/s following current, and the pilot flies from 1.5 m/s; not told, it
+    flies from the 1.8 m/s over ground and says it cannot know the current."""
+    params = load_vehicle(A18M)
+    told = DepthPilot.for_vehicle(params, PilotSettings(water_speed=1.5))
+    assert told.speed_diagnostics()['scheduled_speed_mps'] == 'none'
+    told.on_state(0.0, 10.0, 0.0, 0.0, 0.0, 1.8)
+    values = told.speed_diagnostics()
+    assert values['speed_basis'] == 'through the water (told 1.500 m/s)'
+    assert values['current_along_heading_mps'] == '+0.300'
+    assert values['scheduled_speed_mps'] == '1.500'
+    ground = DepthPilot.for_vehicle(params)
+    ground.on_state(0.0, 10.0, 0.0, 0.0, 0.0, 1.8)
+    values = ground.speed_diagnostics()
+    assert values['speed_basis'] == 'over ground'
+    assert values['current_along_heading_mps'] == 'unknown'
+    assert values['scheduled_speed_mps'] == '1.800'
+    assert 'water_speed' in values['speed_basis_note']
+
+
 def test_bad_water_speed_is_refused() -> None:
     from auv_depth_lqr.errors import DesignError
     for bad in (0.0, -1.0, math.nan):

@@ -35,7 +35,8 @@ each topic also with ``-r state:=/nav/state`` etc.):
   its pitch envelope changes: two statuses, ``<node>: depth control`` (mode, command,
   envelope; WARN with one line while the pitch envelope selector holds a limit,
   ``pitch_envelope`` ``holding``: :meth:`auv_depth_lqr.pilot.DepthPilot.envelope_warning`;
-  what the pilot
+  the speed it schedules on, over ground or through the water, and the current along the
+  heading: :meth:`auv_depth_lqr.pilot.DepthPilot.speed_diagnostics`; what the pilot
   has learned of its plant and the climb and dive it can fly:
   :meth:`auv_depth_lqr.pilot.DepthPilot.learning_diagnostics`) and ``<node>:
   plane authority`` (how much of the plane holding depth takes, WARN when little is left:

@@ -145,6 +145,7 @@ def control_status(pilot: DepthPilot, node_name: str, hardware_id: str, t_comman
         'pitch_envelope': 'holding' if envelope else 'clear',
         'depth_rate_residual_mps': ('none' if verdict is None or verdict.residual is None
                                     else f'{verdict.residual:+.3f}'),
+        **pilot.speed_diagnostics(),
         **pilot.learning_diagnostics(),
     }
     if last_answer is not None:

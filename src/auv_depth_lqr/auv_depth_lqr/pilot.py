@@ -414,6 +414,31 @@ class DepthPilot:
                 'the limits at the present speed and thrust; flying the best it can within '
                 'them')
 
+    def speed_diagnostics(self) -> dict[str, str]:
+        """The surge speed the pilot schedules its gains and plans its climbs on, as
+        diagnostic key/values: ``speed_basis`` (``through the water`` when told its water
+        speed, else ``over ground``), ``scheduled_speed_mps`` (the surge [m/s, body FRD] of
+        the last state as flown from; ``none`` before the first) and
+        ``current_along_heading_mps`` (the current along the heading [m/s, positive
+        following] the pilot follows when told its water speed, :meth:`_through_water`;
+        ``unknown`` when it is not told: a speed over ground cannot tell a current from the
+        vehicle's own speed). Not told, ``speed_basis_note`` says what a current does."""
+        state = self._state
+        out = {'scheduled_speed_mps': 'none' if state is None else f'{state.u:.3f}'}
+        if self.settings.water_speed is None:
+            out['speed_basis'] = 'over ground'
+            out['current_along_heading_mps'] = 'unknown'
+            out['speed_basis_note'] = (
+                'no water speed told (parameter water_speed): in a current along the heading '
+                'the gains and the climb plan are those of the speed over ground, not of the '
+                'speed through the water')
+        else:
+            out['speed_basis'] = (f'through the water (told '
+                                  f'{self.settings.water_speed:.3f} m/s)')
+            out['current_along_heading_mps'] = ('none' if self._current is None
+                                                else f'{self._current:+.3f}')
+        return out
+
     def learning_diagnostics(self) -> dict[str, str]:
         """What the pilot has learned of its plant and what it can fly, as diagnostic
         key/values (``learned_*`` the estimate's parameters and standard deviations
