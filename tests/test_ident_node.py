@@ -91,14 +91,10 @@ def test_node_and_offline_command_agree_on_a_replayed_bag(ros_env: dict[str, str
              '--wait-for-subscribers', '--wait-timeout', '30'],
             env=ros_env, capture_output=True, text=True, timeout=120)
         assert play.returncode == 0, play.stderr
-        # every message the replay sent was acknowledged (its exit 0); the node may still be
-        # taking the last ones from its queue on a loaded machine: ask until it holds them all
-        deadline = time.monotonic() + 60.0
-        while True:
-            answer = call_identify(int(ros_env['ROS_DOMAIN_ID']))
-            if answer['samples']['/auv/state'] >= 4001 or time.monotonic() > deadline:
-                break
-            time.sleep(1.0)
+        # every message the replay sent was acknowledged (its exit 0), so it is in the
+        # node's queues if not yet taken: the answer counts them all (the node takes what is
+        # queued before it identifies; on a loaded machine 3568 of 4001 had been taken)
+        answer = call_identify(int(ros_env['ROS_DOMAIN_ID']))
         assert answer['samples']['/auv/state'] == 4001
         for name, c in expected.items():
             assert answer['coefficients'][name]['value'] == pytest.approx(c['value'],
