@@ -31,9 +31,9 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from types import FrameType
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -308,7 +308,8 @@ def _make_node(overrides: dict[str, Any]) -> Any:
                         got = sub.handle.take_message(sub.msg_type, sub.raw)
                     if got is None:
                         break
-                    sub.callback(got[0])
+                    # every subscription of this node takes the message alone
+                    cast(Callable[[Any], None], sub.callback)(got[0])
                     taken += 1
             return taken
 
