@@ -11,9 +11,8 @@ Reported per plant and depth change (20 -> 10, 10 -> 30, 5 -> 40 m): settling to
 the plant's own time-optimal bound (:func:`auv_depth_lqr.bound.settling_bound` on the plant's
 parameters; goal <= 1.3; where it finds no plan, the bound is ``null`` and its
 :class:`~auv_depth_lqr.errors.DesignError` text is kept as ``bound_error``), peak pitch over
-the 25 deg limit (goal <= 1 deg), overshoot, the time the reference waited for the vehicle
-(``DepthController.waited``: ``max_lag``, in total); side by side the same pilot with
-learning (``PilotSettings(learn=True)``) and without (the default).
+the 25 deg limit (goal <= 1 deg), overshoot; side by side the same pilot with learning
+(``PilotSettings(learn=True)``) and without (the default).
 Then ``sequence``: with learning, ten alternating 20 <-> 10 m changes in one flight from the
 cold start, the first against the tenth (the first as good as the tenth). Then ``held_thrust``:
 the vehicle files themselves (with and without learning) with the thrust held at the trim value
@@ -101,8 +100,6 @@ def plants(vehicles: tuple[str, ...]) -> dict[str, Any]:
                 figures['settling_over_bound'] = (round(settle / bound, 3)
                                                   if settle is not None and bound is not None
                                                   else None)
-                waited = pilot.controller.waited
-                figures['reference_waited_s'] = None if waited is None else round(waited[1], 1)
                 if learn:
                     est = pilot.controller.learner
                     assert est is not None

@@ -209,7 +209,7 @@ class DepthController:
         reference was when it was given."""
         self._waited: tuple[float, float] | None = None
         """The command [m] of the change flown and the time [s] the reference has waited
-        for the vehicle (``max_lag``) in it, in total."""
+        for the vehicle (``max_lag``) in it."""
         self._u_last: float | None = None
         self._caps: tuple[float, float, float] | None = None
         self._glide: tuple[float, float, float, float] | None = None
@@ -331,8 +331,7 @@ class DepthController:
     @property
     def waited(self) -> tuple[float, float] | None:
         """The command [m] of the change flown and the time [s] the reference has waited
-        for the vehicle in it, in total (``max_lag``, :meth:`step`); None before the first
-        step after a start or :meth:`reset`."""
+        for the vehicle in it (``max_lag``, :meth:`step`); None before the first step."""
         return self._waited
 
     @property
@@ -399,17 +398,14 @@ class DepthController:
         """The operating point whose braking the stop is planned on, if not the model flown:
         with a learner, during a change, its latest estimate where that brakes less
         (:meth:`ReferenceGovernor.braking`) than the model flown (``stop`` or ``op`` at
-        ``u`` [m/s]); else None. While no learned model is flown (the first change from a
-        start, or after an estimate past what physics allows), once the reference has
-        waited ``max_lag`` for the vehicle for ``LearningSettings.caution_wait`` in total
-        in the change, the latest estimate's plane taken ``caution`` standard deviations
-        weaker (:meth:`~auv_depth_lqr.learning.PlantEstimator.cautious`; with nothing
-        learned yet, the file's plane less the prior's deviation) where that brakes less
+        ``u`` [m/s]); else None. Before any learned model is flown (the first change from a
+        start), once the reference has waited ``max_lag`` for the vehicle for
+        ``LearningSettings.caution_wait`` in the change, the latest estimate's plane taken
+        ``caution`` standard deviations weaker
+        (:meth:`~auv_depth_lqr.learning.PlantEstimator.cautious`) where that brakes less
         still: until the stop swings the plane over, a climb at one plane angle cannot tell
         a weak plane from a trim offset, and a vehicle that falls behind its plan is one
-        whose plane the model overrates. The wait may pass ``caution_wait`` in the stop
-        itself; the braking then weakens from that sample on, as it does when the latest
-        estimate comes to brake less.
+        whose plane the model overrates.
 
         The model flown through a change is the one taken at its start; the latest estimate
         learns from the change itself (the climb at one plane angle, then the plane swung

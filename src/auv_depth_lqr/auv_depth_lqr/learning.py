@@ -165,14 +165,12 @@ class LearningSettings:
     cautious stop is taken weaker than estimated (:meth:`PlantEstimator.cautious`)."""
     caution_wait: float = 3.0
     """Time [s] the reference must have waited for the vehicle (``GovernorSettings.
-    max_lag``), in total over a depth change, before its stop is planned on the cautious
-    plane, while no learned model is flown
-    (:meth:`auv_depth_lqr.controller.DepthController.weaker_brake`; ``inf``: never): a
-    vehicle that cannot fly the climb or dive its model planned is the evidence that the
-    model overrates the plane. In the vehicle files' own flights at the speed their speed
-    loop holds the reference waits at most 1.4 s in a change (the REMUS 100's 20 -> 10 m at
-    1.5 m/s), so they fly as without the caution; with the thrust held, a file's dive that
-    slows down can wait longer."""
+    max_lag``) in a depth change before its stop is planned on the cautious plane, while no
+    learned model is flown yet
+    (:meth:`auv_depth_lqr.controller.DepthController.weaker_brake`): a vehicle that cannot
+    fly the climb or dive its model planned is the evidence that the model overrates the
+    plane. In the vehicle files' own flights the reference waits at most 1.4 s in a change
+    (the REMUS 100's 20 -> 10 m at 1.5 m/s), so they fly as without the caution."""
     excitation_change: float = 1.0
     """Shortest depth change [m] that excites the plant: the estimate learns while the
     reference of a change at least this long moves and for :attr:`excitation_time` after;
@@ -271,12 +269,9 @@ class PlantEstimator:
         s = self.settings
         for name, value in (('delays', s.delays), ('delay_margin', s.delay_margin),
                             ('excitation_change', s.excitation_change),
-                            ('excitation_time', s.excitation_time), ('caution', s.caution)):
+                            ('excitation_time', s.excitation_time)):
             if not (math.isfinite(value) and value >= 0.0):
                 raise DesignError(f'plant estimator: {name} = {value!r} must be finite and >= 0')
-        if not s.caution_wait >= 0.0:  # inf allowed (never cautious), nan refused
-            raise DesignError(f'plant estimator: caution_wait = {s.caution_wait!r} s must be '
-                              '>= 0')
         if not (math.isfinite(s.delay_time) and s.delay_time > 0.0):
             raise DesignError(f'plant estimator: delay_time = {s.delay_time!r} s must be finite '
                               'and > 0')
@@ -726,9 +721,7 @@ class PlantEstimator:
         ``1 / s`` (the linear model with its input ``s`` times as effective needs ``1 / s``
         times the plane for the same motion); the trim, what the vehicle was measured to
         hold depth at, is kept; the result is marked ``learned`` (its series is not the
-        design's). Its gain ``K`` and disturbance map ``D`` stay ``op``'s: it is a model to
-        plan a stop's braking on, not one to fly. ``op`` itself where that is not weaker,
-        ``k <= 0`` or ``nominal`` has no plane (``P[1, 3] = 0``)."""
+        design's). ``op`` itself where that is not weaker or ``k <= 0``."""
         nominal_gain = float(nominal.P[1, 3])
         if nominal_gain == 0.0:
             return op
