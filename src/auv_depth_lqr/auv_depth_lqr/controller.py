@@ -207,9 +207,6 @@ class DepthController:
         self._change: tuple[float, float] | None = None
         """The command [m] the reference goes to and the change's length [m] from where the
         reference was when it was given."""
-        self._waited: tuple[float, float] | None = None
-        """The command [m] of the change flown and the time [s] the reference has waited
-        for the vehicle (``max_lag``) in it."""
         self._u_last: float | None = None
         self._caps: tuple[float, float, float] | None = None
         self._glide: tuple[float, float, float, float] | None = None
@@ -329,12 +326,6 @@ class DepthController:
         return self._stop_speed
 
     @property
-    def waited(self) -> tuple[float, float] | None:
-        """The command [m] of the change flown and the time [s] the reference has waited
-        for the vehicle in it (``max_lag``, :meth:`step`); None before the first step."""
-        return self._waited
-
-    @property
     def state_speed(self) -> float | None:
         """Surge speed [m/s] of the last state stepped on, None before."""
         return self._u_last
@@ -398,14 +389,7 @@ class DepthController:
         """The operating point whose braking the stop is planned on, if not the model flown:
         with a learner, during a change, its latest estimate where that brakes less
         (:meth:`ReferenceGovernor.braking`) than the model flown (``stop`` or ``op`` at
-        ``u`` [m/s]); else None. Before any learned model is flown (the first change from a
-        start), once the reference has waited ``max_lag`` for the vehicle for
-        ``LearningSettings.caution_wait`` in the change, the latest estimate's plane taken
-        ``caution`` standard deviations weaker
-        (:meth:`~auv_depth_lqr.learning.PlantEstimator.cautious`) where that brakes less
-        still: until the stop swings the plane over, a climb at one plane angle cannot tell
-        a weak plane from a trim offset, and a vehicle that falls behind its plan is one
-        whose plane the model overrates.
+        ``u`` [m/s]); else None.
 
         The model flown through a change is the one taken at its start; the latest estimate
         learns from the change itself (the climb at one plane angle, then the plane swung
@@ -417,22 +401,14 @@ class DepthController:
         stop: capping the climb by an estimate a few samples old slowed the REMUS 100 with
         its fins 0.7 times as strong from 21.3 s to 35.1 s."""
         ref = self.reference.reference
-        learner = self.learner
-        if learner is None or ref is None or abs(ref.z - z_cmd) <= \
-                self.governor.landing_distance or learner.implausible:
+        if self.learner is None or ref is None or abs(ref.z - z_cmd) <= \
+                self.governor.landing_distance or self.learner.implausible:
             return None
         s_op, s_u = (op, u) if stop is None else stop
-        nominal = self.design.at(s_u)
-        latest = self.trimmed(nominal, latest=True)
+        latest = self.trimmed(self.design.at(s_u), latest=True)
         travel = 1.0 if z_cmd >= ref.z else -1.0
         braking = self.reference.braking
-        weakest = latest
-        if not learner.flying and self._waited is not None and self._waited[0] == z_cmd \
-                and self._waited[1] >= learner.settings.caution_wait:
-            cautious = learner.cautious(latest, nominal)
-            if braking(cautious, travel) < braking(latest, travel):
-                weakest = cautious
-        return weakest if braking(weakest, travel) < braking(s_op, travel) else None
+        return latest if braking(latest, travel) < braking(s_op, travel) else None
 
     def step(self, state: DepthState, z_ref: float) -> float:
         """BAR command [rad] for this sample.
@@ -517,13 +493,10 @@ class DepthController:
         # The reference waits for a vehicle that falls behind it by more than max_lag, unless
         # the vehicle has stalled: then the reference goes on to the command, at rest, where
         # the integrator removes the offset.
-        if self._waited is None or self._waited[0] != z_cmd:
-            self._waited = (z_cmd, 0.0)
         if v_r != 0.0:
             travel = math.copysign(1.0, v_r)
             if travel * (z_r - z) > settings.max_lag and not stalled:
                 z_r = z + travel * settings.max_lag
-                self._waited = (z_cmd, self._waited[1] + ts)
 
         # Feed-forward of the reference manoeuvre and the LQR correction around it.
         wqt, bar_ff = feedforward(op, u, v_r, a_r, j_r, s_r)

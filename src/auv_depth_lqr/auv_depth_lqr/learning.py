@@ -160,17 +160,6 @@ class LearningSettings:
     giving the estimate before it takes over (no switching on noise)."""
     gain_range: tuple[float, float] = (0.25, 4.0)
     """Range of the plane effectiveness ``1 + p`` used to scale the LQR gain [-]."""
-    caution: float = 1.0
-    """Standard deviations [-] of the plane-moment estimate (``p5``) by which the plane of a
-    cautious stop is taken weaker than estimated (:meth:`PlantEstimator.cautious`)."""
-    caution_wait: float = 3.0
-    """Time [s] the reference must have waited for the vehicle (``GovernorSettings.
-    max_lag``) in a depth change before its stop is planned on the cautious plane, while no
-    learned model is flown yet
-    (:meth:`auv_depth_lqr.controller.DepthController.weaker_brake`): a vehicle that cannot
-    fly the climb or dive its model planned is the evidence that the model overrates the
-    plane. In the vehicle files' own flights the reference waits at most 1.4 s in a change
-    (the REMUS 100's 20 -> 10 m at 1.5 m/s), so they fly as without the caution."""
     excitation_change: float = 1.0
     """Shortest depth change [m] that excites the plant: the estimate learns while the
     reference of a change at least this long moves and for :attr:`excitation_time` after;
@@ -709,33 +698,6 @@ class PlantEstimator:
                            K_rate=_rate_gain(op.K_rate, gain),
                            dw_dv=float(F[0, 0]), dtheta_dv=float(F[0, 2]),
                            dbar_dv=float(F[0, 3]), learned=True)
-
-    def cautious(self, op: OperatingPoint, nominal: OperatingPoint) -> OperatingPoint:
-        """``op`` (a model corrected by the latest estimate, :meth:`correct`) with a plane
-        ``caution`` standard deviations of the plane-moment estimate weaker
-        (``LearningSettings.caution``), to plan a stop on: its effectiveness on the pitch
-        acceleration relative to ``nominal`` (the design model at the same speed),
-        ``k = op.P[1, 3] / nominal.P[1, 3]``, taken as ``k - caution sigma_5``, at least
-        ``gain_range[0]``. The plane's column of the rows ``P`` is scaled by
-        ``s = (k - caution sigma_5) / k`` and the plane's column of the series ``F`` by
-        ``1 / s`` (the linear model with its input ``s`` times as effective needs ``1 / s``
-        times the plane for the same motion); the trim, what the vehicle was measured to
-        hold depth at, is kept; the result is marked ``learned`` (its series is not the
-        design's). ``op`` itself where that is not weaker or ``k <= 0``."""
-        nominal_gain = float(nominal.P[1, 3])
-        if nominal_gain == 0.0:
-            return op
-        k = float(op.P[1, 3]) / nominal_gain
-        weaker = max(k - self.settings.caution * self.estimate.sigma[4],
-                     self.settings.gain_range[0])
-        if not (k > 0.0 and weaker < k):
-            return op
-        s = weaker / k
-        P = op.P.copy()
-        P[:, 3] *= s
-        F = op.F.copy()
-        F[:, 3] /= s
-        return op._replace(P=P, F=F, dbar_dv=float(F[0, 3]), learned=True)
 
     def offset_acceleration(self, op: OperatingPoint) -> tuple[float, float]:
         """The heave and pitch accelerations [m/s^2, rad/s^2] the learned corrections give
