@@ -4,11 +4,13 @@ Each run clones the repository at one commit into a new folder (a new machine: i
 ``.venv``, build and install), runs ``make test`` there, and records the exit code, pytest's
 summary line (passed, failed, errors, xfailed, xpassed), the wall time with set-up and the
 machine's load average before and after. Two ``while True: pass`` processes run for the
-whole series (the ``cpu2`` load of ``bench_graph.py``); whatever else the machine runs is
-recorded in the load averages. The results file is rewritten after every run, so an
-interrupted series keeps the runs it finished.
+whole series (the ``cpu2`` load of ``bench_graph.py``); with ``--parallel K``, K clones run
+their ``make test`` at the same time, each beside the two processes and the other clones'
+suites. Whatever else the machine runs is recorded in the load averages. The results file
+is rewritten after every run, so an interrupted series keeps the runs it finished.
 
-Usage: ``python bench/bench_fresh_clone.py [--runs 10] [--commit HEAD] [--out PATH]``
+Usage: ``python bench/bench_fresh_clone.py [--runs 10] [--parallel 1] [--commit HEAD]
+[--out PATH]``
 (default output ``bench/results/fresh_clone.json``). Goal: :data:`GOAL_RUNS` runs, every one
 green (a shorter series is recorded, its ``goal_met`` false).
 """
@@ -22,7 +24,9 @@ import re
 import subprocess
 import sys
 import tempfile
+import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -83,6 +87,8 @@ def score(figures: dict[str, Any]) -> dict[str, Any]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--runs', type=int, default=10, help='runs in the series (default 10)')
+    parser.add_argument('--parallel', type=int, default=1,
+                        help='clones running make test at the same time (default 1)')
     parser.add_argument('--commit', default='HEAD', help='commit to clone (default HEAD)')
     parser.add_argument('--out', type=pathlib.Path,
                         default=ROOT / 'bench' / 'results' / 'fresh_clone.json',
@@ -90,6 +96,8 @@ def main() -> int:
     args = parser.parse_args()
     if args.runs < 1:
         parser.error(f'--runs must be at least 1, not {args.runs}')
+    if args.parallel < 1:
+        parser.error(f'--parallel must be at least 1, not {args.parallel}')
     commit = subprocess.run(['git', '-C', str(ROOT), 'rev-parse', args.commit], check=True,
                             stdout=subprocess.PIPE, text=True).stdout.strip()
     logs = pathlib.Path(tempfile.mkdtemp(prefix='fresh-clone-logs-'))
@@ -98,12 +106,20 @@ def main() -> int:
     figures: dict[str, Any] = {'commit': commit, 'runs_planned': args.runs,
                                'load_beside': 'two CPU-bound processes', 'goal': 'all green',
                                'machine_cpus': os.cpu_count(),
-                               'nice': os.nice(0), 'runs': []}
-    try:
-        for i in range(args.runs):
-            figures['runs'].append(one_run(commit, i, logs))
+                               'nice': os.nice(0), 'parallel': args.parallel, 'runs': []}
+    done = threading.Lock()
+
+    def run_and_record(index: int) -> None:
+        result = one_run(commit, index, logs)
+        with done:
+            figures['runs'].append(result)
+            figures['runs'].sort(key=lambda r: r['run'])
             args.out.write_text(json.dumps(score(figures), indent=2) + '\n')
-            print(json.dumps(figures['runs'][-1]), flush=True)
+            print(json.dumps(result), flush=True)
+
+    try:
+        with ThreadPoolExecutor(max_workers=args.parallel) as pool:
+            list(pool.map(run_and_record, range(args.runs)))
     finally:
         for hog in hogs:
             hog.kill()
