@@ -159,7 +159,9 @@ def test_commands_lost_before_the_match_are_said_and_default_qos_gets_no_warning
         ros_env: dict[str, str], pilot: PilotProcess) -> None:
     """Never silent: each command a script publishes before DDS matched it with the pilot is
     either delivered (DDS matched in time) or counted as lost in a warning; the count is
-    exact when a later command of the same publisher arrives (its sequence number)."""
+    exact when a later command of the same publisher arrives (its sequence number). The
+    pilot's subscriptions deliver independently, so an earlier command can arrive after a
+    later one (logged as superseded, not applied)."""
     import re
 
     from auv_depth_lqr.node import LATCHED_WINDOW
@@ -175,10 +177,12 @@ def test_commands_lost_before_the_match_are_said_and_default_qos_gets_no_warning
     first = script('14,14.5', '15')
     assert first.returncode == 0, first.stderr
     wait_for(pilot, 'depth command 15 m accepted')
-    delivered = pilot.count('depth command 14 m accepted') + pilot.count(
-        'depth command 14.5 m accepted')
+    values = ('14', '14.5')
+    applied = sum(pilot.count(f'depth command {v} m accepted') for v in values)
+    superseded = sum(pilot.count(f'depth command {v} m (sequence') for v in values)
     missed = sum(int(n) for n in re.findall(r'(\d+) earlier depth command', pilot.output))
-    assert delivered + missed == 2, pilot.output
+    assert applied + superseded <= 2, pilot.output  # each arrival acts or is said once
+    assert applied + superseded + missed >= 2, pilot.output  # what never arrived is counted
     # one command right after create_publisher, then the script leaves: delivered, or its
     # departure without a command said
     second = script('13')

@@ -138,6 +138,51 @@ def test_a18m_buoyant_held_thrust_dive_keeps_its_pitch_limit(z0: float, z1: floa
         assert 'dive at most' in limits.message()
 
 
+def _envelope_states(pilot: DepthPilot) -> list[tuple[float, str, str]]:
+    """``(t [s], envelope_state, envelope_warning)`` after every command of ``pilot``."""
+    seen: list[tuple[float, str, str]] = []
+    command = pilot.command
+
+    def spy(t: float) -> tuple[float, str]:
+        out = command(t)
+        seen.append((t, pilot.envelope_state(t), pilot.envelope_warning(t)))
+        return out
+
+    pilot.command = spy  # type: ignore[method-assign]
+    return seen
+
+
+def test_a_climb_flown_at_the_pitch_limit_is_not_a_warning() -> None:
+    """The file's own A18M, 40 -> 10 m at 2 m/s: the time-optimal climb is planned at the
+    pitch limit, and the selector holds it there now and then (``at limit``). That is the
+    plan, not a change that cannot be flown: no warning, and no limit gives way. The
+    buoyant held-thrust dive above is the warning's case (a limit gave way)."""
+    design = load_vehicle(config_path('a18m.yaml'))
+    pilot = DepthPilot.for_vehicle(design, PilotSettings())
+    seen = _envelope_states(pilot)
+    run = run_closed_loop(design, [(0.0, 10.0)], 60.0, z0=40.0, u0=2.0, pilot=pilot)
+    assert abs(float(run.record.x[-1, 2]) - 10.0) < 0.1  # climbed [m]
+    states = {state for _, state, _ in seen}
+    assert 'at limit' in states and 'given way' not in states
+    assert not any(warning for _, _, warning in seen)
+
+
+def test_a_limit_that_gave_way_is_a_warning() -> None:
+    """The A18M 1 % buoyant, thrust held, 10 -> 30 m without learning: the nose-down limit
+    gives way (the plane cannot hold 25 deg at the speed the held thrust heads for), and
+    the pilot says so while it holds it (``given way``, one line)."""
+    design = load_vehicle(config_path('a18m.yaml'))
+    real, environment = model_error_plant(design, 'buoyancy+1%')
+    pilot = DepthPilot.for_vehicle(design, PilotSettings())
+    seen = _envelope_states(pilot)
+    run_closed_loop(real, [(0.0, 30.0)], 60.0, z0=10.0, u0=1.5, environment=environment,
+                    pilot=pilot)
+    given = [(state, warning) for _, state, warning in seen if state == 'given way']
+    assert given and all(w.startswith('pitch limit held') and 'cannot be flown' in w
+                         for _, w in given)
+    assert all(not w for _, s, w in seen if s != 'given way')
+
+
 def _kick(params: VehicleParams, rate_deg: float, duration: float = 60.0,
           settings: PilotSettings | None = None) -> tuple[np.ndarray, list[str]]:
     """The pilot holding 5 m at 1.5 m/s, thrust held, after a pitch-rate kick [deg/s]."""

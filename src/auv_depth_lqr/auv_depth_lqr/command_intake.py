@@ -6,6 +6,12 @@ A depth command is a ``std_msgs/Float64`` sample; DDS identifies each by its pub
 the topic more than once (see :mod:`auv_depth_lqr.node`), so a sample can arrive several
 times: :meth:`CommandIntake.first_time` lets it act once.
 
+Order is kept per publisher: the subscriptions deliver independently, so a publisher's
+earlier sample can arrive after a later one (an earlier sample repaired by the reliable
+subscription after the best-effort one took the next). A sample older than the newest one of
+its publisher already applied is superseded (:meth:`CommandIntake.superseded`): the pilot does
+not fly back to it.
+
 Loss is never silent where the pilot can see it:
 
 * a publisher's first sample to arrive has sequence number ``n > 1`` (and did not come as the
@@ -84,6 +90,7 @@ class CommandIntake:
         self._remember = remember
         self._seen: collections.OrderedDict[tuple[bytes, int], None] = collections.OrderedDict()
         self._first_sequence: dict[bytes, int] = {}
+        self._newest: dict[bytes, int] = {}
         self._delivered_reliably: set[bytes] = set()
         self._silent = 0
 
@@ -99,6 +106,19 @@ class CommandIntake:
         while len(self._seen) > self._remember:
             self._seen.popitem(last=False)
         return True
+
+    def superseded(self, publisher: bytes | None, sequence: int | None) -> int | None:
+        """The sequence number of the newest sample of ``publisher`` already taken when
+        ``sequence`` is older than it (the sample arrived out of order: not to be applied),
+        else None, and ``sequence`` becomes the newest taken. None also when the identity is
+        unknown."""
+        if publisher is None or sequence is None:
+            return None
+        newest = self._newest.get(publisher)
+        if newest is not None and sequence < newest:
+            return newest
+        self._newest[publisher] = sequence
+        return None
 
     def arrived(self, publisher: bytes | None, reliable_subscription: bool) -> None:
         """Note that a sample of ``publisher`` arrived (through the pilot's reliable, volatile

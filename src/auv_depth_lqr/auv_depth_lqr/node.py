@@ -10,7 +10,9 @@ each topic also with ``-r state:=/nav/state`` etc.):
   :data:`LATCHED_WINDOW` wall seconds after start also reliable + transient-local, which takes
   a command latched before the pilot started (it is then removed: a transient-local
   subscription makes every volatile publisher warn of incompatible durability). A sample that
-  arrives through more than one is applied once (same publisher and sequence number). What is
+  arrives through more than one is applied once (same publisher and sequence number), and one
+  older than a sample of its publisher already applied is not applied (the subscriptions
+  deliver independently; it is logged). What is
   lost is said (:mod:`auv_depth_lqr.command_intake`): a warning, and WARN on ``/diagnostics``,
   when a publisher's first sample to arrive is not its first (the earlier ones were published
   before DDS matched it with the pilot) or when a publisher leaves without a sample having
@@ -33,8 +35,10 @@ each topic also with ``-r state:=/nav/state`` etc.):
   (diagnostic_msgs/DiagnosticArray, absolute as the ROS convention has it) every
   ``diagnostics_period`` seconds and at once when the pilot's mode, its plane authority or
   its pitch envelope changes: two statuses, ``<node>: depth control`` (mode, command,
-  envelope; WARN with one line while the pitch envelope selector holds a limit,
-  ``pitch_envelope`` ``holding``: :meth:`auv_depth_lqr.pilot.DepthPilot.envelope_warning`;
+  envelope: ``pitch_envelope`` ``clear``, ``at limit`` while the pitch envelope selector
+  holds the pitch limit (the change flown at the limit, as planned; status unchanged) or
+  ``given way`` while it holds a limit that gave way, WARN with one line:
+  :meth:`auv_depth_lqr.pilot.DepthPilot.envelope_state`, ``envelope_warning``;
   the speed it schedules on, over ground or through the water, and the current along the
   heading: :meth:`auv_depth_lqr.pilot.DepthPilot.speed_diagnostics`; what the pilot
   has learned of its plant and the climb and dive it can fly:
@@ -262,7 +266,7 @@ class DepthPilotNode(Node):
         self.timer: Timer | None = None
         self._reported = ''
         self._authority_reported = UNKNOWN
-        self._envelope_reported = False
+        self._envelope_reported = 'clear'
         self._t_command = 0.0
         """Time [s] of the last command computed (what ``/diagnostics`` reports on)."""
         self._configure_timer()
@@ -341,6 +345,13 @@ class DepthPilotNode(Node):
         gid, seq = _sample_identity(info)
         self.intake.arrived(gid, subscription == 'reliable')
         if not self.intake.first_time(gid, seq):
+            return
+        newer = self.intake.superseded(gid, seq)
+        if newer is not None:
+            self.get_logger().info(
+                f'depth command {msg.data:g} m (sequence {seq}) of '
+                f'{self._publisher_name(gid)} arrived after its sequence {newer}: superseded, '
+                'not applied')
             return
         # a latched publisher's late joiner gets only its last sample, by design
         missed = self.intake.missed_before(gid, seq, volatile=subscription != 'latched')
@@ -543,13 +554,13 @@ class DepthPilotNode(Node):
                 self.get_logger().info(text)
             self._authority_reported = authority.level
             changed = True
-        envelope = self.pilot.envelope_warning(t)
-        if bool(envelope) != self._envelope_reported:
-            if envelope:
-                self.get_logger().warning(envelope)
-            else:
+        envelope = self.pilot.envelope_state(t)
+        if envelope != self._envelope_reported:
+            if envelope == 'given way':
+                self.get_logger().warning(self.pilot.envelope_warning(t))
+            elif self._envelope_reported == 'given way':
                 self.get_logger().info('pitch limit no longer held: depth control as asked')
-            self._envelope_reported = bool(envelope)
+            self._envelope_reported = envelope
             changed = True
         out = ActuatorSetpoint()
         out.header.stamp = stamp

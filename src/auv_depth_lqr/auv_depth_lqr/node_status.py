@@ -142,7 +142,7 @@ def control_status(pilot: DepthPilot, node_name: str, hardware_id: str, t_comman
         'last_rejected_command': last_refusal,
         'pitch_deg': 'none' if verdict is None else f'{math.degrees(verdict.pitch):.2f}',
         'pitch_limit_deg': f'{math.degrees(pilot.controller.limits.theta_max):g}',
-        'pitch_envelope': 'holding' if envelope else 'clear',
+        'pitch_envelope': pilot.envelope_state(t_command),
         'depth_rate_residual_mps': ('none' if verdict is None or verdict.residual is None
                                     else f'{verdict.residual:+.3f}'),
         **pilot.speed_diagnostics(),

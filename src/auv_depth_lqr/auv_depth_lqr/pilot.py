@@ -109,7 +109,8 @@ and left more of its porpoise in the head-current case of ``tests/test_model_err
 
 ENVELOPE_REPORT_TIME = 2.0
 """How long [s] after the pitch envelope selector last held a limit the pilot still says so
-(:meth:`DepthPilot.envelope_warning`): one line, not one per sample."""
+(:meth:`DepthPilot.envelope_state`, :meth:`DepthPilot.envelope_warning`): one line, not one
+per sample."""
 
 
 class ClimbLimits(NamedTuple):
@@ -362,6 +363,8 @@ class DepthPilot:
         """``(t [s], climb, dive [m/s])`` of the last held-thrust limits solved."""
         self._envelope_t: float | None = None
         """Time [s] the pitch envelope selector last held a limit in normal control."""
+        self._envelope_given_t: float | None = None
+        """Time [s] it last held a limit that had given way (below the pitch limit)."""
         self._t_offset: float | None = None
         """Measurement time [s] of the last state the pitch-offset estimate took."""
         self.pitch_offset = PitchOffset(0.0, False, math.nan)
@@ -401,12 +404,25 @@ class DepthPilot:
                           self.controller.held_thrust_cap(1.0, u))
         return self._held[1], self._held[2]
 
+    def envelope_state(self, t: float) -> str:
+        """What the pitch envelope selector (:mod:`auv_depth_lqr.envelope`) did within
+        ``ENVELOPE_REPORT_TIME`` of ``t`` [s]: ``'given way'`` it held a limit that had
+        given way (the plane cannot hold the pitch limit at the speed the held thrust is
+        heading for: the depth change cannot be flown within the limits), ``'at limit'`` it
+        held the pitch limit itself (the change is flown at the limit, as a time-optimal
+        climb or dive is), ``'clear'`` it held none."""
+        def recent(held_at: float | None) -> bool:
+            return held_at is not None and 0.0 <= t - held_at <= ENVELOPE_REPORT_TIME
+        if recent(self._envelope_given_t):
+            return 'given way'
+        return 'at limit' if recent(self._envelope_t) else 'clear'
+
     def envelope_warning(self, t: float) -> str:
-        """One line for an operator when the pitch envelope selector
-        (:mod:`auv_depth_lqr.envelope`) held a limit within ``ENVELOPE_REPORT_TIME`` of
-        ``t`` [s]: the depth change asked for cannot be flown within the limits at the present
-        speed and thrust, and is flown the best it can within them; '' otherwise."""
-        if self._envelope_t is None or not 0.0 <= t - self._envelope_t <= ENVELOPE_REPORT_TIME:
+        """One line for an operator when :meth:`envelope_state` at ``t`` [s] is ``'given
+        way'``: the depth change asked for cannot be flown within the limits at the present
+        speed and thrust, and is flown the best it can within them; '' otherwise (a limit
+        held at the pitch limit itself is the plan, not a warning)."""
+        if self.envelope_state(t) != 'given way':
             return ''
         env = self.controller.envelope
         return (f'pitch limit held (nose up {math.degrees(env.up):.1f} deg, nose down '
@@ -616,8 +632,11 @@ class DepthPilot:
             self.status = f'error: {exc}'
             return self._safe(), self.status
         self._last_bar = bar
-        if self.controller.envelope.active:
+        env = self.controller.envelope
+        if env.active:
             self._envelope_t = t
+            if (env.up if env.active > 0 else env.down) < env.theta_lim:
+                self._envelope_given_t = t
         self.status = 'ok'
         self.authority_monitor.update(
             t, bar, self.controller.governed_reference == (self.z_ref, 0.0))
