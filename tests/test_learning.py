@@ -57,16 +57,18 @@ def test_a_foreign_plant_is_learned_in_one_depth_change(remus: VehicleParams) ->
     """Plant: the REMUS 100 file with the plane's force x0.5 and moment x0.6, no Munk moment,
     neutrally buoyant (the file is 7 N buoyant). Truth by construction: heave offset
     ``(B_file - W) / W`` = +0.0234 (the plant has 7 N less lift, Z down), plane force
-    -0.5, plane moment -0.4, the whole u w moment of the model gone (-1). The plane's heave
-    force moves the vehicle little against its moment: after one change only its sign is
-    known (measured -0.21)."""
+    -0.5, plane moment -0.4, and the whole u w moment of the model gone: the Munk moment of
+    the added masses is the same in both, so the error of the ``CMuw`` units of ``p6`` is
+    the plant's ``CMuw`` less the file's (-1.76 + 0.54 = -1.22; measured -1.06). The plane's
+    heave force moves the vehicle little against its moment: after one change only its sign
+    is known (measured -0.21)."""
     plant = foreign_plant(remus, 1.5)
     learned = _learned(remus, plant, 20.0, 10.0, 1.5)
     weight = remus.m * remus.g
     assert learned['buoyancy'] == pytest.approx((remus.B - weight) / weight, abs=0.002)
     assert -0.6 < learned['plane_force'] < -0.1
     assert learned['plane_moment'] == pytest.approx(-0.4, abs=0.1)
-    assert learned['munk'] == pytest.approx(-1.0, abs=0.2)
+    assert learned['munk'] == pytest.approx(plant.CMuw - remus.CMuw, abs=0.2)
 
 
 @pytest.mark.parametrize('name', ['a18m', 'npsauv2'])
@@ -82,6 +84,41 @@ def test_the_planes_moment_is_learned_in_one_depth_change_on_other_vehicles(name
     learned = _learned(design, foreign_plant(design, 1.5), 20.0, 10.0, 1.5)
     assert learned['plane_moment'] == pytest.approx(-0.4, abs=0.1), learned
     assert learned['plane_force'] < 0.0, learned
+
+
+@pytest.mark.parametrize('name', ['remus100', 'a18m', 'npsauv2'])
+def test_a_foreign_plant_is_in_the_regressions_model_class(name: str) -> None:
+    """The plant of :func:`foreign_plant` differs from its file by one parameter vector of
+    the regression, worked out from the construction: heave offset ``(B_file - W) / W``,
+    plane force -0.5, plane moment -0.4, no hull lift or damping error, the plant's
+    ``CMuw`` less the file's (the added masses' Munk moment is the same in both), and the
+    moment offset of its ``CM0`` at 1.5 m/s, ``qs u^2 (CM0_plant - CM0_file) / W`` in
+    shares of ``W L``. Over random states at 1.5 m/s the plant's heave force and pitch
+    moment less the file's are the regression's rows times that vector (measured: to
+    1e-11 N m)."""
+    design = load_vehicle(ROOT / 'config' / f'{name}.yaml')
+    plant = foreign_plant(design, 1.5)
+    est = PlantEstimator(design, 0.1)
+    u, weight = 1.5, design.m * design.g
+    qs = 0.5 * design.rho * design.S_ref
+    truth = np.array([(design.B - weight) / weight, -0.5, 0.0,
+                      qs * u * u * (plant.CM0 - design.CM0) / weight, -0.4,
+                      plant.CMuw - design.CMuw, 0.0])
+    plane, model = VerticalPlane(plant), VerticalPlane(design)
+    rng = np.random.default_rng(0)
+    worst, scale, h = 0.0, 0.0, 1e-30
+    for _ in range(200):
+        w, q = rng.uniform(-0.15, 0.15), rng.uniform(-0.05, 0.05)
+        theta, bar = rng.uniform(-0.45, 0.45), rng.uniform(-design.bar_max, design.bar_max)
+        f = plane.wrench(plane.full_state(w, q, 0.0, theta, bar, u)).real
+        # the file's wrench and its derivative by the BAR (complex step)
+        m = model.wrench(model.full_state(w, q, 0.0, theta, bar + 1j * h, u))
+        felt = np.array([f[2] - m[2].real, f[4] - m[4].real])
+        rows = est.regressors(u, w, q, bar, m[2].imag / h, m[4].imag / h, theta)
+        error = felt - rows @ truth
+        worst = max(worst, float(np.max(np.abs(error))))
+        scale = max(scale, float(np.max(np.abs(felt))))
+    assert worst < 1e-6 * scale, (worst, scale)
 
 
 def test_the_noise_learned_with_is_the_scatter_of_the_residual(remus: VehicleParams) -> None:
