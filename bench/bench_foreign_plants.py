@@ -17,7 +17,8 @@ Then ``sequence``: with learning, ten alternating 20 <-> 10 m changes in one fli
 cold start, the first against the tenth (the first as good as the tenth). Then ``held_thrust``:
 the vehicle files themselves (with and without learning) with the thrust held at the trim value
 (no speed loop), with 1 % more buoyancy than weight and with 30 % less fin lift, peak pitch
-over the limit (goal <= 1 deg).
+over the limit (goal <= 1 deg). Every flight also gives the times at which the pilot began
+to report a depth runaway (``runaway_reported_s``, :mod:`auv_depth_lqr.runaway`).
 
 Run: ``python bench/bench_foreign_plants.py`` writes ``bench/results/foreign_plants.json``
 (20-40 min on a loaded machine of 2 cores); ``--quick`` flies the REMUS 100 only.
@@ -66,12 +67,34 @@ def _metrics(run: Any, z1: float, t0: float = 0.0, t1: float = math.inf) -> dict
             'min_surge_mps': round(float(np.min(rec.x[keep, 6])), 3)}
 
 
+def listen_for_runaway(pilot: DepthPilot) -> list[float]:
+    """The times [s] at which the pilot's depth-runaway report began
+    (:meth:`DepthPilot.runaway_warning`), filled as the pilot flies."""
+    began: list[float] = []
+    command = pilot.command
+    reported = [False]
+
+    def command_and_listen(t: float) -> tuple[float, str]:
+        out = command(t)
+        now = bool(pilot.runaway_warning())
+        if now and not reported[0]:
+            began.append(round(t, 2))
+        reported[0] = now
+        return out
+
+    pilot.command = command_and_listen  # type: ignore[method-assign]
+    return began
+
+
 def fly(design: VehicleParams, plant: VehicleParams, z0: float, z1: float, learn: bool,
-        duration: float = 200.0) -> tuple[dict[str, Any], DepthPilot]:
-    """One cold-start change on ``plant`` by the pilot of ``design``, thrust held."""
+        duration: float = 200.0, environment: Any = None) -> tuple[dict[str, Any], DepthPilot]:
+    """One cold-start change on ``plant`` by the pilot of ``design``, thrust held; with the
+    times a depth runaway was reported (``runaway_reported_s``)."""
     pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=learn))
-    run = run_closed_loop(plant, [(0.0, z1)], duration, z0=z0, u0=U0, pilot=pilot)
-    return _metrics(run, z1), pilot
+    runaway = listen_for_runaway(pilot)
+    run = run_closed_loop(plant, [(0.0, z1)], duration, z0=z0, u0=U0,
+                          environment=environment, pilot=pilot)
+    return {**_metrics(run, z1), 'runaway_reported_s': runaway}, pilot
 
 
 def plants(vehicles: tuple[str, ...]) -> dict[str, Any]:
@@ -147,10 +170,9 @@ def held_thrust(vehicles: tuple[str, ...]) -> dict[str, Any]:
                 key = f'{name}{"" if error is None else " " + error} {z0:g}->{z1:g}m'
                 out[key] = {}
                 for label, learn in (('learning', True), ('without_learning', False)):
-                    pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=learn))
-                    run = run_closed_loop(real, [(0.0, z1)], 200.0, z0=z0, u0=U0,
-                                          environment=environment, pilot=pilot)
-                    out[key][label] = _metrics(run, z1)
+                    figures, pilot = fly(design, real, z0, z1, learn,
+                                         environment=environment)
+                    out[key][label] = figures
                     out[key][label]['limited'] = pilot.climb_limits().limited
                 print(key, json.dumps(out[key]), flush=True)
     return out

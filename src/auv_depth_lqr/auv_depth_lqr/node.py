@@ -33,17 +33,21 @@ each topic also with ``-r state:=/nav/state`` etc.):
   state after its start, stamped with that state's stamp, so that the vehicle gets its
   first command without waiting up to a period for the timer), and ``/diagnostics``
   (diagnostic_msgs/DiagnosticArray, absolute as the ROS convention has it) every
-  ``diagnostics_period`` seconds and at once when the pilot's mode, its plane authority or
-  its pitch envelope changes: two statuses, ``<node>: depth control`` (mode, command,
-  envelope: ``pitch_envelope`` ``clear``, ``at limit`` while the pitch envelope selector
-  holds the pitch limit (the change flown at the limit, as planned; status unchanged) or
-  ``given way`` while it holds a limit that gave way, WARN with one line:
-  :meth:`auv_depth_lqr.pilot.DepthPilot.envelope_state`, ``envelope_warning``;
-  the speed it schedules on, over ground or through the water, and the current along the
-  heading: :meth:`auv_depth_lqr.pilot.DepthPilot.speed_diagnostics`; what the pilot
-  has learned of its plant and the climb and dive it can fly:
-  :meth:`auv_depth_lqr.pilot.DepthPilot.learning_diagnostics`) and ``<node>:
-  plane authority`` (how much of the plane holding depth takes, WARN when little is left:
+  ``diagnostics_period`` seconds and at once when the pilot's mode, its plane authority,
+  its pitch envelope or a depth runaway changes: two statuses, ``<node>: depth control``
+  (mode, command, envelope: ``pitch_envelope`` ``clear``, ``at limit`` while the pitch
+  envelope selector holds the pitch limit (the change flown at the limit, as planned;
+  status unchanged) or ``given way`` while it holds a limit that gave way, WARN with one
+  line: :meth:`auv_depth_lqr.pilot.DepthPilot.envelope_state`, ``envelope_warning``;
+  ``depth_runaway_m`` ``none``, or how far off its command the vehicle is (``below`` or
+  ``above``) while the plane at its stop cannot bring it back, ERROR with one line, also
+  logged as an error when it begins: :mod:`auv_depth_lqr.runaway`,
+  :meth:`auv_depth_lqr.pilot.DepthPilot.runaway_warning`; the speed it schedules on, over
+  ground or through the water, and the current along the heading:
+  :meth:`auv_depth_lqr.pilot.DepthPilot.speed_diagnostics`; what the pilot has learned of
+  its plant and the climb and dive it can fly:
+  :meth:`auv_depth_lqr.pilot.DepthPilot.learning_diagnostics`) and ``<node>: plane
+  authority`` (how much of the plane holding depth takes, WARN when little is left:
   :mod:`auv_depth_lqr.authority`).
 
 All logic is in :class:`auv_depth_lqr.pilot.DepthPilot`; this module converts messages.
@@ -267,6 +271,7 @@ class DepthPilotNode(Node):
         self._reported = ''
         self._authority_reported = UNKNOWN
         self._envelope_reported = 'clear'
+        self._runaway_reported = False
         self._t_command = 0.0
         """Time [s] of the last command computed (what ``/diagnostics`` reports on)."""
         self._configure_timer()
@@ -561,6 +566,15 @@ class DepthPilotNode(Node):
             elif self._envelope_reported == 'given way':
                 self.get_logger().info('pitch limit no longer held: depth control as asked')
             self._envelope_reported = envelope
+            changed = True
+        runaway = self.pilot.runaway_warning()
+        if bool(runaway) != self._runaway_reported:
+            if runaway:
+                self.get_logger().error(runaway)
+            else:
+                self.get_logger().info('depth runaway over: the vehicle is coming back to its '
+                                       'command, or the plane has left its stop')
+            self._runaway_reported = bool(runaway)
             changed = True
         out = ActuatorSetpoint()
         out.header.stamp = stamp

@@ -4,9 +4,10 @@ The node (:mod:`auv_depth_lqr.node`) publishes three statuses; their fields are 
 module docstring:
 
 * ``<node>: depth control`` on ``/diagnostics`` (:func:`control_status`): the pilot's mode,
-  its depth command and envelope, the pitch envelope, what it learned, the last command's
-  answer; OK, WARN (recovery, no state yet, a refused or lost command, the pitch envelope
-  holding) or ERROR (stale state);
+  its depth command and envelope, the pitch envelope, a depth runaway, what it learned, the
+  last command's answer; OK, WARN (recovery, no state yet, a refused or lost command, the
+  pitch envelope holding) or ERROR (stale state, a depth runaway:
+  :mod:`auv_depth_lqr.runaway`);
 * ``<node>: plane authority`` on ``/diagnostics`` (:func:`authority_status`): how much of
   the plane holding depth takes (:mod:`auv_depth_lqr.authority`); WARN when little is left;
 * ``<node>: depth command`` on ``depth_command_answer`` (:func:`answer_status`): the answer
@@ -133,6 +134,10 @@ def control_status(pilot: DepthPilot, node_name: str, hardware_id: str, t_comman
         if warning:
             level = max(level, DiagnosticStatus.WARN)
             message = f'{message}; {warning}'
+    runaway = pilot.runaway_monitor.state
+    if runaway is not None:
+        level = DiagnosticStatus.ERROR
+        message = f'{message}; {pilot.runaway_warning()}'
     values = {
         'status': status,
         'mode': verdict.mode if verdict else 'normal',
@@ -143,6 +148,8 @@ def control_status(pilot: DepthPilot, node_name: str, hardware_id: str, t_comman
         'pitch_deg': 'none' if verdict is None else f'{math.degrees(verdict.pitch):.2f}',
         'pitch_limit_deg': f'{math.degrees(pilot.controller.limits.theta_max):g}',
         'pitch_envelope': pilot.envelope_state(t_command),
+        'depth_runaway_m': ('none' if runaway is None else
+                            f'{runaway.off:.2f} {"below" if runaway.below else "above"}'),
         'depth_rate_residual_mps': ('none' if verdict is None or verdict.residual is None
                                     else f'{verdict.residual:+.3f}'),
         **pilot.speed_diagnostics(),

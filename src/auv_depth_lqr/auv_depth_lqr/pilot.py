@@ -52,6 +52,7 @@ from auv_depth_lqr.recovery import (
     Verdict,
     recovery_bar,
 )
+from auv_depth_lqr.runaway import RunawayMonitor
 from auv_depth_lqr.schedule import GainSchedule
 from auv_depth_lqr.surge import surge_length
 from auv_depth_lqr.tuning import derive_tuning
@@ -374,6 +375,9 @@ class DepthPilot:
             controller.limits.bar_max,
             AUTHORITY_WINDOW if settings.authority_window is None else settings.authority_window,
             controller.governor.trim_bar_share)
+        self.runaway_monitor = RunawayMonitor(controller.limits.bar_max)
+        """The vehicle away from its command and not coming back with the plane at the stop
+        that would bring it back (:mod:`auv_depth_lqr.runaway`), in normal control."""
 
     @property
     def authority(self) -> Authority:
@@ -429,6 +433,20 @@ class DepthPilot:
                 f'{math.degrees(env.down):.1f} deg): the depth change cannot be flown within '
                 'the limits at the present speed and thrust; flying the best it can within '
                 'them')
+
+    def runaway_warning(self) -> str:
+        """One line for an operator while the runaway monitor
+        (:mod:`auv_depth_lqr.runaway`) holds one: how far off the command the vehicle is
+        and that the plane cannot bring it back at its present speed; '' otherwise."""
+        runaway = self.runaway_monitor.state
+        if runaway is None or self.z_ref is None:
+            return ''
+        side, stop = ('below', 'nose-up') if runaway.below else ('above', 'nose-down')
+        u = math.nan if self._state is None else self._state.u
+        return (f'depth runaway: {runaway.off:.1f} m {side} the commanded {self.z_ref:g} m '
+                f'and no nearer to it for {runaway.stop_time:.0f} s with the plane at its '
+                f'{stop} stop: the plane cannot bring the vehicle back at {u:.2f} m/s (more '
+                'speed, less buoyancy or a trim change is needed)')
 
     def speed_diagnostics(self) -> dict[str, str]:
         """The surge speed the pilot schedules its gains and plans its climbs on, as
@@ -623,6 +641,7 @@ class DepthPilot:
         if self._stale:
             self.controller.reset(bar_previous=self._last_bar)
             self.authority_monitor.reset()  # its window is of normal control only
+            self.runaway_monitor.reset()
             self._stale = False
         assert self.z_ref is not None
         try:
@@ -640,6 +659,7 @@ class DepthPilot:
         self.status = 'ok'
         self.authority_monitor.update(
             t, bar, self.controller.governed_reference == (self.z_ref, 0.0))
+        self.runaway_monitor.update(t, self._state.z, self.z_ref, bar)
         return bar, self.status
 
     def _estimate_pitch_offset(self) -> None:
