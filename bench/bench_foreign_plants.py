@@ -69,14 +69,14 @@ def _metrics(run: Any, z1: float, t0: float = 0.0, t1: float = math.inf) -> dict
 
 def listen_for_runaway(pilot: DepthPilot) -> list[float]:
     """The times [s] at which the pilot's depth-runaway report began
-    (:meth:`DepthPilot.runaway_warning`), filled as the pilot flies."""
+    (``DepthPilot.runaway_monitor``), filled as the pilot flies."""
     began: list[float] = []
     command = pilot.command
     reported = [False]
 
     def command_and_listen(t: float) -> tuple[float, str]:
         out = command(t)
-        now = bool(pilot.runaway_warning())
+        now = pilot.runaway_monitor.state is not None
         if now and not reported[0]:
             began.append(round(t, 2))
         reported[0] = now

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import A18M, ROOT
+from conftest import ROOT, load_bench
 from diagnostic_msgs.msg import DiagnosticStatus
 
 from auv_depth_lqr.closed_loop import foreign_plant, model_error_plant, run_closed_loop
@@ -27,6 +27,7 @@ from auv_sim.params import load_vehicle
 from auv_sim.trim import VerticalPlane
 
 BAR_MAX = math.radians(20.0)
+FOREIGN_PLANTS = load_bench('foreign_plants')
 
 
 def _fly(monitor: RunawayMonitor, samples: list[tuple[float, float, float, float]]) -> list[bool]:
@@ -80,45 +81,34 @@ def test_bad_settings_are_refused(field: str, value: float) -> None:
         RunawayMonitor(**kwargs)
 
 
-def _runaways(design_name: str, error: str | None, z0: float, z1: float, u0: float
-              ) -> tuple[list[tuple[float, str]], np.ndarray, DepthPilot]:
-    design = load_vehicle(ROOT / 'config' / f'{design_name}.yaml' if design_name != 'a18m'
-                          else A18M)
+def _runaways(name: str, error: str | None, z0: float, z1: float, u0: float
+              ) -> tuple[list[float], np.ndarray, DepthPilot]:
+    """Fly ``z0 -> z1`` [m] at ``u0`` [m/s], thrust held, the pilot on the file ``name``,
+    the plant the file with ``error`` (``foreign``: :func:`foreign_plant`): the times [s]
+    the pilot's runaway report began (the benchmark's listener), the depths [m], the pilot."""
+    design = load_vehicle(ROOT / 'config' / f'{name}.yaml')
     real, environment = ((design, None) if error is None else
                          (foreign_plant(design, u0), None) if error == 'foreign' else
                          model_error_plant(design, error))
     pilot = DepthPilot.for_vehicle(design)
-    said: list[tuple[float, str]] = []
-    command = pilot.command
-
-    def command_and_listen(t: float) -> tuple[float, str]:
-        out = command(t)
-        warning = pilot.runaway_warning()
-        if warning and (not said or said[-1][1] == ''):
-            said.append((t, warning))
-        elif not warning and said and said[-1][1]:
-            said.append((t, ''))
-        return out
-
-    pilot.command = command_and_listen  # type: ignore[method-assign]
+    began = FOREIGN_PLANTS.listen_for_runaway(pilot)
     run = run_closed_loop(real, [(0.0, z1)], 200.0, z0=z0, u0=u0, environment=environment,
                           pilot=pilot)
-    return said, run.record.x[:, 2], pilot
+    return began, run.record.x[:, 2], pilot
 
 
 def test_a_dive_the_plane_cannot_pull_out_of_is_said() -> None:
-    """The REMUS 100 with 30 % less fin lift, thrust held, 10 -> 30 m: said once, as an
+    """The REMUS 100 with 30 % less fin lift, thrust held, 10 -> 30 m: said once, as a
     runaway below the command at the nose-up stop, while the vehicle dives on."""
     design = load_vehicle(ROOT / 'config' / 'remus100.yaml')
     real, _ = model_error_plant(design, 'fins*0.7')
     trim = VerticalPlane(real).trim(1.5)
     assert abs(trim.bar) > 0.9 * real.bar_max  # the premise: hardly any plane left
-    said, z, pilot = _runaways('remus100', 'fins*0.7', 10.0, 30.0, 1.5)
+    began, z, pilot = _runaways('remus100', 'fins*0.7', 10.0, 30.0, 1.5)
     assert float(z[-1]) > 45.0  # the outcome, without the monitor
-    assert len(said) == 1, said
-    t, text = said[0]
+    assert len(began) == 1 and began[0] < 130.0, began
+    text = pilot.runaway_warning()  # still on at the end
     assert 'below the commanded 30 m' in text and 'nose-up stop' in text, text
-    assert t < 130.0, said
     # the node's depth-control status at the end of the flight
     status = control_status(pilot, '/auv/depth_pilot', '/auv', 200.0, '', '', None)
     values = {kv.key: kv.value for kv in status.values}
@@ -137,6 +127,6 @@ def test_flights_that_settle_say_no_runaway(name: str, error: str | None, z0: fl
                                             z1: float, u0: float) -> None:
     """Flights that pass their command and come back (``foreign``:
     :func:`~auv_depth_lqr.closed_loop.foreign_plant`)."""
-    said, z, _ = _runaways(name, error, z0, z1, u0)
+    began, z, _ = _runaways(name, error, z0, z1, u0)
     assert abs(float(z[-1]) - z1) < 0.1  # the outcome, without the monitor
-    assert said == []
+    assert began == []

@@ -567,14 +567,14 @@ class DepthPilotNode(Node):
                 self.get_logger().info('pitch limit no longer held: depth control as asked')
             self._envelope_reported = envelope
             changed = True
-        runaway = self.pilot.runaway_warning()
-        if bool(runaway) != self._runaway_reported:
+        runaway = self.pilot.runaway_monitor.state is not None
+        if runaway != self._runaway_reported:
             if runaway:
-                self.get_logger().error(runaway)
+                self.get_logger().error(self.pilot.runaway_warning())
             else:
                 self.get_logger().info('depth runaway over: the vehicle is coming back to its '
                                        'command, or the plane has left its stop')
-            self._runaway_reported = bool(runaway)
+            self._runaway_reported = runaway
             changed = True
         out = ActuatorSetpoint()
         out.header.stamp = stamp
