@@ -402,7 +402,8 @@ class DepthController:
         its fins 0.7 times as strong from 21.3 s to 35.1 s."""
         ref = self.reference.reference
         if self.learner is None or ref is None or abs(ref.z - z_cmd) <= \
-                self.governor.landing_distance or self.learner.implausible:
+                self.governor.landing_distance or self.learner.implausible \
+                or not self.learner.predicts_better:
             return None
         s_op, s_u = (op, u) if stop is None else stop
         latest = self.trimmed(self.design.at(s_u), latest=True)

@@ -477,7 +477,9 @@ class DepthPilot:
         """What the pilot has learned of its plant and what it can fly, as diagnostic
         key/values (``learned_*`` the estimate's parameters and standard deviations
         (:mod:`auv_depth_lqr.learning`), ``learned_model`` whether the learned model is flown
-        or why not, ``learning_noise`` the noise learned with, ``learned_plane_delay`` how
+        or why not, ``learned_evidence`` by how much (log-likelihood) its predictions beat
+        the vehicle file's (:attr:`~auv_depth_lqr.learning.PlantEstimator.evidence`),
+        ``learning_noise`` the noise learned with, ``learned_plane_delay`` how
         much later than its model the plane acts, ``climb_limit_*``,
         ``depth_change_limited``)."""
         out: dict[str, str] = {}
@@ -488,9 +490,16 @@ class DepthPilot:
             est = learner.estimate
             out['learning'] = f'{est.samples} samples'
             reason = learner.implausible
-            out['learned_model'] = 'flown' if learner.flying else \
-                ('the file\'s: nothing learned at rest or on a landing yet' if reason is None
-                 else f'the file\'s: the estimate is not physical ({reason})')
+            if learner.flying:
+                out['learned_model'] = 'flown'
+            elif reason is not None:
+                out['learned_model'] = f'the file\'s: the estimate is not physical ({reason})'
+            elif est.samples and not learner.predicts_better:
+                out['learned_model'] = ('the file\'s: the estimate predicts the samples no '
+                                        'better than the file')
+            else:
+                out['learned_model'] = 'the file\'s: nothing learned at rest or on a landing yet'
+            out['learned_evidence'] = f'{learner.evidence:+.1f}'
             noise = learner.noise
             out['learning_noise'] = f'{noise[0]:.3g} N, {noise[1]:.3g} N m per sample'
             out['learned_plane_delay'] = f'{learner.plane_delay:.1f} s'
