@@ -512,7 +512,7 @@ def _noisy_pair(name: str, z0: float, z1: float, seed: int) -> dict[str, object]
                                 settings=PilotSettings(learn=False), sensor_noise=noise,
                                 seed=seed)
         _noisy_cache[key] = {'z': run.record.x[:, 2], 'z_plain': plain.record.x[:, 2],
-                             'learner': learner, 'trim_thrust':
+                             'learner': learner, 'pilot': pilot, 'trim_thrust':
                              VerticalPlane(params).trim(1.5).thrust, **seen}
     return _noisy_cache[key]
 
@@ -539,13 +539,19 @@ def test_an_estimate_fitted_to_the_noise_is_not_flown(name: str, z0: float, z1: 
     flight, -13 to -63 at its end, against the 10 a flown estimate needs), so the learned
     model is never flown, and the pilot flies the same depths as without learning, to the
     last bit (before, learning made the REMUS 100's 10 -> 20 m take up to 62.3 s against
-    54.9 s, the A18M's 20 -> 10 m 53.1 s against 42.9 s)."""
+    54.9 s, the A18M's 20 -> 10 m 53.1 s against 42.9 s); ``/diagnostics`` says why."""
     pair = _noisy_pair(name, z0, z1, seed)
     learner = pair['learner']
     assert isinstance(learner, PlantEstimator)
     assert float(pair['evidence']) < learner.settings.evidence  # type: ignore[arg-type]
     assert not learner.flying
     assert np.array_equal(pair['z'], pair['z_plain'])  # type: ignore[arg-type]
+    pilot = pair['pilot']
+    assert isinstance(pilot, DepthPilot)
+    diagnostics = pilot.learning_diagnostics()
+    assert diagnostics['learned_model'].startswith(
+        "the file's: the estimate predicts the samples no better"), diagnostics
+    assert float(diagnostics['learned_evidence']) == pytest.approx(learner.evidence, abs=0.05)
 
 
 @pytest.mark.parametrize('seed', [0, 1, 2])
