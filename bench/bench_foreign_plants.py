@@ -18,7 +18,10 @@ cold start, the first against the tenth (the first as good as the tenth). Then `
 the vehicle files themselves (with and without learning) with the thrust held at the trim value
 (no speed loop), with 1 % more buoyancy than weight and with 30 % less fin lift, peak pitch
 over the limit (goal <= 1 deg). Every flight also gives the times at which the pilot began
-to report a depth runaway (``runaway_reported_s``, :mod:`auv_depth_lqr.runaway`).
+to report a depth runaway (``runaway_reported_s``, :mod:`auv_depth_lqr.runaway`). Then
+``noisy``: the plants' changes again with the pilot reading the realistic sensor noise
+(``SensorNoise.realistic``: 2 cm, 0.1 deg, 1 cm/s, 0.1 deg/s; seeds 0 and 1), with learning
+and without, settling over the bound.
 
 Run: ``python bench/bench_foreign_plants.py`` writes ``bench/results/foreign_plants.json``
 (20-40 min on a loaded machine of 2 cores); ``--quick`` flies the REMUS 100 only.
@@ -41,6 +44,7 @@ from auv_depth_lqr.closed_loop import foreign_plant, model_error_plant, run_clos
 from auv_depth_lqr.errors import DesignError
 from auv_depth_lqr.metrics import step_metrics
 from auv_depth_lqr.pilot import DepthPilot, PilotSettings
+from auv_logs.simlog import SensorNoise
 from auv_sim.params import VehicleParams, load_vehicle
 
 CONFIG = pathlib.Path(__file__).resolve().parents[1] / 'config'
@@ -52,6 +56,7 @@ RATIO_GOAL = 1.3
 PITCH_MARGIN_DEG = 1.0
 SEQUENCE = (20.0, 10.0)                                  # m, alternated
 SEQUENCE_LEG = 90.0                                      # s per change
+NOISE_SEEDS = (0, 1)
 
 
 def _metrics(run: Any, z1: float, t0: float = 0.0, t1: float = math.inf) -> dict[str, float]:
@@ -87,13 +92,17 @@ def listen_for_runaway(pilot: DepthPilot) -> list[float]:
 
 
 def fly(design: VehicleParams, plant: VehicleParams, z0: float, z1: float, learn: bool,
-        duration: float = 200.0, environment: Any = None) -> tuple[dict[str, Any], DepthPilot]:
+        duration: float = 200.0, environment: Any = None, seed: int | None = None
+        ) -> tuple[dict[str, Any], DepthPilot]:
     """One cold-start change on ``plant`` by the pilot of ``design``, thrust held; with the
-    times a depth runaway was reported (``runaway_reported_s``)."""
+    times a depth runaway was reported (``runaway_reported_s``). With ``seed``, the pilot
+    reads the realistic sensor noise (``SensorNoise.realistic``) drawn from it."""
     pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=learn))
     runaway = listen_for_runaway(pilot)
+    noise = None if seed is None else SensorNoise.realistic().sigmas()
     run = run_closed_loop(plant, [(0.0, z1)], duration, z0=z0, u0=U0,
-                          environment=environment, pilot=pilot)
+                          environment=environment, pilot=pilot, sensor_noise=noise,
+                          seed=0 if seed is None else seed)
     return {**_metrics(run, z1), 'runaway_reported_s': runaway}, pilot
 
 
@@ -158,6 +167,31 @@ def sequence(vehicles: tuple[str, ...]) -> dict[str, Any]:
     return out
 
 
+def noisy(vehicles: tuple[str, ...], rows: dict[str, Any]) -> dict[str, Any]:
+    """The plants and changes of :func:`plants` read through the realistic sensor noise
+    (seeds :data:`NOISE_SEEDS`), with learning and without: settling over the plant's
+    bound (from ``rows``, the plants' figures), ``null`` where it never settles."""
+    out: dict[str, Any] = {}
+    for name in vehicles:
+        design = load_vehicle(CONFIG / f'{name}.yaml')
+        plant = foreign_plant(design, U0)
+        for z0, z1 in CHANGES:
+            key = f'{z0:g}->{z1:g}m'
+            bound = rows[name][key]['time_optimal_bound_s']
+            case: dict[str, Any] = {}
+            for label, learn in (('learning', True), ('without_learning', False)):
+                ratios = []
+                for seed in NOISE_SEEDS:
+                    figures, _ = fly(design, plant, z0, z1, learn, seed=seed)
+                    settle = figures['settling_time_s']
+                    ratios.append(None if settle is None or bound is None
+                                  else round(settle / bound, 3))
+                case[label] = ratios
+            out[f'{name} {key}'] = case
+            print(name, key, 'noisy', json.dumps(case), flush=True)
+    return out
+
+
 def held_thrust(vehicles: tuple[str, ...]) -> dict[str, Any]:
     """The vehicle files themselves, thrust held: peak pitch over the limit."""
     out: dict[str, Any] = {}
@@ -187,6 +221,7 @@ def main() -> None:
     load = os.getloadavg()[0]
     figures: dict[str, Any] = {'plants': plants(vehicles), 'sequence': sequence(vehicles),
                                'held_thrust': held_thrust(vehicles)}
+    figures['noisy'] = noisy(vehicles, figures['plants'])
     ratios = [case[label]['settling_over_bound']
               for rows in figures['plants'].values()
               for key, case in rows.items() if key != 'plant'
