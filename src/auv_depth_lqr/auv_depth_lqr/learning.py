@@ -96,7 +96,7 @@ from __future__ import annotations
 
 import collections
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -116,6 +116,8 @@ PARAMETERS = ('buoyancy', 'plane_force', 'hull_lift', 'moment', 'plane_moment', 
 N_PARAMS = len(PARAMETERS)
 _H = 1e-30
 """Complex step [-]."""
+OPTIMISM = 1.0
+"""Standard deviations by which :meth:`PlantEstimator.optimistic` moves a figure [-]."""
 THRUST_KNOWN = 1.0 - math.exp(-1.0)
 """Weight the thrust's mean must have gathered before it is known (``thrust_time`` of
 samples) [-]: one sample's surge force is the difference of two noisy speeds over a sample
@@ -271,6 +273,8 @@ class _Filter:
     accelerations need beyond the model's [N] (:attr:`PlantEstimator.thrust`)."""
     thrust_weight: float = 0.0
     """Its weights' sum [-] (0: not known)."""
+    thrust_square: float = 0.0
+    """The same weighted sum of the squared surge force [N^2] (its scatter)."""
     residual: Matrix | None = None
     scatter: Matrix = field(default_factory=lambda: np.zeros(2))
     scatter_weight: float = 0.0
@@ -358,6 +362,10 @@ class PlantEstimator:
                          for k in range(max(delays, 0) + 1)]
         self._h = self._filters[0]
         """The filter giving the estimate."""
+        self._shift: Matrix = np.zeros(N_PARAMS)
+        """A move of the latest estimate while :meth:`optimistic` evaluates a figure."""
+        self._thrust_shift = 0.0
+        """A move of the thrust [N] while :meth:`optimistic` evaluates a figure."""
         self._file_y: Matrix = np.zeros(2)
         """The file's error predicting the sample being learned [N, N m]."""
         self.forget_plane()
@@ -509,7 +517,22 @@ class PlantEstimator:
         learned heave offset ``p1 W``, its share along the axis: a buoyancy slows a dive);
         None before it is known."""
         h = self._h
-        return h.thrust_sum / h.thrust_weight if h.thrust_weight >= THRUST_KNOWN else None
+        if h.thrust_weight < THRUST_KNOWN:
+            return None
+        return h.thrust_sum / h.thrust_weight + self._thrust_shift
+
+    @property
+    def thrust_sigma(self) -> float:
+        """Standard deviation of :attr:`thrust` [N] (nan while it is not known): the scatter
+        of the samples' surge force about their mean, over the weighted mean's effective
+        number of samples ``(1 + d) / (1 - d)``, ``d = exp(-Ts / thrust_time)``."""
+        h = self._h
+        if h.thrust_weight < THRUST_KNOWN:
+            return math.nan
+        mean = h.thrust_sum / h.thrust_weight
+        spread = max(h.thrust_square / h.thrust_weight - mean ** 2, 0.0)
+        decay = math.exp(-self.ts / self.settings.thrust_time)
+        return math.sqrt(spread * (1.0 - decay) / (1.0 + decay))
 
     def force(self, u: float, w: float, theta: float, bar: float
               ) -> tuple[float, float, float]:
@@ -640,6 +663,7 @@ class PlantEstimator:
             x_m -= h.p[0] * self.weight * math.sin(theta)
         decay = math.exp(-self.ts / self.settings.thrust_time)
         h.thrust_sum = decay * h.thrust_sum + (1.0 - decay) * (surge - x_m)
+        h.thrust_square = decay * h.thrust_square + (1.0 - decay) * (surge - x_m) ** 2
         h.thrust_weight = decay * h.thrust_weight + (1.0 - decay)
         y = felt - np.array([z_m, m_m])
         if not self._moment_prior_set:
@@ -726,7 +750,46 @@ class PlantEstimator:
     def _latest(self) -> Matrix:
         """The latest estimate where it predicts better than the file, else zeros (the
         file's model)."""
-        return self._h.p if self.predicts_better else np.zeros(N_PARAMS)
+        return self._h.p + self._shift if self.predicts_better else np.zeros(N_PARAMS)
+
+    def optimistic(self, value: Callable[[], float], parameters: bool = True,
+                   deviations: float = OPTIMISM) -> float:
+        """``value()``, a figure of the latest estimate's model (a stop's braking, a glide
+        cap), plus ``deviations`` of its standard deviation over what the estimate does not
+        know, linearised: ``value`` is taken again with the :attr:`thrust` and, with
+        ``parameters``, each parameter moved by its standard deviation; over those moves'
+        slopes ``g`` its variance is ``g^T C g``, ``C`` the covariance of the parameters and
+        the thrust (:attr:`thrust_sigma`, independent of them). ``inf`` if any value is;
+        ``value()`` itself while the file is flown (:attr:`predicts_better`)."""
+        base = value()
+        if not self.predicts_better or not math.isfinite(base):
+            return base
+        # the parameters' covariance and the thrust's variance (independent of them)
+        thrust_sigma = self.thrust_sigma
+        cov = np.zeros((N_PARAMS + 1, N_PARAMS + 1))
+        if parameters:
+            cov[:N_PARAMS, :N_PARAMS] = self._h.cov
+        cov[N_PARAMS, N_PARAMS] = thrust_sigma ** 2 if math.isfinite(thrust_sigma) else 0.0
+        sigma = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        slope = np.zeros(N_PARAMS + 1)
+        try:
+            for i in range(N_PARAMS + 1):
+                if sigma[i] <= 0.0:
+                    continue
+                self._shift = np.zeros(N_PARAMS)
+                self._thrust_shift = 0.0
+                if i < N_PARAMS:
+                    self._shift[i] = sigma[i]
+                else:
+                    self._thrust_shift = float(sigma[i])
+                moved = value()
+                if not math.isfinite(moved):
+                    return math.inf
+                slope[i] = (moved - base) / sigma[i]
+        finally:
+            self._shift = np.zeros(N_PARAMS)
+            self._thrust_shift = 0.0
+        return base + deviations * math.sqrt(max(float(slope @ cov @ slope), 0.0))
 
     @property
     def flying(self) -> bool:
