@@ -24,7 +24,8 @@ to report a depth runaway (``runaway_reported_s``, :mod:`auv_depth_lqr.runaway`)
 and without, settling over the bound.
 
 Run: ``python bench/bench_foreign_plants.py`` writes ``bench/results/foreign_plants.json``
-(20-40 min on a loaded machine of 2 cores); ``--quick`` flies the REMUS 100 only.
+(3.5-5.5 min on a machine of 2 cores, longer when it is loaded); ``--quick`` flies the
+REMUS 100 only.
 """
 from __future__ import annotations
 
