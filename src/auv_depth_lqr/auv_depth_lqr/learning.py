@@ -702,6 +702,9 @@ class PlantEstimator:
             self.regressors(u, instrument[0], instrument[1], plane_before, z_bar, m_bar, theta)
         gain = np.linalg.solve((H @ cov @ Z.T + R).T, Z @ cov).T
         h.p = h.p + gain @ innovation
+        # the recursive-IV update of the covariance: not symmetric, so symmetrised; it
+        # stands for the estimate's uncertainty (sigma, the filters' likelihoods,
+        # `optimistic`) and understates the IV estimate's error somewhat
         cov = cov - gain @ H @ cov
         h.cov = 0.5 * (cov + cov.T)
         h.samples += 1
