@@ -617,16 +617,9 @@ def test_an_optimistic_figure_is_its_value_plus_one_deviation_over_the_estimate(
         thrust + est.thrust_sigma, rel=1e-9)
 
 
-@pytest.mark.parametrize(('name', 'z0', 'z1'), [('npsauv2', 5.0, 40.0)])
-def test_a_noisy_thrust_does_not_hold_back_a_foreign_plants_dive(name: str, z0: float,
-                                                                 z1: float) -> None:
-    """The NPS AUV II's foreign plant (``closed_loop.foreign_plant``) read through the
-    realistic sensor noise (seed 0), learning. A held-thrust dive cap solved on the mean of
-    a thrust averaged from noisy surge accelerations (-54 to 175 N about the plant's
-    125 N) stopped the reference several times within the dive, which did not settle in
-    200 s. Taken one deviation of the thrust's uncertainty higher, it settles within 1.1
-    times the pilot's time without learning on the same noise (measured: 139.0 s against
-    138.4 s)."""
+def _noisy_settling(name: str, z0: float, z1: float) -> tuple[float, float]:
+    """Settling times [s] of a change on the foreign plant of ``name``'s file read through
+    the realistic sensor noise (seed 0), by the pilot learning and by the pilot without."""
     design = load_vehicle(ROOT / 'config' / f'{name}.yaml')
     plant = foreign_plant(design, 1.5)
     noise = SensorNoise.realistic().sigmas()
@@ -638,5 +631,30 @@ def test_a_noisy_thrust_does_not_hold_back_a_foreign_plants_dive(name: str, z0: 
         r = run.record
         times.append(step_metrics(r.t, r.x[:, 2], r.x[:, 4], r.x[:, 10], r.cmd[:, 0], z1,
                                   u0=1.5, theta_max=math.radians(25.0)).settling_time)
-    learned, plain = times
-    assert math.isfinite(learned) and learned < 1.1 * plain, times
+    return times[0], times[1]
+
+
+def test_a_noisy_thrust_does_not_hold_back_a_foreign_plants_dive() -> None:
+    """The NPS AUV II's foreign plant (``closed_loop.foreign_plant``) read through the
+    realistic sensor noise (seed 0), learning, 5 -> 40 m. A held-thrust dive cap solved on
+    the mean of a thrust averaged from noisy surge accelerations (-54 to 175 N about the
+    plant's 125 N) stopped the reference several times within the dive, which did not
+    settle in 200 s. Taken one deviation of the thrust's uncertainty higher, it settles
+    within 1.1 times the pilot's time without learning on the same noise (measured: 139.0 s
+    against 138.4 s)."""
+    learned, plain = _noisy_settling('npsauv2', 5.0, 40.0)
+    assert math.isfinite(learned) and learned < 1.1 * plain, (learned, plain)
+
+
+@pytest.mark.parametrize(('name', 'z0', 'z1'), [('a18m', 10.0, 30.0), ('npsauv2', 10.0, 30.0)])
+def test_a_hold_on_noisy_sensors_flies_the_mean_of_its_estimates(name: str, z0: float,
+                                                                 z1: float) -> None:
+    """The foreign plants of the A18M and the NPS AUV II read through the realistic sensor
+    noise (seed 0), learning, 10 -> 30 m. Flying at rest each sample's estimate, whose trim
+    moved by up to 1 deg of pitch from one second to the next, and then the last one, the
+    holds drifted out of the band: settled in 159.6 s and 149.7 s against 104.7 s and
+    86.0 s without learning. On the mean of the estimates since the reference came to rest
+    (``PlantEstimator.fly_latest``) they settle within 1.1 times the pilot's time without
+    learning (measured: 96.7 s and 86.7 s)."""
+    learned, plain = _noisy_settling(name, z0, z1)
+    assert math.isfinite(learned) and learned < 1.1 * plain, (learned, plain)

@@ -199,6 +199,8 @@ class DepthController:
             rate-limited from it; if omitted, the first command is only angle-limited.
         """
         self._xi = 0.0
+        self._taking = False
+        """Whether the last sample took the learner's estimates with the reference at rest."""
         self._disturbance = np.zeros(2)
         self._observed: tuple[float, float, float] | None = None
         self._quiet = math.inf
@@ -462,12 +464,16 @@ class DepthController:
         nominal = self.design.at(u)
         self._observe(nominal, w, q, theta, u)
         ref = self.reference.reference
+        taking = False
         if self.learner is not None and (
                 ref is None or abs(ref.z - z_cmd) <= settings.landing_distance
                 or (self.learner.flying and self.learner.implausible)):
-            # at rest or on the landing (the stop is flown): the latest estimate from now on;
-            # at any time, the file's model once the estimate is past what physics allows
-            self.learner.fly_latest()
+            # at rest or on the landing (the stop is flown): the latest estimate, at rest the
+            # mean of the estimates since the reference came to rest; at any time, the
+            # file's model once the estimate is past what physics allows
+            taking = ref is not None and ref.v == 0.0 and ref.z == z_cmd
+            self.learner.fly_latest(begin=not (taking and self._taking))
+        self._taking = taking
         op = self.trimmed(nominal)
 
         self.reference.start(z)
