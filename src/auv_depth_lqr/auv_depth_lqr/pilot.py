@@ -181,8 +181,9 @@ class PilotSettings:
     derived from the vehicle by :meth:`DepthPilot.for_vehicle`; a pilot built directly takes
     :data:`AUTHORITY_WINDOW`). ``learn``: estimate what the vehicle file gets wrong while
     flying (:mod:`auv_depth_lqr.learning`) and, once the reference has come within
-    ``landing_distance`` of a command (its stop flown), fly the learned model
-    (``docs/pilot-design.md``); off (the default), the vehicle file's model with its
+    ``landing_distance`` of a command (its stop flown), fly the learned model: on the
+    landing the latest estimate, at rest the mean of the estimates since the reference came
+    to rest (``docs/pilot-design.md``); off (the default), the vehicle file's model with its
     disturbance estimate throughout. ``pitch_envelope``: the pitch envelope
     selector (:mod:`auv_depth_lqr.envelope`) keeps the BAR within the commands of a
     pitch-hold law towards the pitch limits (default); off, only the pitch guard of the depth
