@@ -358,6 +358,48 @@ def test_an_estimate_past_what_physics_allows_is_not_flown(remus: VehicleParams)
     assert est.flying
 
 
+def test_at_rest_the_model_flown_is_the_mean_of_the_estimates(remus: VehicleParams) -> None:
+    """``fly_latest(begin=False)`` flies the mean of the estimates after each sample learned
+    since the last ``begin``. Oracle: the learned model's pitch acceleration per radian of
+    plane (``correct(op).P[1, 3]``) is linear in the parameters, so the flown model's is
+    the mean of the latest estimates'."""
+    est = PlantEstimator(remus, 0.1)
+    op = DepthPilot.for_vehicle(remus).controller.design.at(1.5)
+    values = [0.0] * len(PARAMETERS)
+    values[4] = -0.3
+    est.assume(values)
+
+    def learn(k: int) -> None:
+        wobble = 0.01 * math.sin(0.7 * k)
+        est.update((wobble, 0.1 * wobble, 0.0), (-wobble, 0.0, 0.01 * wobble), 1.5,
+                   math.radians(2.0) * math.cos(0.4 * k))
+
+    def column(latest: bool = False) -> float:
+        return float(est.correct(op, latest=latest).P[1, 3])  # [rad/s^2 per rad]
+
+    k = 0
+    while est.estimate.samples == 0:  # past the plane's settling after the start
+        learn(k)
+        k += 1
+    est.fly_latest()  # the first sample at rest (or a landing's)
+    assert est.flying and est.flown_estimates == 1
+    assert column() == pytest.approx(column(latest=True), rel=1e-12)
+    columns = [column(latest=True)]
+    learned = est.estimate.samples
+    for j in range(k, k + 40):
+        learn(j)
+        if est.estimate.samples != learned:
+            learned = est.estimate.samples
+            columns.append(column(latest=True))
+        est.fly_latest(begin=False)
+    assert len(columns) > 20 and est.flown_estimates == len(columns)
+    assert max(columns) - min(columns) > 0.01 * abs(columns[0])  # the estimates moved
+    assert column() == pytest.approx(float(np.mean(columns)), rel=1e-9)
+    est.fly_latest(begin=True)  # a landing: the latest again
+    assert est.flown_estimates == 1
+    assert column() == pytest.approx(columns[-1], rel=1e-12)
+
+
 def test_a_plane_delay_learned_as_a_weak_hull_is_not_flown() -> None:
     """An A18M whose plane answers 0.18 s late through a 0.33 s lag, with its hull lift
     0.8 times the file's (a plant of the Monte Carlo family of ``bench/bench_robustness.py``,

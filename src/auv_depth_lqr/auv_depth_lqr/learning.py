@@ -726,6 +726,12 @@ class PlantEstimator:
         return base + deviations * math.sqrt(max(float(slope @ cov @ slope), 0.0))
 
     @property
+    def flown_estimates(self) -> int:
+        """How many estimates the model flown is the mean of (:meth:`fly_latest`; 1: one
+        estimate; 0: the file's model)."""
+        return 0 if self._mean is None or not self._flying else self._mean[3]
+
+    @property
     def flying(self) -> bool:
         """Whether a learned model is flown: one was taken by :meth:`fly_latest` (the
         controller takes it at rest and on a stop's landing) after at least one sample was

@@ -476,13 +476,13 @@ class DepthPilot:
 
     def learning_diagnostics(self) -> dict[str, str]:
         """What the pilot has learned of its plant and what it can fly, as diagnostic
-        key/values (``learned_*`` the estimate's parameters and standard deviations
+        key/values (``learned_*`` the latest estimate's parameters and standard deviations
         (:mod:`auv_depth_lqr.learning`), ``learned_model`` whether the learned model is flown
-        or why not, ``learned_evidence`` by how much (log-likelihood) its predictions beat
-        the vehicle file's (:attr:`~auv_depth_lqr.learning.PlantEstimator.evidence`),
-        ``learning_noise`` the noise learned with, ``learned_plane_delay`` how
-        much later than its model the plane acts, ``climb_limit_*``,
-        ``depth_change_limited``)."""
+        (at rest, the mean of how many estimates) or why not, ``learned_evidence`` by how
+        much (log-likelihood) its predictions beat the vehicle file's
+        (:attr:`~auv_depth_lqr.learning.PlantEstimator.evidence`), ``learning_noise`` the
+        noise learned with, ``learned_plane_delay`` how much later than its model the plane
+        acts, ``climb_limit_*``, ``depth_change_limited``)."""
         out: dict[str, str] = {}
         learner = self.controller.learner
         if learner is None:
@@ -492,7 +492,9 @@ class DepthPilot:
             out['learning'] = f'{est.samples} samples'
             reason = learner.implausible
             if learner.flying:
-                out['learned_model'] = 'flown'
+                count = learner.flown_estimates
+                out['learned_model'] = 'flown' if count <= 1 else \
+                    f'flown: the mean of {count} estimates since the reference came to rest'
             elif reason is not None:
                 out['learned_model'] = f'the file\'s: the estimate is not physical ({reason})'
             elif est.samples and not learner.predicts_better:
