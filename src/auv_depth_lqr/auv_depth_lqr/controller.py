@@ -378,7 +378,7 @@ class DepthController:
             return learner.glide_cap(travel, settings.margin * lim.theta_max,
                                      settings.glide_bar_share * lim.bar_max, u)
 
-        return learner.optimistic(cap, parameters=False)
+        return learner.optimistic(cap)
 
     def _glide_cap(self, z_cmd: float, z: float, u: float) -> float:
         """:meth:`held_thrust_cap` towards ``z_cmd`` [m] from the governed reference (``z``
@@ -411,14 +411,10 @@ class DepthController:
         file's braking that the plant does not have overshoots (the NPS AUV II's foreign
         plant of :func:`auv_depth_lqr.closed_loop.foreign_plant`, first 20 -> 10 m: 0.80 m,
         43.8 s; on the weaker of the two, 0.37 m, 40.3 s), while a latest estimate that
-        brakes more (a climb's offset read as trim) leaves the stop where it was. (Taken
-        only where it brakes less even one standard deviation of its uncertainty towards
-        more braking, the A18M's foreign plant read through the realistic sensor noise dived
-        10 -> 30 m in 96.6 s instead of 159.6 s (104.7 s without learning), but the uniform
-        Monte Carlo family with learning fell from 89.7 % to 88.3 % within twice the bound
-        and the A18M with a plane moment 0.7 times the file's from 1.12x to 1.29x: not
-        kept.) Only the stop: capping the climb by an estimate a few samples old slowed the
-        REMUS 100 with its fins 0.7 times as strong from 21.3 s to 35.1 s."""
+        brakes more (a climb's offset read as trim) leaves the stop where it was. Only the
+        stop: capping the climb by an estimate a few samples old slowed the REMUS 100 with
+        its fins 0.7 times as strong from 21.3 s to 35.1 s (what else was tried:
+        docs/pilot-design.md, "What does not work")."""
         ref = self.reference.reference
         if self.learner is None or ref is None or abs(ref.z - z_cmd) <= \
                 self.governor.landing_distance or self.learner.implausible \

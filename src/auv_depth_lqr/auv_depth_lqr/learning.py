@@ -264,10 +264,8 @@ class PlantEstimator:
                          for k in range(max(delays, 0) + 1)]
         self._h = self._filters[0]
         """The filter giving the estimate."""
-        self._shift: Matrix = np.zeros(N_PARAMS)
-        """A move of the latest estimate while :meth:`optimistic` evaluates a figure."""
         self._thrust_shift = 0.0
-        """A move of the thrust [N] while :meth:`optimistic` evaluates a figure."""
+        """A move of the thrust [N] while :meth:`optimistic` evaluates a figure at it."""
         self._file_y: Matrix = np.zeros(2)
         """The file's error predicting the sample being learned [N, N m]."""
         self.forget_plane()
@@ -681,47 +679,27 @@ class PlantEstimator:
     def _latest(self) -> Matrix:
         """The latest estimate where it predicts better than the file, else zeros (the
         file's model)."""
-        return self._h.p + self._shift if self.predicts_better else np.zeros(N_PARAMS)
+        return self._h.p.copy() if self.predicts_better else np.zeros(N_PARAMS)
 
-    def optimistic(self, value: Callable[[], float], parameters: bool = True,
-                   deviations: float = OPTIMISM) -> float:
-        """``value()``, a figure of the latest estimate's model (a stop's braking, a glide
-        cap), plus ``deviations`` of its standard deviation over what the estimate does not
-        know, linearised: ``value`` is taken again with the :attr:`thrust` and, with
-        ``parameters`` and while the estimate is the one flown (:attr:`predicts_better`),
-        each parameter moved by its standard deviation; over those moves' slopes ``g`` its
-        variance is ``g^T C g``, ``C`` the covariance of the parameters and the thrust
-        (:attr:`thrust_sigma`, independent of them). ``inf`` if any value is."""
+    def optimistic(self, value: Callable[[], float], deviations: float = OPTIMISM) -> float:
+        """``value()``, a figure of the :attr:`thrust` (a held-thrust glide cap), plus
+        ``deviations`` of its standard deviation over the thrust's uncertainty
+        (:attr:`thrust_sigma`), linearised: ``value`` is taken again with the thrust one
+        deviation higher, and the figure moves by ``deviations`` times the change, whichever
+        its sign (towards the faster motion). ``value()`` itself while the thrust is not
+        known; ``inf`` if either value is."""
         base = value()
-        if not math.isfinite(base):
+        sigma = self.thrust_sigma
+        if not math.isfinite(base) or not (math.isfinite(sigma) and sigma > 0.0):
             return base
-        parameters = parameters and self.predicts_better
-        # the parameters' covariance and the thrust's variance (independent of them)
-        thrust_sigma = self.thrust_sigma
-        cov = np.zeros((N_PARAMS + 1, N_PARAMS + 1))
-        if parameters:
-            cov[:N_PARAMS, :N_PARAMS] = self._h.cov
-        cov[N_PARAMS, N_PARAMS] = thrust_sigma ** 2 if math.isfinite(thrust_sigma) else 0.0
-        sigma = np.sqrt(np.maximum(np.diag(cov), 0.0))
-        slope = np.zeros(N_PARAMS + 1)
+        self._thrust_shift = sigma
         try:
-            for i in range(N_PARAMS + 1):
-                if sigma[i] <= 0.0:
-                    continue
-                self._shift = np.zeros(N_PARAMS)
-                self._thrust_shift = 0.0
-                if i < N_PARAMS:
-                    self._shift[i] = sigma[i]
-                else:
-                    self._thrust_shift = float(sigma[i])
-                moved = value()
-                if not math.isfinite(moved):
-                    return math.inf
-                slope[i] = (moved - base) / sigma[i]
+            moved = value()
         finally:
-            self._shift = np.zeros(N_PARAMS)
             self._thrust_shift = 0.0
-        return base + deviations * math.sqrt(max(float(slope @ cov @ slope), 0.0))
+        if not math.isfinite(moved):
+            return math.inf
+        return base + deviations * abs(moved - base)
 
     @property
     def flown_estimates(self) -> int:
