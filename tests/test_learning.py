@@ -684,3 +684,36 @@ def test_a_hold_on_noisy_sensors_flies_the_mean_of_its_estimates(name: str, z0: 
     learning (measured: 96.7 s and 86.7 s)."""
     learned, plain = _noisy_settling(name, z0, z1)
     assert math.isfinite(learned) and learned < 1.1 * plain, (learned, plain)
+
+
+def test_a_stop_is_not_cut_by_a_dive_cap_its_own_swing_has_moved() -> None:
+    """The NPS AUV II's foreign plant, first 10 -> 30 m with learning, clean sensors. The
+    stop's swing of the plane moves the latest estimate (the plane weaker), and the
+    held-thrust dive cap solved on it every ``glide_period`` fell to 0 m/s at 70 s: the
+    braking reference's speed was cut from 0.46 m/s to 0 at once and turned back, 0.3 m up
+    from the target; the vehicle pulled up at full plane, stopped 0.7 m short and crept in
+    (93.1 s, against 81.6 s without learning). Once the stop has begun
+    (``ReferenceGovernor.stopping``) the cap no longer cuts it: the reference never moves
+    away from the target, and the change settles within 1.05 times the pilot's time without
+    learning (measured: 81.6 s both)."""
+    design = load_vehicle(ROOT / 'config' / 'npsauv2.yaml')
+    plant = foreign_plant(design, 1.5)
+    times, speeds = [], []
+    for learn in (True, False):
+        pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=learn))
+        ctl = pilot.controller
+        step = ctl.step
+
+        def spy(*args: object, step: object = step, ctl: object = ctl) -> object:
+            bar = step(*args)  # type: ignore[operator]
+            speeds.append(ctl.governed_reference[1])  # type: ignore[attr-defined]
+            return bar
+
+        ctl.step = spy  # type: ignore[method-assign]
+        run = run_closed_loop(plant, [(0.0, 30.0)], 120.0, z0=10.0, u0=1.5, pilot=pilot)
+        r = run.record
+        times.append(step_metrics(r.t, r.x[:, 2], r.x[:, 4], r.x[:, 10], r.cmd[:, 0], 30.0,
+                                  u0=1.5, theta_max=math.radians(25.0)).settling_time)
+    assert min(speeds) > -1e-6, min(speeds)  # down towards the deeper target, or at rest
+    learned, plain = times
+    assert math.isfinite(learned) and learned < 1.05 * plain, (learned, plain)

@@ -392,9 +392,15 @@ class DepthController:
         last = self._glide
         if last is not None and last[0] == z_cmd and last[1] == travel and last[2] > 0.0:
             self._glide = (z_cmd, travel, last[2] - self.Ts, last[3])
-            return last[3]
-        cap = self.held_thrust_cap(travel, u)
-        self._glide = (z_cmd, travel, self.governor.glide_period - self.Ts, cap)
+            cap = last[3]
+        else:
+            cap = self.held_thrust_cap(travel, u)
+            self._glide = (z_cmd, travel, self.governor.glide_period - self.Ts, cap)
+        if ref is not None and self.reference.stopping:
+            # the cap bounds the climb or dive, not the stop: a cap solved on an estimate
+            # that the stop's own swing of the plane has just moved would cut the braking
+            # reference's speed at once and turn it back from the target
+            cap = max(cap, abs(ref.v))
         return cap
 
     def weaker_brake(self, op: OperatingPoint, u: float,

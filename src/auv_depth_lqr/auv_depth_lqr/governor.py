@@ -265,6 +265,14 @@ class ReferenceGovernor:
         v, a, j)``, while the present change is a short one (``short_swings``)."""
         self._switch_hint = [0]
         self._s_root: float | None = None
+        self._stopping = False
+
+    @property
+    def stopping(self) -> bool:
+        """Whether the stop for the present command has begun: a sample of :meth:`advance`
+        since the command was given braked for the target (the snap whose stop ends on the
+        target, or the landing's exponential), and the reference has not come to rest."""
+        return self._stopping
 
     @property
     def reference(self) -> Reference | None:
@@ -442,10 +450,12 @@ class ReferenceGovernor:
             # sample): a landing that changed with every wobble of the measured speed would
             # re-plan itself. Whether the change is a short one is decided there too.
             self._landing = (z_cmd, settings.approach_length / max(u, 0.1))
+            self._stopping = False
             short = (settings.short_swings > 0.0 and V == 0.0 and A == 0.0 and J == 0.0
                      and self.short_length(self.speedup_jerk(op)) >= E)
             self._short = self.short_filter() if short else None
         if E < 1e-3 and abs(V) < 1e-3 and abs(A) < 2e-3 and abs(J) < 2e-3:
+            self._stopping = False
             return Reference(z_cmd, 0.0, 0.0, 0.0, 0.0)
         if self._short is not None:
             tau = self.short_tau()
@@ -470,6 +480,7 @@ class ReferenceGovernor:
         landing, v_land = brake.landing, brake.v_land
         if 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E:
             # Final approach: the exponential e(t) = E exp(-t / landing).
+            self._stopping = True
             e1 = E * math.exp(-ts / landing)
             v1 = e1 / landing
             return Reference(z_cmd - travel * e1, travel * v1, -travel * v1 / landing,
@@ -531,6 +542,7 @@ class ReferenceGovernor:
 
         f_hi = overshoot(s)
         if f_hi > 0.0:
+            self._stopping = True
             lo, hi = s_lo, s
             f_lo = overshoot(lo)
             if f_lo >= 0.0 and s_floor < s_lo:

@@ -168,6 +168,28 @@ def test_reference_never_overshoots_and_respects_the_climb_bound(
     assert np.all(ref[:, 2] >= lo - 1e-9) and np.all(ref[:, 2] <= hi + 1e-9)
 
 
+def test_the_stop_is_known_from_its_first_braking_sample_to_rest(schedule: GainSchedule
+                                                                  ) -> None:
+    """40 -> 10 m at 2 m/s on a vehicle that follows the reference exactly:
+    ``ReferenceGovernor.stopping`` is false through the speed-up and the climb, true from
+    the stop's first sample on (the speed only falls from there) until the reference is at
+    rest on the command, and false again then and after a new command."""
+    ctrl = DepthController(schedule, Limits(), TS, IDEAL)
+    z, flags, speeds = 40.0, [], []
+    for _ in range(1500):
+        ctrl.step(PlaneState(z=z, theta=0.0, w=0.0, q=0.0, u=2.0), 10.0)
+        flags.append(ctrl.reference.stopping)
+        z, v = ctrl.governed_reference  # type: ignore[misc]
+        speeds.append(v)
+    first, rest = flags.index(True), speeds.index(0.0, 1)
+    assert z == 10.0 and not flags[-1]
+    assert not any(flags[:first]) and all(flags[first:rest])
+    assert abs(speeds[first - 1]) > 0.9 * max(abs(v) for v in speeds)  # from the climb
+    assert all(abs(b) <= abs(a) + 1e-12 for a, b in itertools.pairwise(speeds[first:]))
+    ctrl.step(PlaneState(z=z, theta=0.0, w=0.0, q=0.0, u=2.0), 20.0)
+    assert not ctrl.reference.stopping
+
+
 def test_reference_feedforward_stays_within_the_bar_budget(schedule: GainSchedule) -> None:
     governor, limits = IDEAL, Limits()
     ctrl = DepthController(schedule, limits, TS, governor)
