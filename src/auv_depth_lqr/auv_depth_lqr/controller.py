@@ -383,7 +383,8 @@ class DepthController:
     def _glide_cap(self, z_cmd: float, z: float, u: float) -> float:
         """:meth:`held_thrust_cap` towards ``z_cmd`` [m] from the governed reference (``z``
         [m] before it starts), solved on a new command and every ``glide_period`` seconds
-        (``inf`` at rest on the command)."""
+        (``inf`` at rest on the command); once the stop has begun
+        (:attr:`ReferenceGovernor.stopping`), at least the reference's speed [m/s]."""
         ref = self.reference.reference
         if self.learner is None or (ref is not None and ref.v == 0.0 and ref.z == z_cmd):
             self._glide = None
