@@ -13,8 +13,10 @@ parameters; goal <= 1.3; where it finds no plan, the bound is ``null`` and its
 :class:`~auv_depth_lqr.errors.DesignError` text is kept as ``bound_error``), peak pitch over
 the 25 deg limit (goal <= 1 deg), overshoot; side by side the same pilot with learning
 (``PilotSettings(learn=True)``) and without (the default).
-Then ``sequence``: with learning, ten alternating 20 <-> 10 m changes in one flight from the
-cold start, the first against the tenth (the first as good as the tenth). Then ``held_thrust``:
+Then ``sequence``: ten alternating 20 <-> 10 m changes in one flight from the cold start,
+the first against the tenth (the first as good as the tenth) and against the ninth (the
+last change the same way as the first), with learning and (under ``without_learning``)
+without. Then ``held_thrust``:
 the vehicle files themselves (with and without learning) with the thrust held at the trim value
 (no speed loop), with 1 % more buoyancy than weight and with 30 % less fin lift, peak pitch
 over the limit (goal <= 1 deg). Every flight also gives the times at which the pilot began
@@ -147,23 +149,35 @@ def plants(vehicles: tuple[str, ...]) -> dict[str, Any]:
     return out
 
 
+def _sequence(design: VehicleParams, plant: VehicleParams, learn: bool) -> dict[str, Any]:
+    """Ten alternating changes in one cold-start flight by the pilot learning or not: each
+    change's settling time [s] and peak pitch [deg], the first over the tenth, and the
+    first over the ninth (the last change the same way as the first)."""
+    pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=learn))
+    commands = [(k * SEQUENCE_LEG, SEQUENCE[(k + 1) % 2]) for k in range(10)]
+    run = run_closed_loop(plant, commands, 10 * SEQUENCE_LEG, z0=SEQUENCE[0], u0=U0,
+                          pilot=pilot)
+    legs = [_metrics(run, z, t, t + SEQUENCE_LEG) for t, z in commands]
+    times = [leg['settling_time_s'] for leg in legs]
+
+    def over(later: float | None) -> float | None:
+        return round(times[0] / later, 3) if times[0] is not None and later is not None \
+            else None
+
+    return {'settling_time_s': times,
+            'peak_pitch_deg': [leg['peak_pitch_deg'] for leg in legs],
+            'first_over_tenth': over(times[9]), 'first_over_ninth': over(times[8])}
+
+
 def sequence(vehicles: tuple[str, ...]) -> dict[str, Any]:
-    """Ten alternating changes in one cold-start flight: the first against the tenth."""
+    """Ten alternating changes in one cold-start flight: the first against the tenth, with
+    learning (the keys of :func:`_sequence`) and, under ``without_learning``, without."""
     out: dict[str, Any] = {}
     for name in vehicles:
         design = load_vehicle(CONFIG / f'{name}.yaml')
         plant = foreign_plant(design, U0)
-        pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=True))
-        commands = [(k * SEQUENCE_LEG, SEQUENCE[(k + 1) % 2]) for k in range(10)]
-        run = run_closed_loop(plant, commands, 10 * SEQUENCE_LEG, z0=SEQUENCE[0], u0=U0,
-                              pilot=pilot)
-        legs = [_metrics(run, z, t, t + SEQUENCE_LEG) for t, z in commands]
-        first, tenth = legs[0]['settling_time_s'], legs[-1]['settling_time_s']
-        out[name] = {'settling_time_s': [leg['settling_time_s'] for leg in legs],
-                     'peak_pitch_deg': [leg['peak_pitch_deg'] for leg in legs],
-                     'first_over_tenth': (round(first / tenth, 3)
-                                          if first is not None and tenth is not None
-                                          else None)}
+        out[name] = {**_sequence(design, plant, True),
+                     'without_learning': _sequence(design, plant, False)}
         print(name, 'sequence', json.dumps(out[name]), flush=True)
     return out
 

@@ -158,9 +158,9 @@ ROWS: list[tuple[str, str, str]] = [
      '{foreign_plants:worst_settling_over_bound_without_learning:.2f}; '
      '{foreign_plants:worst_over_limit_deg:.2f} deg', '<= 1.3; <= 1 deg'),
     ('the same plants with learning on (`learn: true`): worst settling over the bound; the A18M '
-     'plant\'s first of ten alternating 20 <-> 10 m changes over its tenth',
+     'plant\'s first climb 20 -> 10 m over its fifth (ten alternating changes)',
      '{foreign_plants:worst_settling_over_bound:.2f}; '
-     '{foreign_plants:sequence.a18m.first_over_tenth:.2f}', '<= 1.3; 1.0'),
+     '{foreign_plants:sequence.a18m.first_over_ninth:.2f}', '<= 1.3; 1.0'),
     ('the file\'s own REMUS 100 and A18M on realistic sensor noise (2 cm, 0.1 deg, 1 cm/s, 0.1 '
      'deg/s), 10 -> 20 and 20 -> 10 m, six seeds each: slowest settling and largest depth error '
      'over the last 30 s, learning off / on (nothing to learn)',
