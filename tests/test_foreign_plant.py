@@ -62,3 +62,34 @@ def test_cold_start_on_a_foreign_plant_through_the_graph(tmp_path: pathlib.Path,
     file_trim = pilot.controller.design.at(1.5).bar_e
     assert abs(own.bar - file_trim) > math.radians(8.0)
     assert abs(learned.bar_e - own.bar) < 0.25 * abs(own.bar - file_trim)
+
+
+def test_auv_launch_flies_the_pilot_of_another_file(tmp_path: pathlib.Path, ros_env) -> None:
+    """``auv launch --vehicle PLANT --pilot-vehicle FILE``: the simulator flies the plant
+    and the pilot is the one built on FILE, command for command the offline core's on the
+    same plant (lockstep, 10 s of the REMUS 100 foreign plant's climb)."""
+    import subprocess
+    import sys
+
+    design = load_vehicle(REMUS)
+    plant = foreign_plant(design, 1.5)
+    plant_file = tmp_path / 'plant.yaml'
+    save_vehicle(plant, plant_file)
+    bag = tmp_path / 'bag'
+    res = subprocess.run([sys.executable, '-m', 'auv_bringup.cli', 'launch', '--vehicle',
+                          str(plant_file), '--pilot-vehicle', str(REMUS), '--lockstep',
+                          '--real-time-factor', '0', '--initial-depth', '20',
+                          '--initial-speed', '1.5', '--stop-time', '10', '--depth', '10',
+                          '--record', str(bag)], env=ros_env, capture_output=True, text=True,
+                         timeout=300)
+    assert res.returncode == 0, res.stderr
+    bar = read_arrays(bag, ['/auv/bar_command'])['/auv/bar_command']
+    offline = run_closed_loop(plant, [(0.0, 10.0)], 10.0, z0=20.0, u0=1.5,
+                              pilot=DepthPilot.for_vehicle(design, PilotSettings()))
+    n = min(len(offline.bar), len(bar['value']))
+    assert n >= 90
+    assert np.max(np.abs(bar['value'][:n] - offline.bar[:n])) <= 1e-9
+    # the pilot on the plant's own file commands otherwise
+    own = run_closed_loop(plant, [(0.0, 10.0)], 10.0, z0=20.0, u0=1.5,
+                          pilot=DepthPilot.for_vehicle(plant, PilotSettings()))
+    assert np.max(np.abs(bar['value'][:n] - own.bar[:n])) > 1e-3

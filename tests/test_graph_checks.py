@@ -100,8 +100,12 @@ def test_recording_check_counts_every_topic(tmp_path: pathlib.Path) -> None:
     (['--real-time-factor', '-1'], 'error: --real-time-factor must be >= 0, got -1\n'),
     (['--stop-time', 'inf'], 'error: --stop-time must be a finite number (s), got inf\n'),
     (['--mission', 'pitch', '--depth', '10'],
-     'error: --mission flies without the pilot: no --depth, --no-pilot or --pilot-state '
-     'with it\n'),
+     'error: --mission flies without the pilot: no --depth, --no-pilot, --pilot-state or '
+     '--pilot-vehicle with it\n'),
+    (['--pilot-vehicle', '/nonexistent.yaml'],
+     'error: cannot read vehicle file /nonexistent.yaml: No such file or directory\n'),
+    (['--no-pilot', '--pilot-vehicle', str(A18M)],
+     "error: --pilot-vehicle names the pilot's file: not with --no-pilot\n"),
     (['--mission', 'nope'], 'error: cannot read mission nope: No such file or directory\n'),
 ])
 def test_bad_launch_is_one_line_before_any_node_starts(ros_env: dict[str, str],

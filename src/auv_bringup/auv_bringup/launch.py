@@ -407,6 +407,8 @@ def check_before_start(cfg: GraphConfig) -> None:
     from auv_sim.params import load_vehicle
 
     params = load_vehicle(cfg.vehicle)
+    if cfg.pilot_vehicle:
+        load_vehicle(cfg.pilot_vehicle)
     if cfg.effects:
         # the environment module loads the compiled model (numba): only when there are effects
         from auv_sim.environment import load_environment
@@ -604,6 +606,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the pilot's state input: the simulator's state (VehicleState, "
                              'NED/FRD) or its odom (nav_msgs/Odometry, ENU/FLU), as from a '
                              "vehicle's navigation solution")
+    parser.add_argument('--pilot-vehicle', default='',
+                        help="the pilot's vehicle file when it is not the simulated vehicle's "
+                             '(a pilot on a vehicle it was not designed on; default: '
+                             '--vehicle)')
     parser.add_argument('--learn', action='store_true',
                         help='the pilot learns what its vehicle file gets wrong while flying '
                              '(trim, plane effectiveness, buoyancy, plane delay) in its depth '
@@ -649,9 +655,11 @@ def check_options(args: argparse.Namespace) -> None:
     if args.wall_clock and args.real_time_factor != 1.0:
         raise LaunchError('--wall-clock runs in real time: --real-time-factor must be 1')
     if args.mission and (args.no_pilot or args.depth is not None
-                         or args.pilot_state != 'vehicle_state'):
-        raise LaunchError('--mission flies without the pilot: no --depth, --no-pilot or '
-                          '--pilot-state with it')
+                         or args.pilot_state != 'vehicle_state' or args.pilot_vehicle):
+        raise LaunchError('--mission flies without the pilot: no --depth, --no-pilot, '
+                          '--pilot-state or --pilot-vehicle with it')
+    if args.no_pilot and args.pilot_vehicle:
+        raise LaunchError('--pilot-vehicle names the pilot\'s file: not with --no-pilot')
     namespace_path(args.namespace)
 
 
@@ -670,7 +678,8 @@ def run(args: argparse.Namespace) -> int:
                           sim_clock=not args.wall_clock, depth_command=args.depth,
                           water_speed=args.water_speed,
                           realtime_priority=args.realtime_priority, namespace=args.namespace,
-                          pilot_state=args.pilot_state, pilot_learn=args.learn)
+                          pilot_state=args.pilot_state, pilot_learn=args.learn,
+                          pilot_vehicle=args.pilot_vehicle)
     if args.foxglove is not None:
         if args.namespace:
             raise LaunchError('--foxglove serves the /auv topics; it does not follow --namespace '
