@@ -383,8 +383,8 @@ class DepthController:
     def _glide_cap(self, z_cmd: float, z: float, u: float) -> float:
         """:meth:`held_thrust_cap` towards ``z_cmd`` [m] from the governed reference (``z``
         [m] before it starts), solved on a new command and every ``glide_period`` seconds
-        (``inf`` at rest on the command); once the stop has begun
-        (:attr:`ReferenceGovernor.stopping`), at least the reference's speed [m/s]."""
+        (``inf`` at rest on the command); the governor does not apply it to a stop that has
+        begun (:attr:`ReferenceGovernor.stopping`)."""
         ref = self.reference.reference
         if self.learner is None or (ref is not None and ref.v == 0.0 and ref.z == z_cmd):
             self._glide = None
@@ -393,15 +393,9 @@ class DepthController:
         last = self._glide
         if last is not None and last[0] == z_cmd and last[1] == travel and last[2] > 0.0:
             self._glide = (z_cmd, travel, last[2] - self.Ts, last[3])
-            cap = last[3]
-        else:
-            cap = self.held_thrust_cap(travel, u)
-            self._glide = (z_cmd, travel, self.governor.glide_period - self.Ts, cap)
-        if ref is not None and self.reference.stopping:
-            # the cap bounds the climb or dive, not the stop: a cap solved on an estimate
-            # that the stop's own swing of the plane has just moved would cut the braking
-            # reference's speed at once and turn it back from the target
-            cap = max(cap, abs(ref.v))
+            return last[3]
+        cap = self.held_thrust_cap(travel, u)
+        self._glide = (z_cmd, travel, self.governor.glide_period - self.Ts, cap)
         return cap
 
     def weaker_brake(self, op: OperatingPoint, u: float,

@@ -419,7 +419,8 @@ class ReferenceGovernor:
         :meth:`accept`). ``stop``, if given, is the operating point and surge speed [m/s] the
         stop is planned at (the speed the vehicle is heading for); else ``op`` and ``u``.
         ``v_limit`` [m/s, >= 0] caps the steady climb or dive further (the steadiest one the
-        plane holds with the thrust held, :mod:`auv_depth_lqr.glide`). ``brake_on``, if
+        plane holds with the thrust held, :mod:`auv_depth_lqr.glide`); once the stop has
+        begun (:attr:`stopping`), never below the reference's speed. ``brake_on``, if
         given, is an operating point at the stop's speed whose braking the stop is planned on
         instead (its steady climb or dive and its jerk stay those of ``op`` and ``stop``).
 
@@ -476,7 +477,11 @@ class ReferenceGovernor:
             stop_op, stop_u = (op, u) if stop is None else stop
             _, _, brake = self.limits_toward(stop_op if brake_on is None else brake_on,
                                              stop_u, travel, self._landing[1])
-        v_cap = min(v_cap, v_limit)
+        # v_limit bounds the climb or dive, not the stop: once the stop has begun it cuts no
+        # speed the reference has (a cap solved on an estimate the stop's own swing of the
+        # plane has just moved would cut the braking reference's speed at once and turn it
+        # back from the target)
+        v_cap = min(v_cap, max(v_limit, V) if self._stopping else v_limit)
         landing, v_land = brake.landing, brake.v_land
         if 0.0 < V <= v_land * (1.0 + 1e-6) and V * landing * (1.0 + 1e-6) >= E:
             # Final approach: the exponential e(t) = E exp(-t / landing).
