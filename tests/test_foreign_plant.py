@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import math
 import pathlib
+import subprocess
+import sys
 
 import numpy as np
 from conftest import ROOT
@@ -68,9 +70,6 @@ def test_auv_launch_flies_the_pilot_of_another_file(tmp_path: pathlib.Path, ros_
     """``auv launch --vehicle PLANT --pilot-vehicle FILE``: the simulator flies the plant
     and the pilot is the one built on FILE, command for command the offline core's on the
     same plant (lockstep, 10 s of the REMUS 100 foreign plant's climb)."""
-    import subprocess
-    import sys
-
     design = load_vehicle(REMUS)
     plant = foreign_plant(design, 1.5)
     plant_file = tmp_path / 'plant.yaml'
