@@ -255,6 +255,9 @@ class PlantEstimator:
         """Forget everything learned (back to the vehicle file)."""
         self._flown: Matrix = np.zeros(N_PARAMS)
         self._flying = False
+        self._assumed = False
+        """Whether the estimate was taken by :meth:`assume` (flown before a sample is
+        learned)."""
         self._mean: tuple[_Filter, int, Matrix, int] | None = None
         """The mean flown (:meth:`fly_latest`): its filter, that filter's sample count at
         the last estimate taken in, the mean [parameter units] and the number of estimates."""
@@ -374,7 +377,9 @@ class PlantEstimator:
         """Take ``values`` (one per :data:`PARAMETERS`, in their units) as the present
         estimate, its covariance kept (e.g. what an earlier mission learned). It starts with
         twice the evidence ``LearningSettings.evidence`` asks for (:attr:`evidence`): it is
-        flown until the samples learned from say that it predicts worse than the file.
+        flown from the next :meth:`fly_latest` (the controller's first sample), before any
+        sample is learned, until the samples learned from say that it predicts worse than
+        the file.
 
         Raises
         ------
@@ -388,6 +393,7 @@ class PlantEstimator:
         for h in self._filters:
             h.p = p.copy()
             h.over_file = 2.0 * self.settings.evidence
+        self._assumed = True
 
     @property
     def estimate(self) -> PlantEstimate:
@@ -637,7 +643,7 @@ class PlantEstimator:
             mean = (h, h.samples, mean[2] + (h.p - mean[2]) / count, count)
         self._mean = mean
         self._flown = mean[2].copy()
-        self._flying = self._flying or h.samples > 0
+        self._flying = self._flying or h.samples > 0 or self._assumed
 
     @property
     def implausible(self) -> str | None:
@@ -711,7 +717,7 @@ class PlantEstimator:
     def flying(self) -> bool:
         """Whether a learned model is flown: one was taken by :meth:`fly_latest` (the
         controller takes it at rest and on a stop's landing) after at least one sample was
-        learned."""
+        learned, or after :meth:`assume`."""
         return self._flying
 
     def plane_gain(self, op: OperatingPoint, latest: bool = False) -> float:
