@@ -9,6 +9,7 @@ steady glide (solved at a given thrust).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -722,35 +723,31 @@ def test_a_stop_is_not_cut_by_a_dive_cap_its_own_swing_has_moved() -> None:
 def test_an_assumed_estimate_is_flown_from_the_first_sample() -> None:
     """What an earlier flight learned (``PlantEstimator.assume``) is the model flown from the
     pilot's first sample, before it learns anything: on the A18M's foreign plant the first
-    20 -> 10 m of a pilot given what an earlier flight learned settles sooner than its own
-    flight did (four alternating changes), and with less overshoot."""
+    20 -> 10 m of a pilot given what an earlier flight learned (four alternating changes
+    from a cold start) settles sooner than that flight's own first 20 -> 10 m, and with
+    less overshoot."""
     design = load_vehicle(A18M)
     plant = foreign_plant(design, 1.5)
 
-    def change(values: list[float] | None) -> tuple[float, float, DepthPilot]:
-        pilot = DepthPilot.for_vehicle(design, PilotSettings(learn=True))
-        learner = pilot.controller.learner
-        assert learner is not None
-        if values is not None:
-            learner.assume(values)
-        run = run_closed_loop(plant, [(0.0, 10.0)], 90.0, z0=20.0, u0=1.5, pilot=pilot)
-        rec = run.record
-        m = step_metrics(rec.t, rec.x[:, 2], rec.x[:, 4], rec.x[:, 10], rec.cmd[:, 0], 10.0,
-                         t_command=0.0, u0=1.5, theta_max=math.radians(25.0))
-        return m.settling_time, m.overshoot, pilot
+    def settling(rec: Any) -> tuple[float, float]:
+        keep = rec.t <= 90.0 + 1e-9
+        m = step_metrics(rec.t[keep], rec.x[keep, 2], rec.x[keep, 4], rec.x[keep, 10],
+                         rec.cmd[keep, 0], 10.0, t_command=0.0, u0=1.5,
+                         theta_max=math.radians(25.0))
+        return m.settling_time, m.overshoot
 
-    cold_time, cold_overshoot, _ = change(None)
-    # the earlier flight: four alternating changes from the same cold start
     first = DepthPilot.for_vehicle(design, PilotSettings(learn=True))
-    run_closed_loop(plant, [(k * 90.0, (10.0, 20.0)[k % 2]) for k in range(4)], 360.0,
-                    z0=20.0, u0=1.5, pilot=first)
+    run = run_closed_loop(plant, [(k * 90.0, (10.0, 20.0)[k % 2]) for k in range(4)], 360.0,
+                          z0=20.0, u0=1.5, pilot=first)
+    cold_time, cold_overshoot = settling(run.record)
     assert first.controller.learner is not None
-    learned = list(first.controller.learner.estimate.values)
     warm = DepthPilot.for_vehicle(design, PilotSettings(learn=True))
-    assert warm.controller.learner is not None
-    warm.controller.learner.assume(learned)
-    assert not warm.controller.learner.flying
-    warm_time, warm_overshoot, pilot = change(learned)
-    assert pilot.controller.learner is not None and pilot.controller.learner.flying
+    learner = warm.controller.learner
+    assert learner is not None
+    learner.assume(first.controller.learner.estimate.values)
+    assert not learner.flying
+    warm_time, warm_overshoot = settling(
+        run_closed_loop(plant, [(0.0, 10.0)], 90.0, z0=20.0, u0=1.5, pilot=warm).record)
+    assert learner.flying
     assert warm_time < cold_time - 5.0, (warm_time, cold_time)
     assert warm_overshoot < 0.5 * cold_overshoot, (warm_overshoot, cold_overshoot)
